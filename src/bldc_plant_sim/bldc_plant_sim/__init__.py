@@ -1,0 +1,1 @@
+"""Plant simulator of the DTC drive stack: BLDC/PM motor with non-sinusoidal back-EMF, six- or four-switch inverter, split DC link, boost PFC front end, load machine, sensors and protections; the lockstep time-master plant node."""

@@ -1,0 +1,252 @@
+"""Launch-free harness: run drive nodes in tests and scripts without launch files.
+
+- :func:`reserve_domain` hands out a ROS_DOMAIN_ID no other process on this
+  machine holds (a file lock per id), so parallel test runs never see each
+  other's topics; :func:`isolated_env` adds localhost-only discovery.
+- :class:`NodeProcess` starts ``<prefix>/lib/<package>/<executable> --ros-args ...``
+  exactly as ``ros2 run`` does, in its own process group, and always tears it
+  down (SIGINT, then SIGTERM, then SIGKILL).
+- :class:`RosSession` is an in-process rclpy context in a given domain with a
+  background executor, for test nodes (injected ``context`` and overrides).
+- :func:`wait_until` and the ``wait_for_*`` helpers poll with timeouts.
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import random
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Callable, Iterator, Mapping, Sequence
+
+DOMAIN_RANGE = range(1, 101)
+_LOCK_DIR = Path(tempfile.gettempdir()) / 'dtc_drive_ros_domains'
+
+
+class HarnessTimeout(TimeoutError):
+    """A waited-for condition did not happen in time."""
+
+
+@contextmanager
+def reserve_domain() -> Iterator[int]:
+    """Reserve a ROS_DOMAIN_ID unused by any other holder on this machine."""
+    _LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    ids = list(DOMAIN_RANGE)
+    random.SystemRandom().shuffle(ids)
+    for domain_id in ids:
+        fd = os.open(_LOCK_DIR / f'{domain_id}.lock', os.O_CREAT | os.O_RDWR, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            continue
+        try:
+            yield domain_id
+        finally:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            os.close(fd)
+        return
+    raise RuntimeError('no free ROS domain id in %s' % DOMAIN_RANGE)
+
+
+def isolated_env(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
+    """Environment for a node process confined to domain_id and localhost discovery."""
+    env = dict(os.environ if base is None else base)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env.pop('ROS_LOCALHOST_ONLY', None)
+    env['PYTHONUNBUFFERED'] = '1'
+    return env
+
+
+def executable_path(package: str, executable: str) -> Path:
+    """Where ``ros2 run package executable`` finds the program."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+    try:
+        prefix = get_package_prefix(package)
+    except PackageNotFoundError as exc:
+        raise FileNotFoundError(
+            f'package {package!r} not found on AMENT_PREFIX_PATH (did you source scripts/env.sh?)') from exc
+    path = Path(prefix) / 'lib' / package / executable
+    if not path.exists():
+        raise FileNotFoundError(f'no executable {executable!r} in {path.parent}')
+    return path
+
+
+def _yaml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return '[' + ', '.join(_yaml_value(v) for v in value) + ']'
+    raise TypeError(f'unsupported parameter value {value!r}')
+
+
+def ros_arguments(parameters: Mapping[str, Any] | None = None,
+                  remappings: Mapping[str, str] | None = None,
+                  node_name: str | None = None,
+                  log_level: str | None = None) -> list[str]:
+    """``--ros-args`` list as ``ros2 run`` takes it (-p name:=value, -r from:=to)."""
+    args = ['--ros-args']
+    if node_name:
+        args += ['-r', f'__node:={node_name}']
+    for name, value in (parameters or {}).items():
+        args += ['-p', f'{name}:={_yaml_value(value)}']
+    for src, dst in (remappings or {}).items():
+        args += ['-r', f'{src}:={dst}']
+    if log_level:
+        args += ['--log-level', log_level]
+    return args
+
+
+class NodeProcess:
+    """A node started as ``ros2 run`` would, in its own process group.
+
+    Use as a context manager or call :meth:`stop`; output goes to a log file
+    (:meth:`output` reads it) so a failing test can show what the node said.
+    """
+
+    def __init__(self, package: str, executable: str, *,
+                 parameters: Mapping[str, Any] | None = None,
+                 remappings: Mapping[str, str] | None = None,
+                 node_name: str | None = None,
+                 env: Mapping[str, str] | None = None,
+                 extra_args: Sequence[str] = (),
+                 log_dir: str | os.PathLike | None = None) -> None:
+        self.package = package
+        self.executable = executable
+        path = executable_path(package, executable)
+        self.command = [str(path), *extra_args, *ros_arguments(parameters, remappings, node_name)]
+        log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.log_path = log_dir / f'{node_name or executable}.log'
+        self._log = open(self.log_path, 'wb')
+        self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
+                                        env=dict(env) if env is not None else None,
+                                        start_new_session=True)
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def output(self) -> str:
+        self._log.flush()
+        return self.log_path.read_text(errors='replace')
+
+    def _signal_group(self, sig: int) -> None:
+        try:
+            os.killpg(self.process.pid, sig)
+        except ProcessLookupError:
+            pass
+
+    def stop(self, timeout: float = 5.0) -> int | None:
+        """Stop the node (SIGINT, then SIGTERM, then SIGKILL); return its exit code."""
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
+            if self.process.poll() is not None:
+                break
+            self._signal_group(sig)
+            try:
+                self.process.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                continue
+        self._signal_group(signal.SIGKILL)  # leftovers of the group, if any
+        try:
+            self.process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            pass
+        self._log.close()
+        return self.process.returncode
+
+    def __enter__(self) -> 'NodeProcess':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
+               what: str = 'condition') -> Any:
+    """Poll predicate until it returns a truthy value; raise HarnessTimeout after timeout s."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise HarnessTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
+        time.sleep(interval)
+
+
+class RosSession:
+    """An rclpy context in one domain with an executor spinning in a thread.
+
+    Nodes made by :meth:`node` (or added with :meth:`add`) share the context
+    and are destroyed by :meth:`close`.
+    """
+
+    def __init__(self, domain_id: int, num_threads: int = 2) -> None:
+        import rclpy
+        from rclpy.executors import MultiThreadedExecutor
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        self.domain_id = domain_id
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.executor = MultiThreadedExecutor(num_threads=num_threads, context=self.context)
+        self._nodes: list = []
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+        try:
+            self.executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    def node(self, name: str, **kwargs):
+        """A plain rclpy node in this session."""
+        from rclpy.node import Node
+        return self.add(Node(name, context=self.context, **kwargs))
+
+    def add(self, node):
+        self._nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def close(self) -> None:
+        import rclpy
+        self.executor.shutdown(timeout_sec=2.0)
+        for node in self._nodes:
+            node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=2.0)
+
+    def __enter__(self) -> 'RosSession':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def wait_for_subscribers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
+    wait_until(lambda: node.count_subscribers(topic) >= count, timeout,
+               what=f'{count} subscriber(s) on {topic}')
+
+
+def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
+    wait_until(lambda: node.count_publishers(topic) >= count, timeout,
+               what=f'{count} publisher(s) on {topic}')

@@ -1,0 +1,201 @@
+"""Node parameter schemas: declared once, validated in one place (no rclpy).
+
+Each node describes its parameters as a :class:`ParameterSchema` of
+:class:`ParameterSpec` entries (type from the default, unit, range, choices,
+whether a change is allowed while the simulation runs). The ROS wrapper
+(:mod:`drive_common.ros_parameters`) turns the schema into declared
+parameters with descriptors; the same schema validates values from YAML
+scenario files and from the headless runner, so the rules live here once.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterable, Mapping
+
+ValueType = type  # one of bool, int, float, str, list (of float / str)
+
+
+class ParameterError(ValueError):
+    """A parameter value was rejected; the message says which and why."""
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One node parameter.
+
+    name: ROS parameter name (dots allowed for grouping).
+    default: default value; its Python type is the parameter's type
+        (a list of floats or of strings for array parameters).
+    description: what it is (one line).
+    unit: SI unit, '' for dimensionless/enumerations.
+    min_value, max_value: inclusive range for numbers (None = open).
+    choices: allowed values for enumerations (strings or ints).
+    runtime: True if it may change while the simulation runs; False means
+        only while the node is held/idle (changes while running are rejected).
+    length: required length for list parameters (None = any).
+    """
+
+    name: str
+    default: Any
+    description: str
+    unit: str = ''
+    min_value: float | None = None
+    max_value: float | None = None
+    choices: tuple = ()
+    runtime: bool = True
+    length: int | None = None
+
+    @property
+    def value_type(self) -> ValueType:
+        return type(self.default)
+
+    def describe(self) -> str:
+        """Human text for the ROS descriptor: description, unit, range."""
+        parts = [self.description]
+        if self.unit:
+            parts.append(f'[{self.unit}]')
+        if self.choices:
+            parts.append('one of: ' + ', '.join(str(c) for c in self.choices))
+        if not self.runtime:
+            parts.append('(changes only while the simulation is held)')
+        return ' '.join(parts)
+
+    def coerce(self, value: Any) -> Any:
+        """Return value converted to this parameter's type, or raise ParameterError."""
+        want = self.value_type
+        if want is bool:
+            if isinstance(value, bool):
+                return value
+            raise ParameterError(f'{self.name}: expected a bool, got {value!r}')
+        if want is int:
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ParameterError(f'{self.name}: expected an integer, got {value!r}')
+            return int(value)
+        if want is float:
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ParameterError(f'{self.name}: expected a number, got {value!r}')
+            return float(value)
+        if want is str:
+            if not isinstance(value, str):
+                raise ParameterError(f'{self.name}: expected a string, got {value!r}')
+            return value
+        if want is list:
+            if not isinstance(value, (list, tuple)):
+                raise ParameterError(f'{self.name}: expected a list, got {value!r}')
+            item_type = type(self.default[0]) if self.default else float
+            out = []
+            for item in value:
+                if item_type is float:
+                    if isinstance(item, bool) or not isinstance(item, (int, float)):
+                        raise ParameterError(f'{self.name}: expected numbers, got {item!r}')
+                    out.append(float(item))
+                elif item_type is str:
+                    if not isinstance(item, str):
+                        raise ParameterError(f'{self.name}: expected strings, got {item!r}')
+                    out.append(item)
+                else:
+                    out.append(item)
+            return out
+        raise ParameterError(f'{self.name}: unsupported parameter type {want.__name__}')
+
+    def check(self, value: Any) -> Any:
+        """Coerce and range-check value; return the clean value or raise ParameterError."""
+        value = self.coerce(value)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ParameterError(f'{self.name}: must be finite, got {value!r}')
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if self.min_value is not None and value < self.min_value:
+                raise ParameterError(
+                    f'{self.name}: {value} is below the minimum {self.min_value} {self.unit}'.rstrip())
+            if self.max_value is not None and value > self.max_value:
+                raise ParameterError(
+                    f'{self.name}: {value} is above the maximum {self.max_value} {self.unit}'.rstrip())
+        if isinstance(value, list):
+            if self.length is not None and len(value) != self.length:
+                raise ParameterError(f'{self.name}: expected {self.length} values, got {len(value)}')
+            for item in value:
+                if isinstance(item, float):
+                    if not math.isfinite(item):
+                        raise ParameterError(f'{self.name}: values must be finite')
+                    if self.min_value is not None and item < self.min_value:
+                        raise ParameterError(f'{self.name}: {item} is below the minimum {self.min_value}')
+                    if self.max_value is not None and item > self.max_value:
+                        raise ParameterError(f'{self.name}: {item} is above the maximum {self.max_value}')
+        if self.choices and value not in self.choices:
+            raise ParameterError(
+                f'{self.name}: {value!r} is not one of ' + ', '.join(repr(c) for c in self.choices))
+        return value
+
+
+CrossCheck = Callable[[Mapping[str, Any]], None]
+"""Validates a whole parameter snapshot; raises ParameterError with a reason."""
+
+
+@dataclass
+class ParameterSchema:
+    """The full parameter set of one node, plus cross-parameter checks."""
+
+    specs: tuple[ParameterSpec, ...]
+    cross_checks: tuple[CrossCheck, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.specs]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f'duplicate parameter names: {sorted(dup)}')
+        self._by_name = {s.name: s for s in self.specs}
+        for spec in self.specs:
+            spec.check(spec.default)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._by_name
+
+    def __getitem__(self, name: str) -> ParameterSpec:
+        return self._by_name[name]
+
+    def names(self) -> list[str]:
+        return [s.name for s in self.specs]
+
+    def defaults(self) -> dict[str, Any]:
+        return {s.name: s.default for s in self.specs}
+
+    def validate_changes(self, current: Mapping[str, Any], changes: Mapping[str, Any],
+                         running: bool = False) -> dict[str, Any]:
+        """Return the new full snapshot with changes applied, or raise ParameterError.
+
+        Names the schema does not own are ignored (e.g. use_sim_time); a
+        parameter with runtime=False is rejected while running.
+        """
+        snapshot = dict(current)
+        for name, value in changes.items():
+            spec = self._by_name.get(name)
+            if spec is None:
+                continue
+            clean = spec.check(value)
+            if running and not spec.runtime and clean != current.get(name):
+                raise ParameterError(
+                    f'{name}: can only change while the simulation is held '
+                    '(no Run goal active); value kept')
+            snapshot[name] = clean
+        for check in self.cross_checks:
+            check(snapshot)
+        return snapshot
+
+    def resolve(self, overrides: Mapping[str, Any] | None = None,
+                strict: bool = True) -> dict[str, Any]:
+        """Defaults updated with overrides (e.g. from a scenario file), validated.
+
+        strict: an unknown name raises ParameterError naming it.
+        """
+        overrides = dict(overrides or {})
+        if strict:
+            unknown = sorted(set(overrides) - set(self._by_name))
+            if unknown:
+                raise ParameterError('unknown parameter(s): ' + ', '.join(unknown))
+        return self.validate_changes(self.defaults(), overrides, running=False)
+
+
+def schema(specs: Iterable[ParameterSpec], *cross_checks: CrossCheck) -> ParameterSchema:
+    """Shorthand constructor."""
+    return ParameterSchema(tuple(specs), tuple(cross_checks))

@@ -1,0 +1,47 @@
+"""pytest fixtures of the launch-free harness (enabled by the top-level conftest.py).
+
+- ``ros_domain``: a reserved ROS_DOMAIN_ID for this test (no cross-talk).
+- ``ros_session``: an in-process rclpy context in that domain, spinning.
+- ``start_node``: start a node process as ``ros2 run`` would; every process
+  is stopped at teardown, and its output is printed (shown when a test fails).
+"""
+from __future__ import annotations
+
+import pytest
+
+from drive_common.harness import NodeProcess, RosSession, isolated_env, reserve_domain
+
+
+@pytest.fixture
+def ros_domain():
+    with reserve_domain() as domain_id:
+        yield domain_id
+
+
+@pytest.fixture
+def ros_session(ros_domain):
+    session = RosSession(ros_domain)
+    try:
+        yield session
+    finally:
+        session.close()
+
+
+@pytest.fixture
+def start_node(ros_domain, tmp_path):
+    processes: list[NodeProcess] = []
+
+    def _start(package: str, executable: str, **kwargs) -> NodeProcess:
+        kwargs.setdefault('env', isolated_env(ros_domain))
+        kwargs.setdefault('log_dir', tmp_path / 'nodes')
+        process = NodeProcess(package, executable, **kwargs)
+        processes.append(process)
+        return process
+
+    try:
+        yield _start
+    finally:
+        for process in processes:
+            process.stop()
+            print(f'----- {process.package}/{process.executable} (exit {process.process.returncode}) -----')
+            print(process.output()[-4000:])

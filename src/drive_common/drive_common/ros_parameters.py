@@ -1,0 +1,94 @@
+"""Bind a :class:`~drive_common.parameters.ParameterSchema` to an rclpy node.
+
+Declares every parameter once with a ParameterDescriptor (type, range,
+description with unit) and installs one set-parameters callback that
+validates through the schema. A rejected change keeps the old value and
+returns the reason to the caller (``ros2 param set`` prints it). Accepted
+changes are handed to ``on_change`` as a full new snapshot; the node swaps
+it in at its next sample boundary.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
+
+from drive_common.parameters import ParameterError, ParameterSchema, ParameterSpec
+
+_ROS_TYPES = {
+    bool: ParameterType.PARAMETER_BOOL,
+    int: ParameterType.PARAMETER_INTEGER,
+    float: ParameterType.PARAMETER_DOUBLE,
+    str: ParameterType.PARAMETER_STRING,
+}
+
+
+def _ros_type(spec: ParameterSpec) -> int:
+    if spec.value_type is list:
+        item = type(spec.default[0]) if spec.default else float
+        return (ParameterType.PARAMETER_STRING_ARRAY if item is str
+                else ParameterType.PARAMETER_DOUBLE_ARRAY)
+    return _ROS_TYPES[spec.value_type]
+
+
+def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
+    """ParameterDescriptor carrying the spec's type, text and range."""
+    desc = ParameterDescriptor(
+        name=spec.name,
+        type=_ros_type(spec),
+        description=spec.describe(),
+        additional_constraints=(f'unit: {spec.unit}' if spec.unit else ''),
+        read_only=False,
+    )
+    lo, hi = spec.min_value, spec.max_value
+    if spec.value_type is float and lo is not None and hi is not None:
+        desc.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+    elif spec.value_type is int and lo is not None and hi is not None:
+        desc.integer_range = [IntegerRange(from_value=int(lo), to_value=int(hi), step=1)]
+    return desc
+
+
+class SchemaParameters:
+    """Declared parameters of one node, validated by its schema.
+
+    node: the rclpy node.
+    schema: the node's ParameterSchema.
+    on_change: called with the new full snapshot before it is accepted; it
+        may refuse by raising ParameterError (the old values are kept).
+    is_running: returns True while runtime=False parameters must be refused.
+    """
+
+    def __init__(self, node, schema: ParameterSchema,
+                 on_change: Callable[[dict[str, Any]], None] | None = None,
+                 is_running: Callable[[], bool] = lambda: False) -> None:
+        self._node = node
+        self._schema = schema
+        self._on_change = on_change
+        self._is_running = is_running
+        declared = node.declare_parameters(
+            '', [(s.name, s.default, descriptor(s)) for s in schema.specs])
+        initial = {p.name: p.value for p in declared}
+        try:
+            self.values = schema.validate_changes(schema.defaults(), initial)
+        except ParameterError as exc:
+            raise ParameterError(f'{node.get_name()}: invalid start-up parameter: {exc}') from exc
+        node.add_on_set_parameters_callback(self._on_set)
+
+    def __getitem__(self, name: str) -> Any:
+        return self.values[name]
+
+    def _on_set(self, params) -> SetParametersResult:
+        changes = {p.name: p.value for p in params if p.name in self._schema}
+        if not changes:
+            return SetParametersResult(successful=True)
+        try:
+            snapshot = self._schema.validate_changes(self.values, changes, running=self._is_running())
+            if self._on_change is not None:
+                self._on_change(dict(snapshot))  # may refuse with ParameterError
+        except ParameterError as exc:
+            self._node.get_logger().warning(f'parameter change rejected: {exc}')
+            return SetParametersResult(successful=False, reason=str(exc))
+        self.values = snapshot
+        return SetParametersResult(successful=True)
+

@@ -1,0 +1,1 @@
+"""Direct torque control of BLDC and PM brushless AC motors: two- and three-phase conduction, six- and four-switch inverters, sensorless DTIFC, inverter voltage-drop compensation; the dtc_controller node."""
