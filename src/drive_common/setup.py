@@ -17,5 +17,7 @@ setup(
     description='Parameter schema, lockstep QoS and the launch-free test harness of the DTC drive stack.',
     license='Apache-2.0',
     tests_require=['pytest'],
-    entry_points={'console_scripts': []},
+    entry_points={'console_scripts': [
+        'message_echo = drive_common.message_echo:main',
+    ]},
 )

@@ -1,0 +1,115 @@
+"""ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller).
+
+A controller node answers each measurement of step k with a command of the
+same step and publishes its status (DESIGN.md §3). All control lives in a
+ROS-agnostic core object with ``update(sample) -> (command, status)`` and
+``reconfigure(params)``; this class only converts messages, declares the
+node's parameter schema and swaps accepted parameter changes in at the next
+sample boundary.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from rclpy.node import Node
+
+from drive_common.conversions import from_message, to_message
+from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.ros_parameters import SchemaParameters
+from drive_common.topics import LOCKSTEP_QOS
+
+
+@dataclass(frozen=True)
+class LockstepChannels:
+    """Message types and topics of one lockstep controller."""
+
+    measurement_type: type
+    measurement_topic: str
+    sample_type: type            # core dataclass built from the measurement
+    command_type: type
+    command_topic: str
+    status_type: type
+    status_topic: str
+
+
+class LockstepControllerNode(Node):
+    """Measurement in, command + status out, one core update per sample.
+
+    schema: the node's parameter schema (declared once here).
+    make_core: builds the core from a validated parameter snapshot; raises
+        ParameterError (or ValueError/OSError for bad files) to refuse.
+    """
+
+    def __init__(self, node_name: str, *, schema: ParameterSchema,
+                 make_core: Callable[[dict[str, Any]], Any],
+                 channels: LockstepChannels, **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self._channels = channels
+        self._lock = threading.Lock()
+        self._pending: dict[str, Any] | None = None
+        self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters)
+        try:
+            self.core = make_core(dict(self.parameters.values))
+        except (ParameterError, ValueError, OSError) as exc:
+            # Do not start half-configured: the caller (main) reports and exits.
+            raise ParameterError(f'{node_name}: cannot start: {exc}') from exc
+        self._make_core = make_core
+        self.samples_answered = 0
+        self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
+                                                  LOCKSTEP_QOS)
+        self._status_pub = self.create_publisher(channels.status_type, channels.status_topic,
+                                                 LOCKSTEP_QOS)
+        self.create_subscription(channels.measurement_type, channels.measurement_topic,
+                                 self._on_measurement, LOCKSTEP_QOS)
+
+    def _on_parameters(self, snapshot: dict[str, Any]) -> None:
+        """Validate a change against the core now; apply it at the next sample."""
+        try:
+            probe = self._make_core(dict(snapshot))
+        except (ValueError, OSError) as exc:
+            raise ParameterError(str(exc)) from exc
+        del probe
+        with self._lock:
+            self._pending = snapshot
+
+    def _on_measurement(self, msg) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is not None:
+            self.core.reconfigure(pending)
+        sample = from_message(msg, self._channels.sample_type)
+        command, status = self.core.update(sample)
+        stamp = msg.header.stamp
+        command_msg = to_message(self._channels.command_type, command)
+        command_msg.header.stamp = stamp
+        self._command_pub.publish(command_msg)
+        status_msg = to_message(self._channels.status_type, status)
+        status_msg.header.stamp = stamp
+        self._status_pub.publish(status_msg)
+        self.samples_answered += 1
+
+
+def run_node(factory: Callable[..., Node], args=None) -> int:
+    """The demos' spin idiom; a node that cannot start prints why and exits 2."""
+    import sys
+
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = factory()
+        rclpy.spin(node)
+    except ParameterError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
