@@ -91,18 +91,21 @@ class LockstepControllerNode(Node):
         self.samples_answered += 1
 
 
-def run_node(factory: Callable[..., Node], args=None) -> int:
+def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = False) -> int:
     """The demos' spin idiom; a node that cannot start prints why and exits 2."""
     import sys
 
     import rclpy
-    from rclpy.executors import ExternalShutdownException
+    from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
+                                 SingleThreadedExecutor)
 
     rclpy.init(args=args)
     node = None
     try:
         node = factory()
-        rclpy.spin(node)
+        executor = MultiThreadedExecutor(num_threads=4) if multithreaded else SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
     except ParameterError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2

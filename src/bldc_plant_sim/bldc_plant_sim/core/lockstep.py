@@ -1,0 +1,68 @@
+"""Lockstep schedule shared by the plant node and the headless co-simulation.
+
+DESIGN.md §3: the plant counts integer base ticks; a controller with period
+N * base_tick is due at tick k when k % N == 0. Its command is latched at
+the sample it answers (or, with ``computation_delay``, one controller
+sample later, as a DSP that writes its PWM registers at the next interrupt)
+and held until the next command.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from drive_common.samples import ALL_OFF
+
+
+def ticks_of(period: float, base_tick: float, what: str) -> int:
+    """Integer number of base ticks in period; raises ValueError if not a multiple."""
+    if period <= 0.0:
+        return 0
+    n = round(period / base_tick)
+    if n < 1 or abs(n * base_tick - period) > 1e-9 * period + 1e-15:
+        raise ValueError(f'{what} = {period} s is not an integer multiple of the base tick '
+                         f'{base_tick} s')
+    return n
+
+
+@dataclass
+class LockstepSchedule:
+    """Which controllers are due at tick k, and how their commands are latched.
+
+    dtc_ticks / pfc_ticks: controller periods in base ticks (0 = not used).
+    state_ticks: ground truth published every this many ticks.
+    computation_delay: apply each command one controller sample late.
+    """
+
+    dtc_ticks: int
+    pfc_ticks: int
+    state_ticks: int
+    computation_delay: bool
+    _held_gates: tuple = field(default=ALL_OFF, repr=False)
+    _held_duty: tuple = field(default=(0.0, False), repr=False)
+
+    @classmethod
+    def from_params(cls, params: dict, base_tick: float) -> 'LockstepSchedule':
+        dtc = ticks_of(params['dtc_period'], base_tick, 'dtc_period')
+        pfc = ticks_of(params['pfc_period'], base_tick, 'pfc_period') if params['pfc_enabled'] else 0
+        state = ticks_of(params['state_period'], base_tick, 'state_period') if params['state_period'] > 0 else (dtc or pfc or 1)
+        return cls(dtc, pfc, max(1, state), bool(params['computation_delay']))
+
+    def updated(self, params: dict, base_tick: float) -> 'LockstepSchedule':
+        """A schedule for new parameters that keeps the commands held so far."""
+        new = self.from_params(params, base_tick)
+        return replace(new, _held_gates=self._held_gates, _held_duty=self._held_duty)
+
+    def due(self, step: int) -> tuple[bool, bool]:
+        """(DTC due, PFC due) at tick step."""
+        return (self.dtc_ticks > 0 and step % self.dtc_ticks == 0,
+                self.pfc_ticks > 0 and step % self.pfc_ticks == 0)
+
+    def latch_gates(self, plant, switch_on: tuple) -> None:
+        if self.computation_delay:
+            switch_on, self._held_gates = self._held_gates, switch_on
+        plant.apply_gates(switch_on)
+
+    def latch_duty(self, plant, duty: float, enable: bool) -> None:
+        if self.computation_delay:
+            (duty, enable), self._held_duty = self._held_duty, (duty, enable)
+        plant.apply_duty(duty, enable)

@@ -1,0 +1,288 @@
+"""The ``plant`` node: lockstep time master over the ROS-agnostic PlantCore.
+
+DESIGN.md §3. Sim time only advances inside a ``plant/run`` action goal (or
+up to the ``run_until`` parameter at start-up): for each base tick k the
+node publishes the measurements of the controllers that are due (step = k),
+waits for their commands carrying step k (stale or future steps are
+ignored), latches them, integrates one tick and publishes ground truth and
+/clock. A due command that does not arrive within ``command_timeout``
+(wall clock) puts the plant in the safe state (all switches off, boost
+off), reports it on /diagnostics and in plant/state, aborts the goal and
+holds; the node keeps serving its action, services and parameters.
+
+Threading: the lockstep publishers and subscriptions live on a private
+child node spun only by the stepping thread (no executor hand-off per
+sample); the action server, services and parameters are served by the
+node's own executor in other threads.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from bldc_plant_sim.core.lockstep import LockstepSchedule
+from bldc_plant_sim.core.plant import PlantCore
+from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA
+from drive_common import topics
+from drive_common.conversions import time_msg, to_message
+from drive_common.lockstep_controller import run_node
+from drive_common.parameters import ParameterError
+from drive_common.ros_parameters import SchemaParameters
+from dtc_msgs.action import Run
+from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
+                          PlantState)
+from dtc_msgs.srv import ResetProtection
+
+COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
+
+
+class _Inbox:
+    """Latest command per step from one controller (filled by the stepping thread's spin)."""
+
+    def __init__(self) -> None:
+        self.commands: dict[int, Any] = {}
+
+    def put(self, msg) -> None:
+        self.commands[msg.step] = msg
+
+    def take(self, step: int):
+        msg = self.commands.pop(step, None)
+        if msg is not None or len(self.commands) > 64:
+            # Anything older than the awaited step is stale: never applied.
+            for stale in [s for s in self.commands if s < step]:
+                del self.commands[stale]
+        return msg
+
+
+class PlantNode(Node):
+    """Lockstep plant: see the module docstring."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('plant', **kwargs)
+        self._running = False
+        self._pending: dict[str, Any] | None = None
+        self._lock = threading.Lock()
+        self.parameters = SchemaParameters(self, PLANT_NODE_SCHEMA, on_change=self._on_parameters,
+                                           is_running=lambda: self._running)
+        params = dict(self.parameters.values)
+        try:
+            self.core = PlantCore(params)
+        except (ValueError, OSError) as exc:
+            raise ParameterError(f'plant: cannot start: {exc}') from exc
+        self.schedule = LockstepSchedule.from_params(params, self.core.base_tick)
+
+        # Lockstep side: private node + executor, spun only by the stepping thread.
+        self._io = rclpy.create_node('plant_lockstep', context=self.context,
+                                     namespace=self.get_namespace(),
+                                     start_parameter_services=False)
+        self._io_executor = SingleThreadedExecutor(context=self.context)
+        self._io_executor.add_node(self._io)
+        qos = topics.LOCKSTEP_QOS
+        self._drive_pub = self._io.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
+        self._pfc_pub = self._io.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
+        self._gates_in, self._duty_in = _Inbox(), _Inbox()
+        self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos)
+        self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)
+        self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, qos)
+        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
+        self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+
+        self._run_group = MutuallyExclusiveCallbackGroup()
+        self._action = ActionServer(self, Run, topics.RUN_ACTION, execute_callback=self._execute,
+                                    goal_callback=self._accept_goal,
+                                    cancel_callback=lambda _: CancelResponse.ACCEPT,
+                                    callback_group=self._run_group)
+        self.create_service(ResetProtection, topics.RESET_PROTECTION_SERVICE, self._reset,
+                            callback_group=ReentrantCallbackGroup())
+        self._publish_state()
+        self._autorun_timer = None
+        if self.parameters['run_until'] > 0.0:
+            self._autorun_timer = self.create_timer(0.05, self._autorun,
+                                                    callback_group=self._run_group)
+
+    # --- parameters -------------------------------------------------------
+    def _on_parameters(self, snapshot: dict[str, Any]) -> None:
+        """Check the new snapshot against the core; swap it in at the next tick."""
+        try:
+            self.core.check_params(snapshot)
+        except (ValueError, OSError) as exc:
+            raise ParameterError(str(exc)) from exc
+        with self._lock:
+            self._pending = snapshot
+
+    def _apply_pending(self) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is not None:
+            self.core.reconfigure(pending)
+            self.schedule = self.schedule.updated(pending, self.core.base_tick)
+
+    # --- action -----------------------------------------------------------
+    def _accept_goal(self, goal) -> GoalResponse:
+        target = goal.target_time
+        if not (target == target) or target < 0.0:  # NaN or negative
+            self.get_logger().warning(f'Run goal rejected: target_time {target} must be >= 0')
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _autorun(self) -> None:
+        self._autorun_timer.cancel()
+        ok, message = self.run_to(self.core.step_of(self.parameters['run_until']))
+        self.get_logger().info(f'run_until finished: {message}')
+
+    def _execute(self, goal_handle):
+        goal = goal_handle.request
+        target_time = goal.target_time + (self.core.time if goal.relative else 0.0)
+        target_step = self.core.step_of(target_time)
+        ok, message = self.run_to(target_step, goal_handle)
+        result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
+                            message=message)
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif ok:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    # --- stepping ---------------------------------------------------------
+    def _wait_for_peers(self, timeout: float) -> str | None:
+        """Wait until every required controller is matched; None or the reason it failed."""
+        deadline = time.monotonic() + timeout
+        needs = []
+        if self.schedule.dtc_ticks:
+            needs += [(self._drive_pub.get_subscription_count, 'dtc_controller on drive/measurement'),
+                      (lambda: self._io.count_publishers(topics.GATE_COMMAND), 'dtc_controller on drive/gate_command')]
+        if self.schedule.pfc_ticks:
+            needs += [(self._pfc_pub.get_subscription_count, 'pfc_controller on pfc/measurement'),
+                      (lambda: self._io.count_publishers(topics.DUTY_COMMAND), 'pfc_controller on pfc/duty_command')]
+        while True:
+            missing = [what for count, what in needs if count() < 1]
+            if not missing:
+                return None
+            if time.monotonic() > deadline:
+                return 'no controller matched: ' + ', '.join(missing)
+            self._io_executor.spin_once(timeout_sec=0.01)
+
+    def _await(self, inbox: _Inbox, step: int, deadline: float):
+        msg = inbox.take(step)
+        while msg is None:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                return None
+            self._io_executor.spin_once(timeout_sec=min(remaining, 0.05))
+            msg = inbox.take(step)
+        return msg
+
+    def run_to(self, target_step: int, goal_handle=None) -> tuple[bool, str]:
+        """Advance to target_step (held there); (success, message)."""
+        self._running = True
+        try:
+            reason = self._wait_for_peers(self.parameters['startup_timeout'])
+            if reason:
+                self._fault(reason)
+                return False, reason
+            started, start_time = time.monotonic(), self.core.time
+            feedback_every = max(1, int(0.05 / self.core.base_tick))
+            while self.core.step < target_step:
+                if goal_handle is not None and goal_handle.is_cancel_requested:
+                    return False, f'cancelled at t = {self.core.time:.6f} s'
+                if not rclpy.ok(context=self.context):
+                    return False, 'plant shutting down'
+                self._apply_pending()
+                failure = self._tick()
+                if failure:
+                    return False, failure
+                if goal_handle is not None and self.core.step % feedback_every == 0:
+                    wall = time.monotonic() - started
+                    goal_handle.publish_feedback(Run.Feedback(
+                        sim_time=self.core.time, step=self.core.step,
+                        real_time_factor=(self.core.time - start_time) / wall if wall > 0 else 0.0))
+            return True, f'reached t = {self.core.time:.6f} s (step {self.core.step})'
+        finally:
+            self._running = False
+
+    def _tick(self) -> str | None:
+        """One base tick of the lockstep protocol; a failure message or None."""
+        k = self.core.step
+        due_dtc, due_pfc = self.schedule.due(k)
+        timeout = self.parameters['command_timeout']
+        if due_dtc:
+            self._drive_pub.publish(to_message(DriveMeasurement, self.core.drive_sample(),
+                                               self.core.time))
+        if due_pfc:
+            self._pfc_pub.publish(to_message(PfcMeasurement, self.core.pfc_sample(), self.core.time))
+        deadline = time.monotonic() + timeout
+        if due_dtc:
+            msg = self._await(self._gates_in, k, deadline)
+            if msg is None:
+                return self._fault(f'no gate command for step {k} within {timeout} s')
+            if msg.topology != self.core.topology:
+                return self._fault(f'gate command for a {msg.topology}-switch inverter, '
+                                   f'the plant has {self.core.topology}')
+            self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
+        if due_pfc:
+            msg = self._await(self._duty_in, k, deadline)
+            if msg is None:
+                return self._fault(f'no duty command for step {k} within {timeout} s')
+            self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
+        if self.core.safe_state_reason() == COMMAND_TIMEOUT:
+            self.core.leave_safe_state(COMMAND_TIMEOUT)
+            self._diagnose(DiagnosticStatus.OK, 'commands resumed', {})
+        self.core.advance()
+        if self.core.step % self.schedule.state_ticks == 0:
+            self._publish_state()
+        return None
+
+    def _publish_state(self) -> None:
+        t = time_msg(self.core.time)
+        state = to_message(PlantState, self.core.state())
+        state.header.stamp = t
+        self._state_pub.publish(state)
+        self._clock_pub.publish(Clock(clock=t))
+
+    def _fault(self, reason: str) -> str:
+        self.core.enter_safe_state(COMMAND_TIMEOUT)
+        self._publish_state()
+        self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
+                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
+        self.get_logger().error(f'safe state applied: {reason}')
+        return f'safe state: {reason}'
+
+    def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
+        status = DiagnosticStatus(level=level, name='plant: lockstep', message=message,
+                                  hardware_id='bldc_plant_sim',
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        self._diag_pub.publish(DiagnosticArray(header=self._state_header(), status=[status]))
+
+    def _state_header(self):
+        from std_msgs.msg import Header
+        return Header(stamp=time_msg(self.core.time))
+
+    def _reset(self, request, response):
+        ok, message = self.core.reset_protection()
+        response.success, response.message = ok, message
+        self._publish_state()
+        return response
+
+    def destroy_node(self) -> None:
+        self._io_executor.shutdown(timeout_sec=1.0)
+        self._io.destroy_node()
+        super().destroy_node()
+
+
+def main(args=None) -> int:
+    return run_node(PlantNode, args, multithreaded=True)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
