@@ -19,5 +19,7 @@ setup(
     tests_require=['pytest'],
     entry_points={'console_scripts': [
         'message_echo = drive_common.message_echo:main',
+        'fixed_responder = drive_common.fixed_responder:main',
+        'raw_responder = drive_common.ceiling:main',
     ]},
 )

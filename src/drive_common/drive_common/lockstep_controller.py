@@ -30,7 +30,7 @@ class LockstepChannels:
     sample_type: type            # core dataclass built from the measurement
     command_type: type
     command_topic: str
-    status_type: type
+    status_type: type | None     # None: the controller publishes no status
     status_topic: str
 
 
@@ -59,8 +59,8 @@ class LockstepControllerNode(Node):
         self.samples_answered = 0
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)
-        self._status_pub = self.create_publisher(channels.status_type, channels.status_topic,
-                                                 LOCKSTEP_QOS)
+        self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
+                                                  LOCKSTEP_QOS) if channels.status_type else None)
         self.create_subscription(channels.measurement_type, channels.measurement_topic,
                                  self._on_measurement, LOCKSTEP_QOS)
 
@@ -85,9 +85,10 @@ class LockstepControllerNode(Node):
         command_msg = to_message(self._channels.command_type, command)
         command_msg.header.stamp = stamp
         self._command_pub.publish(command_msg)
-        status_msg = to_message(self._channels.status_type, status)
-        status_msg.header.stamp = stamp
-        self._status_pub.publish(status_msg)
+        if self._status_pub is not None:
+            status_msg = to_message(self._channels.status_type, status)
+            status_msg.header.stamp = stamp
+            self._status_pub.publish(status_msg)
         self.samples_answered += 1
 
 

@@ -1,0 +1,39 @@
+"""Trivial controller cores: a fixed gate pattern and a fixed boost duty (no rclpy).
+
+Used by the ``fixed_responder`` node, by plant tests (the ROS graph and the
+headless loop must give the same trajectory) and by benchmarks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from drive_common.samples import DriveSample, DutySample, GateSample, PfcSample
+
+
+@dataclass
+class FixedGateCore:
+    """Answers every drive sample with the same switch states."""
+
+    switch_on: tuple = (True, False, False, True, False, False)  # a+ b-: vector "ab"
+    topology: int = 6
+
+    def update(self, sample: DriveSample):
+        return GateSample(step=sample.step, topology=self.topology, switch_on=self.switch_on), None
+
+    def reconfigure(self, params: dict) -> None:
+        self.switch_on = tuple(bool(s) for s in params['switch_on'])
+        self.topology = int(params['topology'])
+
+
+@dataclass
+class FixedDutyCore:
+    """Answers every PFC sample with the same duty."""
+
+    duty: float = 0.0
+    enable: bool = False
+
+    def update(self, sample: PfcSample):
+        return DutySample(step=sample.step, duty=self.duty, enable=self.enable), None
+
+    def reconfigure(self, params: dict) -> None:
+        self.duty, self.enable = float(params['duty']), bool(params['enable'])

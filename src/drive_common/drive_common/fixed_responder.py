@@ -1,0 +1,49 @@
+"""fixed_responder: answers drive measurements with a fixed gate pattern.
+
+A stand-in controller for plant tests and benchmarks: it takes part in the
+lockstep protocol exactly as dtc_controller does (same topics, QoS, step
+matching) but its core is :class:`~drive_common.fixed_commands.FixedGateCore`.
+Parameters: ``switch_on`` (6 bools as 0/1 numbers), ``topology`` (4 or 6).
+"""
+from __future__ import annotations
+
+from drive_common import topics
+from drive_common.fixed_commands import FixedGateCore
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_common.parameters import ParameterError, ParameterSpec, schema
+from drive_common.samples import DriveSample
+
+
+def _check_pattern(values) -> None:
+    if any(v not in (0.0, 1.0) for v in values['switch_on']):
+        raise ParameterError('switch_on: each entry must be 0 or 1')
+
+
+FIXED_RESPONDER_SCHEMA = schema([
+    ParameterSpec('switch_on', [1.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+                  'gate states SW1..SW6 (1 = on) sent for every sample', length=6),
+    ParameterSpec('topology', 6, 'inverter switches', choices=(4, 6)),
+], _check_pattern)
+
+
+def make_core(params: dict) -> FixedGateCore:
+    core = FixedGateCore()
+    core.reconfigure(params)
+    return core
+
+
+class FixedResponder(LockstepControllerNode):
+    def __init__(self, **kwargs) -> None:
+        from dtc_msgs.msg import DriveMeasurement, GateCommand
+        super().__init__('fixed_responder', schema=FIXED_RESPONDER_SCHEMA, make_core=make_core,
+                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
+                                                   DriveSample, GateCommand, topics.GATE_COMMAND,
+                                                   None, topics.DTC_STATUS), **kwargs)
+
+
+def main(args=None) -> int:
+    return run_node(FixedResponder, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
