@@ -70,4 +70,12 @@ if ! colcon build --symlink-install --event-handlers console_direct- \
 fi
 grep -E '^Summary' "$BUILD_LOG" | sed 's/^/[setup] /' || true
 rm -f "$BUILD_LOG"
+# The wheels carry no ros2cli: provide the minimal `ros2` shim (run, param, topic list).
+if [ "$SYSTEM_ROS" = 0 ] && [ ! -e .venv/bin/ros2 -o -L .venv/bin/ros2 ]; then
+  cat > .venv/bin/ros2 <<'SHIM'
+#!/usr/bin/env bash
+exec python -m drive_common.ros2_shim "$@"
+SHIM
+  chmod +x .venv/bin/ros2
+fi
 say "ready: source scripts/env.sh to use the workspace"

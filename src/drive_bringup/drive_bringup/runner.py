@@ -1,0 +1,252 @@
+"""Launch-free scenario runner: the drive graph as separate processes.
+
+Starts plant, dtc_controller, pfc_controller (when the scenario has one)
+and the recorder exactly as ``ros2 run <pkg> <exe> --ros-args -p ...``
+would, then drives the plant's ``plant/run`` action from event to event so
+each event's parameter change lands at its exact sim time (the plant holds
+time between goals). Shows progress, detects a crashed node (reported with
+the end of its output), and always shuts every process down, also on
+Ctrl-C or SIGTERM.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import rclpy
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+
+from drive_bringup.scenario import Scenario
+from drive_common import topics
+from drive_common.harness import NodeProcess, isolated_env
+from dtc_msgs.action import Run
+
+NODE_PROGRAMS = {
+    'plant': ('bldc_plant_sim', 'plant'),
+    'dtc_controller': ('dtc_controller', 'dtc_controller'),
+    'pfc_controller': ('pfc_controller', 'pfc_controller'),
+}
+DEFAULT_RECORD_TOPICS = [topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND, topics.PLANT_STATE,
+                         topics.DTC_STATUS, topics.CLOCK, topics.DIAGNOSTICS]
+PFC_RECORD_TOPICS = [topics.PFC_MEASUREMENT, topics.DUTY_COMMAND, topics.PFC_STATUS]
+
+
+class RunFailed(RuntimeError):
+    """The run could not complete: a node crashed, refused a parameter or timed out."""
+
+
+@dataclass
+class RunResult:
+    scenario: str
+    bag: Path | None
+    final_time: float
+    final_step: int
+    wall_time: float
+    samples_per_second: float
+    log_dir: Path
+    messages: list[str] = field(default_factory=list)
+
+
+def _absolute_topic(name: str) -> str:
+    return name if name.startswith('/') else '/' + name
+
+
+def record_topics(scenario: Scenario) -> list[str]:
+    if scenario.record_topics:
+        return [_absolute_topic(t) for t in scenario.record_topics]
+    names = list(DEFAULT_RECORD_TOPICS)
+    if 'pfc_controller' in scenario.nodes:
+        names += PFC_RECORD_TOPICS
+    return [_absolute_topic(t) for t in names]
+
+
+class GraphRunner:
+    """Runs one scenario through the ROS graph; see the module docstring."""
+
+    def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
+                 record: bool | None = None, progress: Callable[[str], None] = print,
+                 step_timeout: float = 60.0) -> None:
+        self.scenario = scenario
+        self.out_dir = Path(out_dir)
+        self.domain_id = domain_id
+        self.record = scenario.record if record is None else record
+        self.progress = progress
+        self.step_timeout = step_timeout
+        self.processes: dict[str, NodeProcess] = {}
+        self.log_dir = self.out_dir / 'logs'
+
+    # --- processes ------------------------------------------------------------
+    def _env(self) -> dict[str, str]:
+        if self.domain_id is None:
+            return dict(os.environ)
+        return isolated_env(self.domain_id)
+
+    def _start(self, key: str, package: str, executable: str, parameters: dict) -> NodeProcess:
+        process = NodeProcess(package, executable, parameters=parameters, env=self._env(),
+                              log_dir=self.log_dir, node_name=None)
+        self.processes[key] = process
+        return process
+
+    def _check_alive(self) -> None:
+        for key, process in self.processes.items():
+            if not process.alive():
+                tail = '\n'.join(process.output().splitlines()[-15:])
+                raise RunFailed(f'node {key} exited with code {process.process.returncode}:\n{tail}')
+
+    def _stop_all(self) -> None:
+        recorder = self.processes.pop('recorder', None)
+        # Stop the producers first so the recorder sees everything they sent.
+        for key in list(self.processes):
+            self.processes[key].stop()
+        if recorder is not None:
+            code = recorder.stop(timeout=30.0)
+            if code not in (0, -signal.SIGINT, 130, None):
+                self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-2000:]}')
+            self.processes['recorder'] = recorder
+
+    # --- ROS client side ----------------------------------------------------------
+    def _spin_until(self, executor, future, timeout: float, what: str):
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            executor.spin_once(timeout_sec=0.05)
+            self._check_alive()
+            if time.monotonic() > deadline:
+                raise RunFailed(f'timed out after {timeout:.0f} s waiting for {what}')
+        return future.result()
+
+    def run(self) -> RunResult:
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        bag_dir = self.out_dir / 'bag'
+        sc = self.scenario
+        previous_term = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
+        context = None
+        try:
+            if self.record:
+                self._start('recorder', 'drive_logger', 'recorder',
+                            {'output': str(bag_dir), 'topics': record_topics(sc)})
+            plant_params = dict(sc.overrides['plant'])
+            plant_params['run_until'] = 0.0
+            plant_params['dtc_enabled'] = 'dtc_controller' in sc.nodes
+            plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
+            for key in sc.nodes:
+                package, executable = NODE_PROGRAMS[key]
+                self._start(key, package, executable,
+                            plant_params if key == 'plant' else dict(sc.overrides[key]))
+            context = rclpy.Context()
+            rclpy.init(context=context, domain_id=self.domain_id)
+            node = rclpy.create_node('scenario_runner', context=context)
+            executor = SingleThreadedExecutor(context=context)
+            executor.add_node(node)
+            return self._drive(node, executor, bag_dir)
+        finally:
+            self._stop_all()
+            if context is not None:
+                rclpy.try_shutdown(context=context)
+            signal.signal(signal.SIGTERM, previous_term)
+
+    def _wait_ready(self, node, executor, action) -> None:
+        deadline = time.monotonic() + 60.0
+        while not action.server_is_ready():
+            executor.spin_once(timeout_sec=0.05)
+            self._check_alive()
+            if time.monotonic() > deadline:
+                raise RunFailed('the plant action server did not come up within 60 s')
+        if self.record:
+            wanted = record_topics(self.scenario)
+            while True:
+                # The recorder subscribes every topic at start: wait until it has.
+                names = {n for n, _ in node.get_topic_names_and_types()}
+                ready = all(node.count_subscribers(t) >= 1 for t in wanted if t in names) and \
+                    node.count_subscribers(_absolute_topic(topics.PLANT_STATE)) >= 1
+                if ready:
+                    break
+                executor.spin_once(timeout_sec=0.05)
+                self._check_alive()
+                if time.monotonic() > deadline:
+                    raise RunFailed('the recorder did not subscribe within 60 s')
+
+    def _set_parameters(self, node, executor, target: str, values: dict) -> None:
+        client = self._param_clients[target]
+        future = client.set_parameters([Parameter(k, value=v) for k, v in values.items()])
+        response = self._spin_until(executor, future, 30.0, f'{target} set_parameters')
+        for (name, _), result in zip(values.items(), response.results):
+            if not result.successful:
+                raise RunFailed(f'{target} refused {name}: {result.reason}')
+
+    def _drive(self, node, executor, bag_dir: Path) -> RunResult:
+        sc = self.scenario
+        self._action = ActionClient(node, Run, topics.RUN_ACTION)
+        node_names = {'plant': '/plant', 'dtc_controller': '/dtc_controller',
+                      'pfc_controller': '/pfc_controller'}
+        self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
+        self._wait_ready(node, executor, self._action)
+        for key, client in self._param_clients.items():
+            if not client.wait_for_services(timeout_sec=30.0):
+                raise RunFailed(f'{key} parameter services not available')
+        self.progress(f'[{sc.name}] graph up: {", ".join(sc.nodes)}'
+                      + (f' + recorder -> {bag_dir}' if self.record else ''))
+        started = time.monotonic()
+        final_step, final_time = 0, 0.0
+        for event in sc.events:
+            if event.time > final_time:
+                final_step, final_time = self._run_goal(executor, event.time, started)
+            self._set_parameters(node, executor, event.node, event.parameters)
+            self.progress(f'[{sc.name}] t = {event.time:.6f} s: {event.node} '
+                          + ', '.join(f'{k} = {v}' for k, v in event.parameters.items()))
+        if sc.duration > final_time:
+            final_step, final_time = self._run_goal(executor, sc.duration, started)
+        wall = time.monotonic() - started
+        self.progress(f'[{sc.name}] done: {final_time:.4f} s sim in {wall:.1f} s wall '
+                      f'({final_step / wall:.0f} samples/s)')
+        return RunResult(sc.name, bag_dir if self.record else None, final_time, final_step, wall,
+                         final_step / wall if wall > 0 else 0.0, self.log_dir)
+
+    def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
+        """Advance the plant to target (s); (final step, final time) or RunFailed."""
+        last = [0.0]
+
+        def feedback(msg) -> None:
+            fb = msg.feedback
+            now = time.monotonic()
+            if now - last[0] >= 1.0:
+                last[0] = now
+                wall = now - started
+                self.progress(f'[{self.scenario.name}] sim {fb.sim_time:.4f} s / '
+                              f'{self.scenario.duration:.4f} s, wall {wall:.1f} s, '
+                              f'rate {fb.real_time_factor:.3f}x real time')
+
+        send = self._action.send_goal_async(
+            Run.Goal(target_time=target, relative=False), feedback_callback=feedback)
+        handle = self._spin_until(executor, send, 30.0, 'the plant to accept a Run goal')
+        if not handle.accepted:
+            raise RunFailed(f'plant rejected the Run goal to {target} s')
+        result_future = handle.get_result_async()
+        # No overall timeout: the plant's own command timeout bounds every sample.
+        result = self._spin_until(executor, result_future, float('inf'), 'the Run result').result
+        if not result.success:
+            raise RunFailed(f'plant stopped at t = {result.final_time:.6f} s: {result.message}')
+        return result.final_step, result.final_time
+
+
+def _raise_keyboard_interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def main_guard(fn: Callable[[], int]) -> int:
+    """Run fn; a RunFailed or Ctrl-C ends with a message and a non-zero code."""
+    try:
+        return fn()
+    except RunFailed as exc:
+        print(f'run failed: {exc}', file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print('interrupted: all nodes stopped', file=sys.stderr)
+        return 130

@@ -1,0 +1,106 @@
+"""run_scenario: run a scenario through the ROS graph (or headless), record, report.
+
+    run_scenario default                      # bags/default/ (bag, report, figures)
+    run_scenario path/to/file.yaml --out bags/mine
+    run_scenario default --headless           # same cores stepped in one process, no ROS
+    run_scenario --list
+
+Exit codes: 0 ok, 1 the run failed (message says why), 2 bad scenario or
+arguments, 130 interrupted (all nodes stopped).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
+
+
+def default_out_dir(name: str) -> Path:
+    """bags/<name> under the workspace root (or the current directory)."""
+    import os
+    root = Path(os.environ.get('DTC_WORKSPACE', Path.cwd()))
+    return root / 'bags' / name
+
+
+def _fresh_dir(path: Path, overwrite: bool) -> Path:
+    if path.exists() and any(path.iterdir()):
+        if not overwrite:
+            raise ScenarioError(f'output directory {path} exists and is not empty '
+                                '(use --out for another one or --overwrite)')
+        import shutil
+        shutil.rmtree(path)
+    return path
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog='run_scenario', description=__doc__.split('\n')[0])
+    parser.add_argument('scenario', nargs='?', help='scenario name (see --list) or YAML path')
+    parser.add_argument('--list', action='store_true', help='list the shipped scenarios')
+    parser.add_argument('--out', type=Path, help='output directory (default bags/<name>)')
+    parser.add_argument('--overwrite', action='store_true', help='replace an existing output directory')
+    parser.add_argument('--headless', action='store_true',
+                        help='step the cores directly in this process (no ROS)')
+    parser.add_argument('--no-record', action='store_true', help='do not record a bag')
+    parser.add_argument('--isolate', action='store_true',
+                        help='run in a private DDS domain (localhost only)')
+    parser.add_argument('--duration', type=float, help='override the run length (s)')
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.list:
+        for path in sorted(scenario_dir().glob('*.yaml')):
+            sc = load_scenario(path)
+            print(f'{sc.name:40s} {sc.seed_reference:24s} {sc.description}')
+        return 0
+    if not args.scenario:
+        print('run_scenario: name a scenario (or --list)', file=sys.stderr)
+        return 2
+    try:
+        scenario = load_scenario(find_scenario(args.scenario))
+        if args.duration is not None:
+            if args.duration <= 0:
+                raise ScenarioError('--duration must be > 0')
+            scenario.duration = args.duration
+            scenario.events = [e for e in scenario.events if e.time < args.duration]
+        out = _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
+    except ScenarioError as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    if args.headless:
+        from drive_bringup.headless import run_headless
+        started = time.monotonic()
+        result = run_headless(scenario)
+        out.mkdir(parents=True, exist_ok=True)
+        path = result.save(out / 'trajectory.npz')
+        wall = time.monotonic() - started
+        print(f'[{scenario.name}] headless: {scenario.duration} s sim in {wall:.1f} s wall; '
+              f'trajectory -> {path}')
+        return 0
+    from drive_bringup.report import write_report
+    from drive_bringup.runner import GraphRunner, main_guard
+
+    def run() -> int:
+        domain = None
+        if args.isolate:
+            from drive_common.harness import reserve_domain
+            with reserve_domain() as domain:
+                result = GraphRunner(scenario, out, domain_id=domain,
+                                     record=not args.no_record).run()
+        else:
+            result = GraphRunner(scenario, out, record=not args.no_record).run()
+        if result.bag is not None:
+            summary = write_report(scenario, result, out)
+            print(json.dumps(summary.get('headline', {}), indent=2))
+        return 0
+
+    return main_guard(run)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

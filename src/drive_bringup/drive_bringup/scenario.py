@@ -1,0 +1,271 @@
+"""Scenario files: schema, loading and validation (no rclpy).
+
+A scenario (YAML) names the nodes' parameters, the run length, timed events
+(any node's parameters at an exact sim time), what to record and which
+metrics and figures to report, and optionally the seed values it
+reproduces. Every mistake is reported as ``ScenarioError`` naming the file,
+the key path and the reason; node parameters are validated against each
+node's own parameter schema (the same one the node declares).
+
+Schema (keys marked * are required)::
+
+    name*: str                 # also the default bag directory name
+    description: str
+    seed_reference: str        # e.g. "000 Fig. 2.13"
+    duration*: float           # s of sim time
+    nodes*:
+      plant: {parameters: {...}}
+      dtc_controller: {parameters: {...}}     # optional: omit for plant-only runs
+      pfc_controller: {parameters: {...}}     # optional: the boost PFC loop
+    events:                    # applied at exact sim times, in order
+      - time*: float           # s, 0 <= time < duration
+        node*: plant | dtc_controller | pfc_controller
+        parameters*: {...}
+    record: {enabled: bool, topics: [str, ...]}
+    metrics: {name: {...options}}   # see drive_logger.analysis
+    figures: [str, ...]
+    checks:                    # rows of the reproduction table
+      - metric*: str           # key of the analysis summary
+        seed*: float           # value reported by the seed
+        tolerance*: float      # allowed |sim - seed| (absolute)
+        label: str
+        # or, instead of seed/tolerance, bounds: min / max
+"""
+from __future__ import annotations
+
+import importlib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from drive_common.parameters import ParameterError, ParameterSchema
+
+NODE_SCHEMAS = {
+    'plant': ('bldc_plant_sim.parameters', 'PLANT_NODE_SCHEMA'),
+    'dtc_controller': ('dtc_controller.parameters', 'DTC_SCHEMA'),
+    'pfc_controller': ('pfc_controller.parameters', 'PFC_SCHEMA'),
+}
+TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'events', 'record',
+            'metrics', 'figures', 'checks'}
+
+
+class ScenarioError(ValueError):
+    """A scenario file is malformed; the message names file, key and reason."""
+
+
+def node_schema(node: str) -> ParameterSchema:
+    module, attr = NODE_SCHEMAS[node]
+    return getattr(importlib.import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class Event:
+    time: float                         # s
+    node: str
+    parameters: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Check:
+    metric: str
+    label: str
+    seed: float | None = None
+    tolerance: float | None = None
+    minimum: float | None = None
+    maximum: float | None = None
+
+    def evaluate(self, value: float | None) -> bool:
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            return False
+        if self.seed is not None and abs(value - self.seed) > self.tolerance:
+            return False
+        if self.minimum is not None and value < self.minimum:
+            return False
+        if self.maximum is not None and value > self.maximum:
+            return False
+        return True
+
+    def criterion(self) -> str:
+        parts = []
+        if self.seed is not None:
+            parts.append(f'{self.seed:g} ± {self.tolerance:g}')
+        if self.minimum is not None:
+            parts.append(f'≥ {self.minimum:g}')
+        if self.maximum is not None:
+            parts.append(f'≤ {self.maximum:g}')
+        return ', '.join(parts)
+
+
+@dataclass
+class Scenario:
+    path: Path
+    name: str
+    duration: float
+    node_parameters: dict[str, dict[str, Any]]     # node -> full validated snapshot
+    overrides: dict[str, dict[str, Any]]           # node -> parameters the file set
+    events: list[Event] = field(default_factory=list)
+    description: str = ''
+    seed_reference: str = ''
+    record: bool = True
+    record_topics: list[str] = field(default_factory=list)
+    metrics: dict[str, dict] = field(default_factory=dict)
+    figures: list[str] = field(default_factory=list)
+    checks: list[Check] = field(default_factory=list)
+
+    @property
+    def nodes(self) -> list[str]:
+        return list(self.node_parameters)
+
+
+def _fail(path: Path, key: str, reason: str) -> ScenarioError:
+    return ScenarioError(f'{path}: {key}: {reason}')
+
+
+def _mapping(value, path: Path, key: str) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise _fail(path, key, f'expected a mapping, got {type(value).__name__}')
+    return value
+
+
+def _number(value, path: Path, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _fail(path, key, f'expected a finite number, got {value!r}')
+    return float(value)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario file; raise ScenarioError naming what is wrong."""
+    path = Path(path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise ScenarioError(f'{path}: cannot read: {exc.strerror}') from exc
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f'{path}: not valid YAML: {exc}') from exc
+    raw = _mapping(raw, path, '(top level)')
+    unknown = sorted(set(raw) - TOP_KEYS)
+    if unknown:
+        raise _fail(path, unknown[0], 'unknown key (allowed: ' + ', '.join(sorted(TOP_KEYS)) + ')')
+    for key in ('name', 'duration', 'nodes'):
+        if key not in raw:
+            raise _fail(path, key, 'required key missing')
+    name = raw['name']
+    if not isinstance(name, str) or not name or '/' in name:
+        raise _fail(path, 'name', 'expected a non-empty string without "/"')
+    duration = _number(raw['duration'], path, 'duration')
+    if duration <= 0.0:
+        raise _fail(path, 'duration', 'must be > 0 s')
+
+    nodes = _mapping(raw['nodes'], path, 'nodes')
+    if 'plant' not in nodes:
+        raise _fail(path, 'nodes.plant', 'required: the plant is the time master')
+    snapshots, overrides = {}, {}
+    for node, spec in nodes.items():
+        key = f'nodes.{node}'
+        if node not in NODE_SCHEMAS:
+            raise _fail(path, key, 'unknown node (allowed: ' + ', '.join(NODE_SCHEMAS) + ')')
+        spec = _mapping(spec, path, key)
+        extra = sorted(set(spec) - {'parameters'})
+        if extra:
+            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: parameters)')
+        params = _mapping(spec.get('parameters'), path, f'{key}.parameters')
+        try:
+            snapshots[node] = node_schema(node).resolve(params)
+        except ParameterError as exc:
+            raise _fail(path, f'{key}.parameters', str(exc)) from exc
+        overrides[node] = dict(params)
+
+    events = []
+    for i, ev in enumerate(raw.get('events') or []):
+        key = f'events[{i}]'
+        ev = _mapping(ev, path, key)
+        extra = sorted(set(ev) - {'time', 'node', 'parameters'})
+        if extra:
+            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: time, node, parameters)')
+        for req in ('time', 'node', 'parameters'):
+            if req not in ev:
+                raise _fail(path, f'{key}.{req}', 'required key missing')
+        t = _number(ev['time'], path, f'{key}.time')
+        if not 0.0 <= t < duration:
+            raise _fail(path, f'{key}.time', f'{t} s is outside [0, duration = {duration} s)')
+        node = ev['node']
+        if node not in snapshots:
+            raise _fail(path, f'{key}.node', f'{node!r} is not a node of this scenario')
+        params = _mapping(ev['parameters'], path, f'{key}.parameters')
+        if not params:
+            raise _fail(path, f'{key}.parameters', 'no parameters to change')
+        try:
+            node_schema(node).validate_changes(snapshots[node], params)
+            unknown_params = sorted(set(params) - set(node_schema(node).names()))
+            if unknown_params:
+                raise ParameterError('unknown parameter(s): ' + ', '.join(unknown_params))
+        except ParameterError as exc:
+            raise _fail(path, f'{key}.parameters', str(exc)) from exc
+        events.append(Event(t, node, dict(params)))
+    if [e.time for e in events] != sorted(e.time for e in events):
+        raise _fail(path, 'events', 'events must be in time order')
+
+    record = _mapping(raw.get('record'), path, 'record')
+    extra = sorted(set(record) - {'enabled', 'topics'})
+    if extra:
+        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics)')
+    topics = record.get('topics') or []
+    if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
+        raise _fail(path, 'record.topics', 'expected a list of topic names')
+
+    metrics = _mapping(raw.get('metrics'), path, 'metrics')
+    figures = raw.get('figures') or []
+    if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
+        raise _fail(path, 'figures', 'expected a list of figure names')
+
+    checks = []
+    for i, ch in enumerate(raw.get('checks') or []):
+        key = f'checks[{i}]'
+        ch = _mapping(ch, path, key)
+        extra = sorted(set(ch) - {'metric', 'seed', 'tolerance', 'min', 'max', 'label'})
+        if extra:
+            raise _fail(path, f'{key}.{extra[0]}', 'unknown key')
+        if 'metric' not in ch:
+            raise _fail(path, f'{key}.metric', 'required key missing')
+        seed = _number(ch['seed'], path, f'{key}.seed') if 'seed' in ch else None
+        tol = _number(ch['tolerance'], path, f'{key}.tolerance') if 'tolerance' in ch else None
+        if (seed is None) != (tol is None):
+            raise _fail(path, key, 'seed and tolerance go together')
+        lo = _number(ch['min'], path, f'{key}.min') if 'min' in ch else None
+        hi = _number(ch['max'], path, f'{key}.max') if 'max' in ch else None
+        if seed is None and lo is None and hi is None:
+            raise _fail(path, key, 'needs seed + tolerance, or min / max')
+        checks.append(Check(ch['metric'], str(ch.get('label', ch['metric'])), seed, tol, lo, hi))
+
+    return Scenario(path=path, name=name, duration=duration, node_parameters=snapshots,
+                    overrides=overrides, events=events,
+                    description=str(raw.get('description', '')),
+                    seed_reference=str(raw.get('seed_reference', '')),
+                    record=bool(record.get('enabled', True)), record_topics=list(topics),
+                    metrics=metrics, figures=list(figures), checks=checks)
+
+
+def scenario_dir() -> Path:
+    """The scenarios of the source tree (symlink/develop installs), else share/drive_bringup."""
+    source = Path(__file__).resolve().parents[1] / 'scenarios'
+    if source.is_dir():
+        return source
+    from ament_index_python.packages import get_package_share_directory
+    return Path(get_package_share_directory('drive_bringup')) / 'scenarios'
+
+
+def find_scenario(name_or_path: str) -> Path:
+    """A path as given, or a scenario name looked up in scenario_dir()."""
+    path = Path(name_or_path)
+    if path.suffix in ('.yaml', '.yml') or path.exists():
+        return path
+    candidate = scenario_dir() / f'{name_or_path}.yaml'
+    if not candidate.exists():
+        known = sorted(p.stem for p in scenario_dir().glob('*.yaml'))
+        raise ScenarioError(f'no scenario {name_or_path!r} (known: {", ".join(known)})')
+    return candidate
