@@ -1,0 +1,8 @@
+"""ROS-agnostic DTC controller core (pure Python + numpy; no rclpy, no *_msgs, no plant code).
+
+One module per concept: :mod:`transforms`, :mod:`backemf_table`,
+:mod:`hysteresis`, :mod:`vectors`, :mod:`switching_tables`,
+:mod:`torque_estimator`, :mod:`flux_estimator`, :mod:`speed_loop`,
+:mod:`position`, one module per mode under :mod:`modes`, and
+:mod:`controller` (``DtcCore``, dispatching by the ``mode`` parameter).
+"""

@@ -1,0 +1,56 @@
+"""Hysteresis (bang-bang) comparators: two-level (eqs. 1.17-1.20) and three-level.
+
+``band`` is the half-width H [unit of the controlled quantity]: with
+error = reference - actual, a two-level comparator outputs +1 once
+error > +H (actual below reference - H, eq. 1.19 "d = 1") and -1 once
+error < -H (eq. 1.20, written with -1 instead of 0 as Table II's tau),
+holding its output in between. The three-level comparator (classical DTC
+with zero vectors) outputs +1 / -1 beyond +-H and returns to 0 when the
+error crosses zero.
+"""
+from __future__ import annotations
+
+
+class TwoLevelHysteresis:
+    """Output +1 / -1 with half-width band H (>= 0). ``state`` is the last output."""
+
+    __slots__ = ('band', 'state')
+
+    def __init__(self, band: float, initial: int = 1) -> None:
+        self.band = float(band)
+        self.state = 1 if initial >= 0 else -1
+
+    def update(self, error: float) -> int:
+        """New output for error = reference - actual."""
+        if error > self.band:
+            self.state = 1
+        elif error < -self.band:
+            self.state = -1
+        return self.state
+
+    def reset(self, initial: int = 1) -> None:
+        self.state = 1 if initial >= 0 else -1
+
+
+class ThreeLevelHysteresis:
+    """Output +1 / 0 / -1: +1 beyond +H, -1 beyond -H, back to 0 at the zero crossing of the error."""
+
+    __slots__ = ('band', 'state')
+
+    def __init__(self, band: float) -> None:
+        self.band = float(band)
+        self.state = 0
+
+    def update(self, error: float) -> int:
+        s = self.state
+        if error > self.band:
+            s = 1
+        elif error < -self.band:
+            s = -1
+        elif (s > 0 and error <= 0.0) or (s < 0 and error >= 0.0):
+            s = 0
+        self.state = s
+        return s
+
+    def reset(self) -> None:
+        self.state = 0

@@ -1,0 +1,123 @@
+"""Line-to-line transforms and torque of 000 ch. V (eqs. 5.10, 5.13, 5.15, 5.32, 5.33).
+
+Inputs are the ba-ca pair x_ba = x_b - x_a, x_ca = x_c - x_a (what can be
+measured without the neutral).
+
+* (5.10) Line-to-line Clarke, amplitude-invariant (same as the project's Clarke
+  for a zero-sequence-free set): alpha = -(x_ba + x_ca)/3,
+  beta = (x_ba - x_ca)/sqrt(3) -- :func:`transforms.alpha_beta_from_line_to_line`.
+* (5.13) inverse: x_a = -(x_ba + x_ca)/3, x_b = (2 x_ba - x_ca)/3, x_c = (2 x_ca - x_ba)/3.
+* (5.15) Line-to-line Park. The seed's eq. (5.4) puts q *lagging* d
+  (q_seed = alpha sin(theta) - beta cos(theta) = -q); the project's Park has
+  q leading d, so the q row of (5.15) changes sign:
+  d = 2/3 [ sin(theta - pi/6) x_ba - sin(theta + pi/6) x_ca]
+  q = 2/3 [ cos(theta - pi/6) x_ba - cos(theta + pi/6) x_ca].
+  (The d row is printed correctly.)
+* (5.32) T = 3P/4 (k_q i_q + k_d i_d), P poles -> 3/2 p (k_d i_d + k_q i_q)
+  with p pole pairs; the q sign convention cancels in the product.
+* (5.33) / (B.8) T = P/6 [(2 k_ba - k_ca) i_ba + (2 k_ca - k_ba) i_ca]
+  = p/3 [...]; equals p * sum(k_x i_x) whenever i_a + i_b + i_c = 0.
+"""
+from __future__ import annotations
+
+import math
+
+from .backemf_table import BackEmfTable
+from .transforms import INV_SQRT3, TWO_PI, alpha_beta_from_line_to_line
+
+_PI6 = math.pi / 6.0
+_TWO_THIRDS = 2.0 / 3.0
+
+line_to_line_clarke = alpha_beta_from_line_to_line
+"""Eq. (5.10): (alpha, beta) of (x_ba, x_ca); reused from :mod:`transforms`."""
+
+
+def line_to_line_inverse(x_ba: float, x_ca: float) -> tuple[float, float, float]:
+    """Eq. (5.13): (x_a, x_b, x_c) of a zero-sequence-free set from (x_ba, x_ca)."""
+    x_a = -(x_ba + x_ca) / 3.0
+    return x_a, x_a + x_ba, x_a + x_ca
+
+
+def line_to_line_park(x_ba: float, x_ca: float, theta: float) -> tuple[float, float]:
+    """Eq. (5.15) in the project's Park convention (q leads d): (x_d, x_q) at angle theta [rad]."""
+    s_m, s_p = math.sin(theta - _PI6), math.sin(theta + _PI6)
+    c_m, c_p = math.cos(theta - _PI6), math.cos(theta + _PI6)
+    return (_TWO_THIRDS * (s_m * x_ba - s_p * x_ca), _TWO_THIRDS * (c_m * x_ba - c_p * x_ca))
+
+
+def line_to_line_park_seed(x_ba: float, x_ca: float, theta: float) -> tuple[float, float]:
+    """Eq. (5.15) exactly as printed (seed's q lags d): (x_d, x_q_seed) with x_q_seed = -x_q."""
+    d, q = line_to_line_park(x_ba, x_ca, theta)
+    return d, -q
+
+
+def torque_dq(pole_pairs: int, k_d: float, k_q: float, i_d: float, i_q: float) -> float:
+    """Eq. (5.32): T [N m] = 3/2 p (k_d i_d + k_q i_q), k in V s/rad, i in A."""
+    return 1.5 * pole_pairs * (k_d * i_d + k_q * i_q)
+
+
+def torque_line_to_line(pole_pairs: int, k_ba: float, k_ca: float, i_ba: float, i_ca: float) -> float:
+    """Eq. (5.33)/(B.8): T [N m] = p/3 [(2 k_ba - k_ca) i_ba + (2 k_ca - k_ba) i_ca] (P/6 with P poles)."""
+    return pole_pairs / 3.0 * ((2.0 * k_ba - k_ca) * i_ba + (2.0 * k_ca - k_ba) * i_ca)
+
+
+class DqBackEmf:
+    """k_d(theta), k_q(theta) [V s/rad] from a back-EMF table, linear and wrapped (000 Fig. 5.10).
+
+    The table's k_d/k_q columns are the Park transform of k_alpha/beta at the
+    row angle, i.e. (5.15) applied to the measured k_ba, k_ca. Lookups also
+    return the rotor flux (alpha, beta) [Wb] at the same angle (for start-up
+    and the current model), one index computation per sample.
+    """
+
+    __slots__ = ('table', 'points', '_scale', '_kd', '_kq', '_pa', '_pb', 'rotor_flux_max', 'rotor_flux_min')
+
+    def __init__(self, table: BackEmfTable) -> None:
+        self.table = table
+        self.points = table.points
+        self._scale = table.points / TWO_PI
+        self._kd = _closed(table.columns['k_d'])
+        self._kq = _closed(table.columns['k_q'])
+        self._pa = _closed(table.rotor_flux_alpha)
+        self._pb = _closed(table.rotor_flux_beta)
+        mags = [math.hypot(a, b) for a, b in zip(self._pa, self._pb)]
+        self.rotor_flux_max = max(mags)
+        self.rotor_flux_min = min(mags)
+
+    def k_dq(self, theta: float) -> tuple[float, float]:
+        """(k_d, k_q) [V s/rad] at electrical angle theta [rad]."""
+        x = theta * self._scale
+        i = math.floor(x)
+        f = x - i
+        i %= self.points
+        kd, kq = self._kd, self._kq
+        return kd[i] + f * (kd[i + 1] - kd[i]), kq[i] + f * (kq[i + 1] - kq[i])
+
+    def rotor_flux(self, theta: float) -> tuple[float, float]:
+        """(psi_r_alpha, psi_r_beta) [Wb] at theta [rad] (table integral, zero mean)."""
+        x = theta * self._scale
+        i = math.floor(x)
+        f = x - i
+        i %= self.points
+        a, b = self._pa, self._pb
+        return a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i])
+
+
+def _closed(values) -> list:
+    out = [float(v) for v in values]
+    return out + [out[0]]
+
+
+def trapezoid_rotor_flux(k_ll: float) -> dict:
+    """Rotor-flux figures of an ideal 120-deg flat-top trapezoid with line-to-line peak k_LL [V s/rad].
+
+    In the amplitude-invariant convention (flat top K = k_LL/2):
+    ``at_phase_axis`` = |psi_r| at theta_e = 0 (its maximum) = 7 pi k_LL / 36,
+    ``minimum`` = pi k_LL / (3 sqrt 3) (at 30 deg off a phase axis),
+    ``seed_e9`` = 2 pi k_LL / (3 sqrt 3), 000 eq. (E.9)/(5.37) text: the integral of
+    e_alpha over its positive half period, i.e. the peak-to-peak swing, twice the minimum.
+    The DTIFC start-up flux is (at_phase_axis, 0); the limiter uses the maximum.
+    """
+    return {'at_phase_axis': 7.0 * math.pi * k_ll / 36.0,
+            'minimum': math.pi * k_ll * INV_SQRT3 / 3.0,
+            'seed_e9': 2.0 * math.pi * k_ll * INV_SQRT3 / 3.0}

@@ -1,0 +1,58 @@
+"""Four-switch two-phase BLDC DTC, phase c on the split-capacitor midpoint (000 ch. IV).
+
+Sectors I, III, IV, VI: Table IV (phi = 0 row; phi = +-1 with flux control).
+Sectors II and V (a and b conduct, T_ec should stay zero): phase-a and phase-b
+torques (eq. 4.4, T_ex = p k_x i_x) are controlled by separate comparators
+with T_ea* = T_eb* = T*/2 and band torque_band / split_band_divisor (1000 in
+the seed), selecting V0/V7/V3/V6 per the derived Table V. Errors are taken in
+the commanded direction, so the CW logic is the inverse of CCW.
+"""
+from __future__ import annotations
+
+from ..hysteresis import TwoLevelHysteresis
+from ..switching_tables import derive_split_phase_table, split_phase_sectors
+from ..vectors import four_switch_vectors
+from .two_phase_base import TwoPhaseModeBase
+
+MIDPOINT_PHASE = 2  # phase c
+
+
+class TwoPhaseFourSwitchMode(TwoPhaseModeBase):
+    name = 'two_phase_four_switch'
+    topology = 4
+    midpoint_phase = MIDPOINT_PHASE
+
+    def __init__(self, params, backemf) -> None:
+        self.hyst_a = TwoLevelHysteresis(0.0)
+        self.hyst_b = TwoLevelHysteresis(0.0)
+        super().__init__(params, backemf)
+        self.split_sectors = split_phase_sectors(self.tables[1], MIDPOINT_PHASE)
+        self.split_tables = {r: derive_split_phase_table(self.vectors, MIDPOINT_PHASE, self.split_sectors, r)
+                             for r in (1, -1)}
+        self._split_set = frozenset(self.split_sectors)
+        self.split_now = self.split_tables[self.rotation]
+
+    def make_vectors(self):
+        return four_switch_vectors(MIDPOINT_PHASE)
+
+    def apply_runtime(self, params) -> None:
+        super().apply_runtime(params)
+        band = float(params['torque_band']) / float(params['four_switch.split_band_divisor'])
+        self.hyst_a.band = band
+        self.hyst_b.band = band
+        if hasattr(self, 'split_tables'):
+            self.split_now = self.split_tables[self.rotation]
+
+    def _select(self, sector, phi, tau, theta, i_a, i_b, t_ref):
+        if sector not in self._split_set:
+            return self.table_now[(sector, phi, tau)], float('nan'), float('nan')
+        p = self.pole_pairs
+        k_a = self.table.k_phase(0, theta)
+        k_b = self.table.k_phase(1, theta)
+        t_a = p * k_a * i_a
+        t_b = p * k_b * i_b
+        half = 0.5 * t_ref
+        rot = self.rotation
+        tau_a = self.hyst_a.update(rot * (half - t_a))
+        tau_b = self.hyst_b.update(rot * (half - t_b))
+        return self.split_now[(sector, tau_a, tau_b)], t_a, t_b

@@ -1,0 +1,181 @@
+"""Stator flux estimators for the three-phase modes (000 eqs. 1.22-1.23, 5.36-5.38; 001 eqs. 8-9, 15-16).
+
+All voltage-model estimators integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
+(000 eqs. 1.22-1.23: the voltage applied over the previous sample and the
+trapezoidal current) and share the interface of
+:class:`flux_estimator.VoltageModelFluxEstimator` (``reset``, ``update``,
+``psi_alpha``/``psi_beta``, ``magnitude``, ``angle``), which *is* the pure
+integrator here (:data:`PureIntegrator`).
+
+* :class:`LowPassIntegrator`: d psi/dt = x - w_c psi (001: w_c = 5 rad/s instead
+  of a pure integrator). For a sinusoid at w_e its output is the true flux
+  times j w_e/(j w_e + w_c): gain |w_e|/sqrt(w_e^2 + w_c^2), phase lead
+  atan(w_c/w_e); :func:`compensate_low_pass` undoes it, psi = y (1 - j w_c/w_e).
+* :class:`HuWuIntegrator`: Hu & Wu's modified integrator with an amplitude
+  limiter in polar coordinates (000 Fig. 5.3, ref. [83], w_c = 20 rad/s):
+  y = x/(s + w_c) + w_c/(s + w_c) z, z = y limited to amplitude L, i.e.
+  d y/dt = x - w_c (y - z): a pure integrator while |y| <= L, a leak towards
+  the circle of radius L beyond it, which removes offsets and drift.
+  L = the rotor-flux amplitude (:func:`line_to_line.trapezoid_rotor_flux` for the seed's
+  formula and its correction; the modes take max |psi_r| of the back-EMF table).
+* :class:`CurrentModelFlux`: 001 eqs. (8)-(9), psi = L_s i + psi_r(theta_e), with
+  psi_r = psi_m (cos, sin) or, for non-sinusoidal machines, the table integral.
+* :func:`rotor_angle`: 000 eq. (5.38), theta_e = atan2(psi_beta - L i_beta, psi_alpha - L i_alpha).
+
+Discretisation: exact for constant x over a sample in the pure part;
+the leak terms use (1 - exp(-w_c T_s)).
+"""
+from __future__ import annotations
+
+import math
+
+from .flux_estimator import VoltageModelFluxEstimator
+
+PureIntegrator = VoltageModelFluxEstimator
+"""000 eqs. (1.22)-(1.23) / 001 eqs. (15)-(16): open-loop integration (helper-2's estimator)."""
+
+TWO_PI = 2.0 * math.pi
+
+
+class _LeakyBase:
+    """Shared state and trapezoidal-current EMF of the leaky integrators."""
+
+    __slots__ = ('resistance', 'sample_period', 'cutoff', 'psi_alpha', 'psi_beta', '_i_alpha', '_i_beta',
+                 '_primed', '_leak')
+
+    def __init__(self, resistance: float, sample_period: float, cutoff: float,
+                 psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
+        self.resistance = float(resistance)
+        self.sample_period = float(sample_period)
+        self.set_cutoff(cutoff)
+        self.reset(psi_alpha, psi_beta)
+
+    def set_cutoff(self, cutoff: float) -> None:
+        """w_c [rad/s]."""
+        self.cutoff = float(cutoff)
+        self._leak = 1.0 - math.exp(-self.cutoff * self.sample_period)
+
+    def reset(self, psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
+        """Initial flux [Wb]; the next update only stores the current (as the pure integrator)."""
+        self.psi_alpha = float(psi_alpha)
+        self.psi_beta = float(psi_beta)
+        self._primed = False
+        self._i_alpha = 0.0
+        self._i_beta = 0.0
+
+    @property
+    def magnitude(self) -> float:
+        return math.hypot(self.psi_alpha, self.psi_beta)
+
+    @property
+    def angle(self) -> float:
+        return math.atan2(self.psi_beta, self.psi_alpha) % TWO_PI
+
+
+class LowPassIntegrator(_LeakyBase):
+    """psi(k) = psi(k-1) + T_s x - (1 - e^{-w_c T_s}) psi(k-1) (001 sec. IV, w_c = 5 rad/s)."""
+
+    __slots__ = ()
+
+    def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
+        """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
+        if self._primed:
+            r, ts, lk = self.resistance, self.sample_period, self._leak
+            pa, pb = self.psi_alpha, self.psi_beta
+            self.psi_alpha = pa + (v_alpha_prev - r * 0.5 * (self._i_alpha + i_alpha)) * ts - lk * pa
+            self.psi_beta = pb + (v_beta_prev - r * 0.5 * (self._i_beta + i_beta)) * ts - lk * pb
+        self._primed = True
+        self._i_alpha = i_alpha
+        self._i_beta = i_beta
+        return self.psi_alpha, self.psi_beta
+
+
+class HuWuIntegrator(_LeakyBase):
+    """Modified integrator with amplitude limiter (000 Fig. 5.3 / Hu-Wu algorithm 2); limit [Wb]."""
+
+    __slots__ = ('limit',)
+
+    def __init__(self, resistance: float, sample_period: float, cutoff: float, limit: float,
+                 psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
+        self.limit = float(limit)
+        super().__init__(resistance, sample_period, cutoff, psi_alpha, psi_beta)
+
+    def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
+        """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
+        if self._primed:
+            r, ts = self.resistance, self.sample_period
+            pa, pb = self.psi_alpha, self.psi_beta
+            pa_new = pa + (v_alpha_prev - r * 0.5 * (self._i_alpha + i_alpha)) * ts
+            pb_new = pb + (v_beta_prev - r * 0.5 * (self._i_beta + i_beta)) * ts
+            m2 = pa * pa + pb * pb
+            lim = self.limit
+            if m2 > lim * lim:
+                # y - z = y (1 - L/|y|): leak only the part beyond the limiter circle.
+                g = self._leak * (1.0 - lim / math.sqrt(m2))
+                pa_new -= g * pa
+                pb_new -= g * pb
+            self.psi_alpha = pa_new
+            self.psi_beta = pb_new
+        self._primed = True
+        self._i_alpha = i_alpha
+        self._i_beta = i_beta
+        return self.psi_alpha, self.psi_beta
+
+
+def compensate_low_pass(psi_alpha: float, psi_beta: float, omega_e: float, cutoff: float,
+                        min_speed: float = 1e-3) -> tuple[float, float]:
+    """Undo the LPF's gain/phase error for a sinusoidal flux at w_e [rad/s]: psi = y (1 - j w_c / w_e).
+
+    Returns the input unchanged below ``min_speed`` (the correction diverges at standstill).
+    """
+    if abs(omega_e) < min_speed:
+        return psi_alpha, psi_beta
+    r = cutoff / omega_e
+    return psi_alpha + r * psi_beta, psi_beta - r * psi_alpha
+
+
+class CurrentModelFlux:
+    """001 eqs. (8)-(9): psi_s = L_s i + psi_r(theta_e) [Wb].
+
+    rotor_flux: a callable theta -> (psi_r_alpha, psi_r_beta) (e.g.
+    :meth:`line_to_line.DqBackEmf.rotor_flux`), or None to use psi_m (cos, sin).
+    """
+
+    __slots__ = ('inductance', 'psi_m', '_rf', 'psi_alpha', 'psi_beta')
+
+    def __init__(self, inductance: float, psi_m: float = 0.0, rotor_flux=None) -> None:
+        self.inductance = float(inductance)
+        self.psi_m = float(psi_m)
+        self._rf = rotor_flux
+        self.psi_alpha = 0.0
+        self.psi_beta = 0.0
+
+    def update(self, theta: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
+        """Flux [Wb] at rotor angle theta [rad] and currents [A]."""
+        if self._rf is None:
+            ra, rb = self.psi_m * math.cos(theta), self.psi_m * math.sin(theta)
+        else:
+            ra, rb = self._rf(theta)
+        self.psi_alpha = self.inductance * i_alpha + ra
+        self.psi_beta = self.inductance * i_beta + rb
+        return self.psi_alpha, self.psi_beta
+
+    @property
+    def magnitude(self) -> float:
+        return math.hypot(self.psi_alpha, self.psi_beta)
+
+
+def rotor_angle(psi_alpha: float, psi_beta: float, i_alpha: float, i_beta: float, inductance: float) -> float:
+    """000 eq. (5.38): electrical rotor angle [rad, 0..2 pi) from stator flux [Wb], current [A], L_s [H]."""
+    return math.atan2(psi_beta - inductance * i_beta, psi_alpha - inductance * i_alpha) % TWO_PI
+
+
+def make_voltage_model(kind: str, resistance: float, sample_period: float, cutoff: float, limit: float):
+    """Estimator by name: 'pure', 'low_pass' (cutoff) or 'hu_wu' (cutoff, limit)."""
+    if kind == 'pure':
+        return PureIntegrator(resistance, sample_period)
+    if kind == 'low_pass':
+        return LowPassIntegrator(resistance, sample_period, cutoff)
+    if kind == 'hu_wu':
+        return HuWuIntegrator(resistance, sample_period, cutoff, limit)
+    raise ValueError(f'unknown integrator {kind!r} (pure, low_pass, hu_wu)')

@@ -1,0 +1,36 @@
+"""DtcStatusSample: one field per dtc_msgs/DtcStatus field (header excluded), same names and units."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+NAN = float('nan')
+
+
+@dataclass(slots=True)
+class DtcStatusSample:
+    """Controller internals for one sample (see DtcStatus.msg); NaN / 0 where a mode has no value."""
+
+    step: int
+    mode: str
+    rotation: int                    # +1 CCW, -1 CW
+    speed_reference: float           # rad/s mechanical, NaN without speed loop
+    speed_measured: float            # rad/s mechanical
+    torque_reference: float          # N m
+    torque_estimate: float           # N m
+    phase_a_torque_estimate: float   # N m (four-switch sectors II/V), else NaN
+    phase_b_torque_estimate: float   # N m
+    flux_alpha: float                # Wb
+    flux_beta: float                 # Wb
+    flux_magnitude: float            # Wb
+    flux_reference: float            # Wb, NaN without flux control
+    d_current_reference: float       # A, NaN (DTIFC only)
+    d_current: float                 # A
+    q_current: float                 # A
+    rotor_angle_estimate: float      # rad electrical, [0, 2 pi)
+    speed_estimate: float            # rad/s electrical, NaN (sensorless modes only)
+    sector: int                      # 1..6, 0 undefined
+    torque_hysteresis: int           # tau
+    flux_hysteresis: int             # phi
+    d_current_hysteresis: int        # 0 (DTIFC only)
+    voltage_vector: int              # index in the mode's vector numbering
+    switch_on: tuple                 # SW1..SW6

@@ -1,0 +1,135 @@
+"""Switching tables derived in code from the vector geometry and the seeds' stated rules.
+
+Sectors: six 60-deg sectors, sector i centred at (i - 1) * 60 deg, so sector 1
+is [-30, 30) deg (000 Table III: Mode I = 0-30 and 330-360 deg, the sector in
+which phase a's back-EMF crosses zero; the same sectors as Table I's theta(1..6)).
+
+Rules (000 ch. I Fig. 1.9 and ch. II/IV text):
+* tau = +1 must turn the stator flux in the commanded direction (``rotation``:
+  +1 CCW, -1 CW), tau = -1 against it: the sign of the vector's tangential
+  component at the sector centre is rotation * tau;
+* phi = +1 must increase the flux amplitude (positive radial component at
+  the centre), phi = -1 decrease it, phi = 0 (no flux control, the row used in
+  normal two-phase operation) leave it unchanged at the centre (zero radial
+  component);
+* only the vectors of the mode's conduction (two-phase) are candidates; among
+  several candidates the largest tangential component wins.
+
+000 Table II (six-switch) and Table IV (four-switch) follow: phi = 0 row:
+tau = +1 -> V(i+1), tau = -1 -> V(i-2) (CCW); the CW table is the mirror.
+
+Table V (four-switch, sectors II and V, phase c on the midpoint): legs a and b
+are switched independently by their own phase-torque comparators. The phase
+torque is T_ex = p k_x(theta) i_x; raising leg x's terminal raises di_x/dt
+(coefficient 2/3 with the midpoint phase), so tau_ex = +1 (increase T_ex in the
+commanded direction) puts leg x HIGH when rotation * sign(k_x) > 0, else LOW;
+"the logic inverts for CW" follows from the rotation factor.
+"""
+from __future__ import annotations
+
+import math
+
+from .vectors import HIGH, LOW, OPEN, VoltageVector
+
+SECTOR_WIDTH = math.pi / 3.0
+SECTORS = (1, 2, 3, 4, 5, 6)
+_EPS = 1e-9
+
+
+def sector_center(sector: int) -> float:
+    """rad, centre angle of sector 1..6."""
+    return (sector - 1) * SECTOR_WIDTH
+
+
+def sector_of_angle(theta: float) -> int:
+    """Sector 1..6 containing angle theta [rad] (sector 1 = [-30, 30) deg)."""
+    return int(((theta + 0.5 * SECTOR_WIDTH) % (2.0 * math.pi)) // SECTOR_WIDTH) % 6 + 1
+
+
+def components(vector: VoltageVector, flux_angle: float) -> tuple[float, float]:
+    """(radial, tangential-CCW) components of a vector's ideal direction relative to a flux at flux_angle."""
+    c, s = math.cos(flux_angle), math.sin(flux_angle)
+    return vector.alpha * c + vector.beta * s, -vector.alpha * s + vector.beta * c
+
+
+def select_vector(candidates, flux_angle: float, tangential_sign: int, radial_sign: int) -> VoltageVector:
+    """The vector meeting the tangential/radial sign rules at flux_angle (module doc); ValueError if none."""
+    scale = max(v.magnitude for v in candidates)
+    tol = 1e-6 * scale
+    found = []
+    for v in candidates:
+        radial, tang = components(v, flux_angle)
+        if tang * tangential_sign <= tol:
+            continue
+        if radial_sign == 0 and abs(radial) > tol:
+            continue
+        if radial_sign != 0 and radial * radial_sign <= tol:
+            continue
+        found.append((tang * tangential_sign, abs(radial), v))
+    if not found:
+        raise ValueError(f'no vector turns the flux with sign {tangential_sign} and radial sign '
+                         f'{radial_sign} at {math.degrees(flux_angle):.1f} deg')
+    found.sort(key=lambda t: (-t[0], -t[1]))
+    return found[0][2]
+
+
+def derive_flux_table(vectors, rotation: int = 1, phis=(1, 0, -1), taus=(1, -1),
+                      two_phase_only: bool = True) -> dict:
+    """{(sector, phi, tau): VoltageVector} from the rules in the module doc (Tables II and IV)."""
+    cands = [v for v in vectors if v.magnitude > _EPS and (v.two_phase or not two_phase_only)]
+    table = {}
+    for sector in SECTORS:
+        center = sector_center(sector)
+        for phi in phis:
+            for tau in taus:
+                table[(sector, phi, tau)] = select_vector(cands, center, rotation * tau, phi)
+    return table
+
+
+def k_sign(phase: int, theta: float) -> int:
+    """Sign of the fundamental of k_x(theta) = -sin(theta - 2 pi x / 3) (docs/architecture.md)."""
+    return 1 if -math.sin(theta - phase * 2.0 * math.pi / 3.0) > 0.0 else -1
+
+
+def split_phase_sectors(table: dict, midpoint_phase: int) -> tuple[int, ...]:
+    """Sectors whose phi = 0 vectors drive the two switched legs against each other (midpoint phase idle).
+
+    For phase c on the midpoint these are sectors II and V (000 Table III: T_ec = 0 there).
+    """
+    out = []
+    for sector in SECTORS:
+        legs = table[(sector, 0, 1)].legs
+        switched = [legs[x] for x in range(3) if x != midpoint_phase]
+        if OPEN not in switched:
+            out.append(sector)
+    return tuple(out)
+
+
+def derive_split_phase_table(vectors, midpoint_phase: int, sectors, rotation: int = 1) -> dict:
+    """{(sector, tau_first, tau_second): VoltageVector} for independent phase-torque control (Table V).
+
+    tau_first/tau_second belong to the two switched phases in a, b, c order
+    (phase a and phase b for midpoint c).
+    """
+    by_legs = {v.legs: v for v in vectors}
+    switched = [x for x in range(3) if x != midpoint_phase]
+    table = {}
+    for sector in sectors:
+        center = sector_center(sector)
+        for t0 in (1, -1):
+            for t1 in (1, -1):
+                legs = ['M'] * 3
+                for x, tau in zip(switched, (t0, t1)):
+                    legs[x] = HIGH if rotation * tau * k_sign(x, center) > 0 else LOW
+                table[(sector, t0, t1)] = by_legs[tuple(legs)]
+    return table
+
+
+def format_flux_table(table: dict, switches: int = 6) -> str:
+    """Compact text of a {(sector, phi, tau): vector} table, one line per (phi, tau)."""
+    keys = sorted({(phi, tau) for (_, phi, tau) in table}, key=lambda k: (-k[0], -k[1]))
+    lines = []
+    for phi, tau in keys:
+        cells = [f'{table[(s, phi, tau)].name}({table[(s, phi, tau)].code(switches)})' for s in SECTORS]
+        lines.append(f'phi={phi:+d} tau={tau:+d}: ' + ' '.join(cells))
+    return '\n'.join(lines)

@@ -1,0 +1,205 @@
+"""Inverter voltage space vectors derived from the circuit (000 Appendices C and D, Table I).
+
+A vector is a switch tuple ``(SW1..SW6)`` (SW1/SW2 = phase a upper/lower,
+SW3/SW4 = b, SW5/SW6 = c). Each phase leg is then HIGH (upper on:
+terminal at the positive rail, V_dc), LOW (lower on: 0 V), OPEN (both off)
+or MIDPOINT (four-switch inverter: the phase is wired to the split-capacitor
+midpoint, terminal at v_mid; its switch entries are ignored). Voltages are
+relative to the negative rail.
+
+Phase voltages of the Y-connected motor with equal phase impedances: the
+conducting phases (terminal defined) carry currents that sum to zero, so
+``v_n = (sum_cond v_xN + sum_open e_x) / n_cond`` (using sum e = 0), and
+``v_xn = v_xN - v_n`` for conducting phases, ``v_xn = e_x`` for open ones
+(zero current). The *ideal* vector takes the open-phase back-EMF as zero and
+a balanced midpoint (v_mid = V_dc/2); alpha/beta by the amplitude-invariant
+Clarke transform. So, e.g., six-switch two-phase V1 (SW1, SW6 on: a+, c-)
+is V_dc/sqrt(3) at 30 deg; the seed's Appendix C lists the same angles with
+another scaling (and V2beta = V_dc/2 is a typo there for V_dc).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+from .transforms import INV_SQRT3
+
+HIGH, LOW, OPEN, MIDPOINT = 'H', 'L', 'O', 'M'
+PHASES = ('a', 'b', 'c')
+
+
+def leg_states(switch_on, midpoint_phase: int | None = None) -> tuple[str, str, str]:
+    """Leg state (HIGH/LOW/OPEN/MIDPOINT) of each phase for a switch tuple; shoot-through raises."""
+    legs = []
+    for x in range(3):
+        if x == midpoint_phase:
+            legs.append(MIDPOINT)
+            continue
+        upper, lower = bool(switch_on[2 * x]), bool(switch_on[2 * x + 1])
+        if upper and lower:
+            raise ValueError(f'shoot-through: both switches of phase {PHASES[x]} on in {switch_on}')
+        legs.append(HIGH if upper else LOW if lower else OPEN)
+    return tuple(legs)
+
+
+def switches_of(legs) -> tuple[bool, ...]:
+    """Switch tuple (SW1..SW6) that realises the given leg states (MIDPOINT/OPEN legs off)."""
+    out = []
+    for leg in legs:
+        out.extend((leg == HIGH, leg == LOW))
+    return tuple(out)
+
+
+def phase_voltages(legs, v_dc: float, v_mid: float | None = None,
+                   emf=(0.0, 0.0, 0.0)) -> tuple[float, float, float]:
+    """Phase (line-to-neutral) voltages [V] of the Y-connected motor for the given leg states.
+
+    emf: phase back-EMFs [V]; only the open phases' values matter (see module doc).
+    Fewer than two conducting legs: no current path, every phase voltage is its back-EMF.
+    """
+    if v_mid is None:
+        v_mid = 0.5 * v_dc
+    term = []
+    for leg in legs:
+        term.append(v_dc if leg == HIGH else 0.0 if leg == LOW else v_mid if leg == MIDPOINT else None)
+    cond = [x for x in range(3) if term[x] is not None]
+    if len(cond) < 2:
+        return tuple(float(e) for e in emf)
+    open_ = [x for x in range(3) if term[x] is None]
+    v_n = (sum(term[x] for x in cond) + sum(emf[x] for x in open_)) / len(cond)
+    return tuple((term[x] - v_n) if term[x] is not None else float(emf[x]) for x in range(3))
+
+
+def alpha_beta(v_a: float, v_b: float, v_c: float) -> tuple[float, float]:
+    """Amplitude-invariant Clarke transform of phase voltages."""
+    return (2.0 * v_a - v_b - v_c) / 3.0, (v_b - v_c) * INV_SQRT3
+
+
+@lru_cache(maxsize=None)
+def voltage_coefficients(legs: tuple) -> tuple:
+    """Linear model of the alpha/beta voltage of a leg pattern (exact, by superposition).
+
+    Returns (a_dc, a_mid, b_dc, b_mid, open_terms) with
+    v_alpha = a_dc V_dc + a_mid v_mid + sum(ka e_x), v_beta likewise, where
+    open_terms = ((x, ka, kb), ...) for each open phase x.
+    """
+    a_dc, b_dc = alpha_beta(*phase_voltages(legs, 1.0, 0.0))
+    a_mid, b_mid = alpha_beta(*phase_voltages(legs, 0.0, 1.0))
+    terms = []
+    for x in range(3):
+        if legs[x] == OPEN:
+            e = [0.0, 0.0, 0.0]
+            e[x] = 1.0
+            ka, kb = alpha_beta(*phase_voltages(legs, 0.0, 0.0, e))
+            terms.append((x, ka, kb))
+    return a_dc, a_mid, b_dc, b_mid, tuple(terms)
+
+
+@dataclass(frozen=True)
+class VoltageVector:
+    """One inverter state. alpha/beta: ideal voltage per volt of V_dc (balanced midpoint, open-phase EMF 0)."""
+
+    name: str
+    index: int
+    switch_on: tuple
+    legs: tuple
+    alpha: float
+    beta: float
+    two_phase: bool   # exactly one phase carries no ideal voltage (open, or a balanced midpoint phase)
+
+    @property
+    def angle(self) -> float:
+        """rad, direction in the alpha/beta plane, [0, 2 pi)."""
+        return math.atan2(self.beta, self.alpha) % (2.0 * math.pi)
+
+    @property
+    def magnitude(self) -> float:
+        """per unit of V_dc."""
+        return math.hypot(self.alpha, self.beta)
+
+    def code(self, switches: int = 6) -> str:
+        """The dissertation's switch code, e.g. '100001' (6) or '1000' (SW1..SW4)."""
+        return ''.join('1' if s else '0' for s in self.switch_on[:switches])
+
+    def voltage(self, v_dc: float, v_mid: float | None = None, emf=(0.0, 0.0, 0.0)) -> tuple[float, float]:
+        """alpha/beta voltage [V] from the circuit for the given DC link and open-phase back-EMFs."""
+        return alpha_beta(*phase_voltages(self.legs, v_dc, v_mid, emf))
+
+
+def _make(name: str, index: int, legs: tuple) -> VoltageVector:
+    va, vb, vc = phase_voltages(legs, 1.0, 0.5)
+    alpha, beta = alpha_beta(va, vb, vc)
+    two = sum(1 for v in (va, vb, vc) if abs(v) < 1e-12) == 1 and math.hypot(alpha, beta) > 1e-12
+    return VoltageVector(name, index, switches_of(legs), legs, alpha, beta, two)
+
+
+def _number_by_angle(vectors: list[VoltageVector], first_angle_deg: float, prefix: str = 'V') -> list[VoltageVector]:
+    """Number active vectors 1..6 counter-clockwise starting at first_angle_deg (the seeds' numbering)."""
+    out = []
+    for v in vectors:
+        k = round(((math.degrees(v.angle) - first_angle_deg) % 360.0) / 60.0) % 6 + 1
+        out.append(VoltageVector(f'{prefix}{k}', k, v.switch_on, v.legs, v.alpha, v.beta, v.two_phase))
+    return sorted(out, key=lambda v: v.index)
+
+
+def two_phase_six_switch_vectors() -> tuple[VoltageVector, ...]:
+    """Six-switch two-phase vectors V1..V6 (000 Fig. 2.1, Appendix C) plus V0 = all off.
+
+    Every pattern with one phase HIGH, one LOW and one OPEN; numbered
+    counter-clockwise from the one at 30 deg (a+, c-: '100001' = V1 of Table II).
+    """
+    active = []
+    for hi in range(3):
+        for lo in range(3):
+            if hi != lo:
+                legs = tuple(HIGH if x == hi else LOW if x == lo else OPEN for x in range(3))
+                active.append(_make('', 0, legs))
+    zero = _make('V0', 0, (OPEN, OPEN, OPEN))
+    return (zero, *_number_by_angle(active, 30.0))
+
+
+def four_switch_vectors(midpoint_phase: int = 2) -> tuple[VoltageVector, ...]:
+    """Four-switch inverter (phase `midpoint_phase` on the capacitor midpoint): all 8 leg patterns.
+
+    Two-phase vectors (one switched leg OPEN, or the two switched legs
+    opposite) are numbered V1..V6 counter-clockwise from 30 deg (000 Fig. 4.3,
+    Table IV: V1 = '1000'). The two patterns with both switched legs equal
+    are three-phase vectors: V0 = both HIGH ('1010' for midpoint c) and
+    V7 = both LOW ('0101'), the names of 000 Table V and Fig. 4.5 (Appendix D
+    swaps the two codes; its values for V2 and V5 are also misprinted).
+    """
+    switched = [x for x in range(3) if x != midpoint_phase]
+    active, extra = [], []
+    for s0 in (HIGH, LOW, OPEN):
+        for s1 in (HIGH, LOW, OPEN):
+            if s0 == OPEN and s1 == OPEN:
+                continue
+            legs = [MIDPOINT] * 3
+            legs[switched[0]], legs[switched[1]] = s0, s1
+            legs = tuple(legs)
+            if s0 == s1:
+                extra.append(_make('V0' if s0 == HIGH else 'V7', 0 if s0 == HIGH else 7, legs))
+            else:
+                active.append(_make('', 0, legs))
+    return (*_number_by_angle(active, 30.0), *sorted(extra, key=lambda v: v.index))
+
+
+def three_phase_six_switch_vectors() -> tuple[VoltageVector, ...]:
+    """Conventional six-switch vectors (000 Table I): V1(100) at 0 deg ... V6(101), V0(000), V7(111).
+
+    Leg of phase x is HIGH when S_x = 1, else LOW (complementary switching).
+    """
+    active, zeros = [], []
+    for code in range(8):
+        bits = ((code >> 2) & 1, (code >> 1) & 1, code & 1)  # S_a S_b S_c
+        legs = tuple(HIGH if b else LOW for b in bits)
+        if code in (0, 7):
+            zeros.append(_make('V0' if code == 0 else 'V7', 0 if code == 0 else 7, legs))
+        else:
+            active.append(_make('', 0, legs))
+    return (*_number_by_angle(active, 0.0), *zeros)
+
+
+def by_name(vectors) -> dict[str, VoltageVector]:
+    return {v.name: v for v in vectors}

@@ -1,0 +1,112 @@
+"""Inverter voltage-drop compensation for the voltage-model flux estimator (001 sec. III, Tables III-VI).
+
+Device model of one switched leg (001 eq. 20, Tables III/IV): terminal voltage
+above the negative rail ``v_x0 = S_x V_dc - v_fx - R_on i_x`` with the forward
+drop v_fx of Table III (current i_x > 0 flows into the motor):
+S = 1, i > 0: IGBT, +V_CE;  S = 1, i < 0: upper diode, -V_d;
+S = 0, i > 0: lower diode, +V_d;  S = 0, i < 0: IGBT, -V_CE;  i = 0: 0.
+The midpoint-connected phase (phase a in 001) has no device and no drop.
+
+The correction added to the ideal alpha/beta voltage is therefore the
+(amplitude-invariant) Clarke transform of (-v_fx - R_on i_x) over the switched
+legs. With phase a on the midpoint:
+  v_falpha = (v_fb + v_fc)/3,  v_fbeta = -(v_fb - v_fc)/sqrt(3)   (001 eqs. 33-34)
+  R_on terms: -R_on i_alpha/3 and -R_on i_beta.
+001 eqs. (26) and (37) print "+R_on i_alpha/3": a sign typo -- the b and c
+drops give alpha = (R_on i_b + R_on i_c)/3 = -R_on i_a/3 and i_alpha = i_a
+(the circuit test pins this). Eqs. (27)/(38) (-R_on i_beta) are right.
+Six-switch: all three legs drop, giving -R_on i_alpha/beta (001 eqs. 24-25).
+
+Schemes: 'none'; 'simple' = Table V (V_CE = V_d = V_f, only the current signs,
+no R_on term); 'proposed' = Table VI (V_CE and V_d by switch state and current
+sign) plus the R_on terms of eqs. (37)-(38). Tables V and VI as printed agree
+with these formulas (pinned by tests). Values change at runtime (attributes).
+"""
+from __future__ import annotations
+
+from .transforms import INV_SQRT3
+
+SCHEMES = ('none', 'simple', 'proposed')
+
+
+def forward_drop(upper_on: bool, current: float, v_ce: float, v_d: float) -> float:
+    """001 Table III: forward voltage drop v_f [V] of one leg (positive = terminal below the ideal)."""
+    if current > 0.0:
+        return v_ce if upper_on else v_d
+    if current < 0.0:
+        return -v_d if upper_on else -v_ce
+    return 0.0
+
+
+def leg_terminal_voltage(upper_on: bool, current: float, v_dc: float, v_ce: float, v_d: float,
+                         r_on: float) -> float:
+    """Device model (001 eq. 20, Tables III-IV): terminal voltage [V] above the negative rail."""
+    return (v_dc if upper_on else 0.0) - forward_drop(upper_on, current, v_ce, v_d) - r_on * current
+
+
+def _sign(x: float) -> float:
+    return 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
+
+
+class VoltageDropCompensation:
+    """Correction (dv_alpha, dv_beta) [V] to add to the ideal inverter voltage.
+
+    midpoint_phase: index of the phase tied to the capacitor midpoint (0 = a,
+    as in 001), or None for the six-switch inverter (all legs drop).
+    scheme, v_ce, v_d, v_f [V], r_on [ohm] may be changed between samples.
+    """
+
+    __slots__ = ('midpoint_phase', 'scheme', 'v_ce', 'v_d', 'v_f', 'r_on', '_legs')
+
+    def __init__(self, midpoint_phase: int | None = 0, scheme: str = 'none', v_ce: float = 0.9,
+                 v_d: float = 1.25, v_f: float = 0.9, r_on: float = 0.075) -> None:
+        self.midpoint_phase = midpoint_phase
+        self._legs = tuple(x for x in range(3) if x != midpoint_phase)
+        self.configure(scheme, v_ce, v_d, v_f, r_on)
+
+    def configure(self, scheme: str, v_ce: float, v_d: float, v_f: float, r_on: float) -> None:
+        if scheme not in SCHEMES:
+            raise ValueError(f'voltage-drop compensation {scheme!r} is not one of {SCHEMES}')
+        self.scheme = scheme
+        self.v_ce, self.v_d, self.v_f, self.r_on = float(v_ce), float(v_d), float(v_f), float(r_on)
+
+    def leg_drops(self, switch_on: tuple, currents: tuple) -> tuple[float, float, float]:
+        """Drop v_fx + R_on i_x [V] of each leg the scheme assumes (0 for the midpoint phase)."""
+        out = [0.0, 0.0, 0.0]
+        scheme = self.scheme
+        if scheme == 'none':
+            return tuple(out)
+        for x in self._legs:
+            i = currents[x]
+            if scheme == 'simple':
+                out[x] = self.v_f * _sign(i)
+            else:
+                out[x] = forward_drop(switch_on[2 * x], i, self.v_ce, self.v_d) + self.r_on * i
+        return tuple(out)
+
+    def correction(self, switch_on: tuple, currents: tuple) -> tuple[float, float]:
+        """(dv_alpha, dv_beta) [V] = Clarke of the negated leg drops; add to the ideal voltage."""
+        if self.scheme == 'none':
+            return 0.0, 0.0
+        d_a, d_b, d_c = self.leg_drops(switch_on, currents)
+        return (d_b + d_c - 2.0 * d_a) / 3.0, (d_c - d_b) * INV_SQRT3
+
+
+def table_v(v_f: float) -> dict:
+    """001 Table V from the formulas: {(sign i_b, sign i_c): (v_falpha, v_fbeta)}, phase a on the midpoint."""
+    comp = VoltageDropCompensation(0, 'simple', v_f=v_f)
+    return {(sb, sc): comp.correction((False,) * 6, (0.0, float(sb), float(sc)))
+            for sb in (-1, 1) for sc in (-1, 1)}
+
+
+def table_vi(v_ce: float, v_d: float) -> dict:
+    """001 Table VI from the formulas: {(S_B, S_C, sign i_b, sign i_c): (v_falpha, v_fbeta)} (R_on = 0)."""
+    comp = VoltageDropCompensation(0, 'proposed', v_ce=v_ce, v_d=v_d, r_on=0.0)
+    out = {}
+    for s_b in (0, 1):
+        for s_c in (0, 1):
+            sw = (False, False, bool(s_b), not s_b, bool(s_c), not s_c)
+            for sb in (-1, 1):
+                for sc in (-1, 1):
+                    out[(s_b, s_c, sb, sc)] = comp.correction(sw, (0.0, float(sb), float(sc)))
+    return out

@@ -1,0 +1,43 @@
+"""The ``dtc_controller`` node: a thin lockstep wrapper over DtcCore.
+
+Answers each ``drive/measurement`` with a ``drive/gate_command`` for the
+same step and publishes ``dtc/status`` (DESIGN.md §3, §5). Parameters are
+declared once from :data:`dtc_controller.parameters.SCHEMA`; references,
+bands and gains act at the next sample; a change of ``mode`` (or of any
+other non-runtime parameter) rebuilds the mode cleanly at the next sample
+boundary. A malformed or mismatched back-EMF table stops the node at start
+with a message naming the file and the problem (exit code 2).
+"""
+from __future__ import annotations
+
+from dtc_controller.core.backemf_table import BackEmfTableError
+from dtc_controller.core.controller import DtcCore
+from dtc_controller.parameters import SCHEMA
+from drive_common import topics
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_common.parameters import ParameterError
+from drive_common.samples import DriveSample
+
+
+def make_core(params: dict) -> DtcCore:
+    try:
+        return DtcCore(params)
+    except BackEmfTableError as exc:
+        raise ParameterError(str(exc)) from exc
+
+
+class DtcControllerNode(LockstepControllerNode):
+    def __init__(self, **kwargs) -> None:
+        from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+        super().__init__('dtc_controller', schema=SCHEMA, make_core=make_core,
+                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
+                                                   DriveSample, GateCommand, topics.GATE_COMMAND,
+                                                   DtcStatus, topics.DTC_STATUS), **kwargs)
+
+
+def main(args=None) -> int:
+    return run_node(DtcControllerNode, args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,76 @@
+"""Parameter schema of the dtc_controller node (drive_common.parameters, no rclpy).
+
+References, hysteresis bands, gains, rotation and the flux-control switch may
+change while running (``runtime=True``): the core applies them at the next
+sample boundary. ``mode`` is read-only while running because it fixes the
+inverter topology of every gate command (4 or 6 switches, which must match
+the plant's inverter) and the estimator/table state; switching it mid-run
+would send gates for another inverter, so it changes only while the
+simulation is held. The sample period, motor parameters, table file and
+estimation options are likewise fixed while running (they define the
+estimator's integration and the loaded table).
+"""
+from __future__ import annotations
+
+from drive_common.parameters import ParameterError, ParameterSpec, schema
+
+TWO_PHASE_MODES = ('two_phase_six_switch', 'two_phase_four_switch')
+RESERVED_MODES = ('three_phase_dtifc', 'three_phase_pmsm', 'three_phase_four_switch')
+MODES = TWO_PHASE_MODES + RESERVED_MODES
+
+# Appendix A motor of 000: R = 0.315 ohm, L = 1.4 mH, M = 0.3125 mH, P = 4 poles.
+_SPECS = (
+    ParameterSpec('mode', 'two_phase_six_switch', 'DTC mode (DESIGN.md section 5)', choices=MODES, runtime=False),
+    ParameterSpec('sample_period', 25e-6, 'controller sample period T_s', 's', 1e-6, 1e-2, runtime=False),
+    ParameterSpec('rotation', 1, 'commanded rotation: +1 counter-clockwise, -1 clockwise', choices=(1, -1)),
+    ParameterSpec('torque_reference', 0.0, 'electromagnetic torque reference T* (signed; used without the speed loop)',
+                  'N*m', -50.0, 50.0),
+    ParameterSpec('torque_band', 0.001, 'torque hysteresis half-width H_T (eqs. 1.19-1.20)', 'N*m', 0.0, 10.0),
+    ParameterSpec('four_switch.split_band_divisor', 1000.0,
+                  'four-switch sectors II/V: phase-torque bands = torque_band / this (000 ch. IV)', '', 1.0, 1e6),
+    ParameterSpec('speed_loop.enabled', False, 'outer speed PI loop produces T*'),
+    ParameterSpec('speed_reference', 0.0, 'mechanical speed reference (signed)', 'rad/s', -2000.0, 2000.0),
+    ParameterSpec('speed_loop.kp', 0.05, 'speed PI proportional gain', 'N*m*s/rad', 0.0, 1e3),
+    ParameterSpec('speed_loop.ki', 1.0, 'speed PI integral gain', 'N*m/rad', 0.0, 1e6),
+    ParameterSpec('speed_loop.period_samples', 10, 'speed PI runs every N controller samples', '', 1, 100000),
+    ParameterSpec('speed_loop.torque_limit', 2.5, 'speed PI output (torque reference) limit', 'N*m', 0.0, 50.0),
+    ParameterSpec('flux_control.enabled', False,
+                  'flux hysteresis selects the phi = +-1 rows (000 Fig. 2.3 "switch state 1"; comparison only)'),
+    ParameterSpec('flux_control.reference_source', 'backemf_table',
+                  'flux reference: |psi_r(theta_e)| from the table (eq. 2.20) or the constant flux_reference',
+                  choices=('backemf_table', 'constant')),
+    ParameterSpec('flux_reference', 0.1146, 'constant stator flux reference |psi_s|*', 'Wb', 0.0, 10.0),
+    ParameterSpec('flux_band', 0.001, 'flux hysteresis half-width H_lambda (eqs. 1.17-1.18)', 'Wb', 0.0, 1.0),
+    ParameterSpec('backemf_table_path', '', 'back-EMF table CSV written by the plant generator test',
+                  runtime=False),
+    ParameterSpec('motor.resistance', 0.315, 'phase resistance R_s', 'ohm', 0.0, 100.0, runtime=False),
+    ParameterSpec('motor.inductance', 1.0875e-3, 'phase inductance L - M', 'H', 1e-7, 1.0, runtime=False),
+    ParameterSpec('motor.pole_pairs', 2, 'pole pairs p (theta_e = p theta_m)', '', 1, 100, runtime=False),
+    ParameterSpec('estimation.voltage_model', 'diode_clamped',
+                  'applied voltage for the flux model: ideal switch-state vectors or with free-wheeling '
+                  'diode clamping of off legs that still carry current', choices=('ideal', 'diode_clamped'),
+                  runtime=False),
+    ParameterSpec('estimation.open_phase_emf', True,
+                  'add the open phase back-EMF omega_e k_x(theta_e) to the applied voltage (curved flux locus)',
+                  runtime=False),
+    ParameterSpec('estimation.open_phase_current_threshold', 0.05,
+                  'an off leg with |i| above this conducts through its diode', 'A', 0.0, 100.0, runtime=False),
+    ParameterSpec('estimation.sector_source', 'rotor',
+                  'sector from the encoder rotor angle or from the estimated stator flux angle',
+                  choices=('rotor', 'flux'), runtime=False),
+    ParameterSpec('estimation.encoder_offset', 0.0, 'added to the measured electrical encoder angle', 'rad',
+                  -6.3, 6.3, runtime=False),
+    ParameterSpec('estimation.initial_flux', 'backemf_table',
+                  'initial stator flux: rotor flux at the first encoder angle from the table, or zero',
+                  choices=('backemf_table', 'zero'), runtime=False),
+)
+
+
+def _check_flux_reference(snapshot) -> None:
+    if (snapshot['flux_control.enabled'] and snapshot['flux_control.reference_source'] == 'constant'
+            and snapshot['flux_reference'] <= 0.0):
+        raise ParameterError('flux_reference: must be > 0 Wb when flux control uses a constant reference')
+
+
+SCHEMA = schema(_SPECS, _check_flux_reference)
+"""The dtc_controller node's ParameterSchema."""
