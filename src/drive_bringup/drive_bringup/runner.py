@@ -134,7 +134,6 @@ class GraphRunner:
                             {'output': str(bag_dir), 'topics': record_topics(sc)})
             plant_params = dict(sc.overrides['plant'])
             plant_params['run_until'] = 0.0
-            plant_params['dtc_enabled'] = 'dtc_controller' in sc.nodes
             plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
             for key in sc.nodes:
                 package, executable = NODE_PROGRAMS[key]

@@ -45,7 +45,7 @@ from drive_common.parameters import ParameterError, ParameterSchema
 
 NODE_SCHEMAS = {
     'plant': ('bldc_plant_sim.parameters', 'PLANT_NODE_SCHEMA'),
-    'dtc_controller': ('dtc_controller.parameters', 'DTC_SCHEMA'),
+    'dtc_controller': ('dtc_controller.parameters', 'SCHEMA'),
     'pfc_controller': ('pfc_controller.parameters', 'PFC_SCHEMA'),
 }
 TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'events', 'record',
@@ -54,6 +54,29 @@ TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'event
 
 class ScenarioError(ValueError):
     """A scenario file is malformed; the message names file, key and reason."""
+
+
+def resolve_package_path(value: str) -> str:
+    """``package://<pkg>/<path>`` -> an absolute file path (share dir, else the source tree).
+
+    Scenario files name shipped data (motor back-EMF tables) this way so they
+    work from a source checkout and from an installed workspace alike.
+    """
+    if not value.startswith('package://'):
+        return value
+    package, _, rel = value[len('package://'):].partition('/')
+    source = Path(__file__).resolve().parents[2] / package / rel
+    if source.exists():
+        return str(source)
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        return str(Path(get_package_share_directory(package)) / rel)
+    except Exception as exc:  # noqa: BLE001 - report as a scenario error below
+        raise ScenarioError(f'cannot resolve {value}: {exc}') from exc
+
+
+def _resolve_paths(params: dict) -> dict:
+    return {k: resolve_package_path(v) if isinstance(v, str) else v for k, v in params.items()}
 
 
 def node_schema(node: str) -> ParameterSchema:
@@ -173,7 +196,7 @@ def load_scenario(path: str | Path) -> Scenario:
         extra = sorted(set(spec) - {'parameters'})
         if extra:
             raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: parameters)')
-        params = _mapping(spec.get('parameters'), path, f'{key}.parameters')
+        params = _resolve_paths(_mapping(spec.get('parameters'), path, f'{key}.parameters'))
         try:
             snapshots[node] = node_schema(node).resolve(params)
         except ParameterError as exc:
@@ -196,7 +219,7 @@ def load_scenario(path: str | Path) -> Scenario:
         node = ev['node']
         if node not in snapshots:
             raise _fail(path, f'{key}.node', f'{node!r} is not a node of this scenario')
-        params = _mapping(ev['parameters'], path, f'{key}.parameters')
+        params = _resolve_paths(_mapping(ev['parameters'], path, f'{key}.parameters'))
         if not params:
             raise _fail(path, f'{key}.parameters', 'no parameters to change')
         try:

@@ -1,0 +1,60 @@
+"""Scenario files: a wrong key or value names the file, the key and the reason."""
+import textwrap
+
+import pytest
+
+from drive_bringup.scenario import ScenarioError, load_scenario, scenario_dir
+
+
+def write(tmp_path, text: str):
+    path = tmp_path / 'sc.yaml'
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+GOOD = '''
+    name: probe
+    duration: 0.01
+    nodes:
+      plant: {parameters: {}}
+'''
+
+
+def test_minimal_scenario_loads_with_node_defaults(tmp_path):
+    sc = load_scenario(write(tmp_path, GOOD))
+    assert sc.name == 'probe' and sc.duration == 0.01
+    assert sc.nodes == ['plant']
+    assert sc.node_parameters['plant']  # full validated snapshot of the plant schema
+
+
+@pytest.mark.parametrize('text, key, reason', [
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nbogus: 1\n', 'bogus', 'unknown key'),
+    ('name: x\nnodes: {plant: {}}\n', 'duration', 'required key missing'),
+    ('name: x\nduration: -1\nnodes: {plant: {}}\n', 'duration', 'must be > 0'),
+    ('name: x\nduration: 0.1\nnodes: {dtc_controller: {}}\n', 'nodes.plant', 'required'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}, motor: {}}\n', 'nodes.motor', 'unknown node'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {parameters: {no_such_parameter: 1}}}\n',
+     'nodes.plant.parameters', 'unknown parameter'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nevents: [{time: 0.2, node: plant, parameters: {}}]\n',
+     'events[0].time', 'outside'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nevents: [{time: 0.01, node: dtc_controller, parameters: {a: 1}}]\n',
+     'events[0].node', 'not a node of this scenario'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nchecks: [{metric: m, seed: 1.0}]\n',
+     'checks[0]', 'seed and tolerance go together'),
+    ('name: [x\n', '', 'not valid YAML'),
+])
+def test_errors_name_file_key_and_reason(tmp_path, text, key, reason):
+    path = tmp_path / 'bad.yaml'
+    path.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert str(path) in message and key in message and reason in message, message
+
+
+def test_shipped_scenarios_are_valid():
+    paths = sorted(scenario_dir().glob('*.yaml'))
+    assert paths, 'no scenarios shipped'
+    for path in paths:
+        sc = load_scenario(path)
+        assert sc.name == path.stem, f'{path}: name must equal the file name'
