@@ -7,8 +7,11 @@ waits for their commands carrying step k (stale or future steps are
 ignored), latches them, integrates one tick and publishes ground truth and
 /clock. A due command that does not arrive within ``command_timeout``
 (wall clock) puts the plant in the safe state (all switches off, boost
-off), reports it on /diagnostics and in plant/state, aborts the goal and
-holds; the node keeps serving its action, services and parameters.
+off) and reports it on /diagnostics and in plant/state; the run goes on to
+its target with the switches off (the motor coasts, currents die out
+through the diodes) without waiting for the silent controller again until
+it answers a due sample, and the goal then ends unsuccessful with the
+reason. The node keeps serving its action, services and parameters.
 
 Threading: the lockstep publishers and subscriptions live on a private
 child node spun only by the stepping thread (no executor hand-off per
@@ -69,6 +72,8 @@ class PlantNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__('plant', **kwargs)
         self._running = False
+        self._silent = {'gate': False, 'duty': False}   # controllers that stopped answering
+        self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
         self.parameters = SchemaParameters(self, PLANT_NODE_SCHEMA, on_change=self._on_parameters,
@@ -92,7 +97,7 @@ class PlantNode(Node):
         self._gates_in, self._duty_in = _Inbox(), _Inbox()
         self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos)
         self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)
-        self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, qos)
+        self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
 
@@ -173,12 +178,14 @@ class PlantNode(Node):
                 return 'no controller matched: ' + ', '.join(missing)
             self._io_executor.spin_once(timeout_sec=0.01)
 
-    def _await(self, inbox: _Inbox, step: int, deadline: float):
+    def _await(self, inbox: _Inbox, step: int, deadline: float | None):
+        """The command for step, waiting until deadline (None: only what has arrived)."""
         msg = inbox.take(step)
         while msg is None:
-            remaining = deadline - time.monotonic()
+            remaining = 0.0 if deadline is None else deadline - time.monotonic()
             if remaining <= 0.0:
-                return None
+                self._io_executor.spin_once(timeout_sec=0.0)
+                return inbox.take(step)
             self._io_executor.spin_once(timeout_sec=min(remaining, 0.05))
             msg = inbox.take(step)
         return msg
@@ -186,10 +193,11 @@ class PlantNode(Node):
     def run_to(self, target_step: int, goal_handle=None) -> tuple[bool, str]:
         """Advance to target_step (held there); (success, message)."""
         self._running = True
+        self._faults: list[str] = []
         try:
             reason = self._wait_for_peers(self.parameters['startup_timeout'])
             if reason:
-                self._fault(reason)
+                self._fault('startup', reason)
                 return False, reason
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
@@ -199,49 +207,60 @@ class PlantNode(Node):
                 if not rclpy.ok(context=self.context):
                     return False, 'plant shutting down'
                 self._apply_pending()
-                failure = self._tick()
-                if failure:
-                    return False, failure
+                self._tick()
                 if goal_handle is not None and self.core.step % feedback_every == 0:
                     wall = time.monotonic() - started
                     goal_handle.publish_feedback(Run.Feedback(
                         sim_time=self.core.time, step=self.core.step,
                         real_time_factor=(self.core.time - start_time) / wall if wall > 0 else 0.0))
-            return True, f'reached t = {self.core.time:.6f} s (step {self.core.step})'
+            reached = f'reached t = {self.core.time:.6f} s (step {self.core.step})'
+            if self._faults:
+                return False, f'{reached} with faults: ' + '; '.join(self._faults[:3])
+            return True, reached
         finally:
             self._running = False
 
-    def _tick(self) -> str | None:
-        """One base tick of the lockstep protocol; a failure message or None."""
+    def _command(self, which: str, inbox: _Inbox, k: int, deadline: float):
+        """The due command of one controller, or None (safe state) if it stays silent."""
+        msg = self._await(inbox, k, None if self._silent[which] else deadline)
+        if msg is None:
+            if not self._silent[which]:
+                self._silent[which] = True
+                self._fault(which, f'no {which} command for step {k} within '
+                            f'{self.parameters["command_timeout"]} s')
+            return None
+        if self._silent[which]:
+            self._silent[which] = False
+            if not any(self._silent.values()):
+                self.core.leave_safe_state(COMMAND_TIMEOUT)
+            self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
+        return msg
+
+    def _tick(self) -> None:
+        """One base tick of the lockstep protocol."""
         k = self.core.step
         due_dtc, due_pfc = self.schedule.due(k)
-        timeout = self.parameters['command_timeout']
         if due_dtc:
             self._drive_pub.publish(to_message(DriveMeasurement, self.core.drive_sample(),
                                                self.core.time))
         if due_pfc:
             self._pfc_pub.publish(to_message(PfcMeasurement, self.core.pfc_sample(), self.core.time))
-        deadline = time.monotonic() + timeout
+        deadline = time.monotonic() + self.parameters['command_timeout']
         if due_dtc:
-            msg = self._await(self._gates_in, k, deadline)
-            if msg is None:
-                return self._fault(f'no gate command for step {k} within {timeout} s')
-            if msg.topology != self.core.topology:
-                return self._fault(f'gate command for a {msg.topology}-switch inverter, '
-                                   f'the plant has {self.core.topology}')
-            self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
+            msg = self._command('gate', self._gates_in, k, deadline)
+            if msg is not None:
+                if msg.topology != self.core.topology:
+                    self._fault('gate', f'gate command for a {msg.topology}-switch inverter, '
+                                f'the plant has {self.core.topology}')
+                else:
+                    self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
         if due_pfc:
-            msg = self._await(self._duty_in, k, deadline)
-            if msg is None:
-                return self._fault(f'no duty command for step {k} within {timeout} s')
-            self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
-        if self.core.safe_state_reason() == COMMAND_TIMEOUT:
-            self.core.leave_safe_state(COMMAND_TIMEOUT)
-            self._diagnose(DiagnosticStatus.OK, 'commands resumed', {})
+            msg = self._command('duty', self._duty_in, k, deadline)
+            if msg is not None:
+                self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
         self.core.advance()
         if self.core.step % self.schedule.state_ticks == 0:
             self._publish_state()
-        return None
 
     def _publish_state(self) -> None:
         t = time_msg(self.core.time)
@@ -250,13 +269,14 @@ class PlantNode(Node):
         self._state_pub.publish(state)
         self._clock_pub.publish(Clock(clock=t))
 
-    def _fault(self, reason: str) -> str:
+    def _fault(self, which: str, reason: str) -> None:
+        """Safe state with a diagnostic; the fault is reported in the goal's result."""
         self.core.enter_safe_state(COMMAND_TIMEOUT)
-        self._publish_state()
+        self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}')
         self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
-                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
+                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
+                        'controller': which})
         self.get_logger().error(f'safe state applied: {reason}')
-        return f'safe state: {reason}'
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
         status = DiagnosticStatus(level=level, name='plant: lockstep', message=message,

@@ -18,7 +18,7 @@ from rclpy.node import Node
 from drive_common.conversions import from_message, to_message
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
-from drive_common.topics import LOCKSTEP_QOS
+from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ class LockstepControllerNode(Node):
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)
         self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
-                                                  LOCKSTEP_QOS) if channels.status_type else None)
+                                                  STREAM_QOS) if channels.status_type else None)
         self.create_subscription(channels.measurement_type, channels.measurement_topic,
                                  self._on_measurement, LOCKSTEP_QOS)
 

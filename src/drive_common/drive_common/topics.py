@@ -18,7 +18,8 @@ RESET_PROTECTION_SERVICE = 'plant/reset_protection'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 
-LOCKSTEP_DEPTH = 8
+LOCKSTEP_DEPTH = 64
+STREAM_DEPTH = 10000
 
 LOCKSTEP_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -26,4 +27,22 @@ LOCKSTEP_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""QoS of measurement/command/status/state topics: nothing lost, nothing stale replayed."""
+"""QoS of the measurement/command handshake: nothing lost, nothing stale replayed.
+
+At most one message per controller is outstanding in the handshake; the
+depth only lets a slower reader (the recorder) lag a little without losing
+a sample.
+"""
+
+STREAM_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=STREAM_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""QoS of the streamed topics nobody waits on (plant/state, dtc/status, pfc/status).
+
+The writer keeps up to STREAM_DEPTH unacknowledged samples, so a reader
+that falls behind for a while (the recorder during a disk flush) still
+receives every sample; the plant never blocks on it.
+"""

@@ -1,0 +1,67 @@
+"""Discrete PI controller with output limits and anti-windup (000 ch. III, G_v and G_i).
+
+Series ("ideal") form, as the TI F281x digital-motor-control library's
+``pid_reg3`` that the seed's eZdsp F2812 implementation builds on::
+
+    u_p[k] = K_p * e[k]
+    x[k]   = x[k-1] + K_i * u_p[k]          (K_i = T_s / T_i, per sample)
+    u[k]   = clamp(u_p[k] + x[k], lo, hi)
+
+so C(z) = K_p (1 + K_i z / (z - 1)); the PI zero sits near K_i / T_s rad/s.
+Anti-windup by conditional integration: while the error drives the output
+beyond a limit, the integrator advances at most to the value that puts the
+output exactly on that limit (never further), and it is always kept inside
+[lo, hi]; so the output leaves the limit as soon as the error reverses. Limits may be given per
+call (the current loop's limits move with the duty feed-forward).
+"""
+from __future__ import annotations
+
+
+class PiController:
+    """Per-unit PI executed once per sample period (gains dimensionless)."""
+
+    __slots__ = ('kp', 'ki', 'out_min', 'out_max', 'integral', 'output_unlimited', 'saturated')
+
+    def __init__(self, kp: float, ki: float, out_min: float, out_max: float) -> None:
+        if out_min > out_max:
+            raise ValueError(f'PI limits reversed: {out_min} > {out_max}')
+        self.kp = float(kp)
+        self.ki = float(ki)
+        self.out_min = float(out_min)
+        self.out_max = float(out_max)
+        self.integral = 0.0
+        self.output_unlimited = 0.0
+        self.saturated = False
+
+    def reset(self, integral: float = 0.0) -> None:
+        """Clear the state (integrator set to integral)."""
+        self.integral = float(integral)
+        self.output_unlimited = 0.0
+        self.saturated = False
+
+    def update(self, error: float, out_min: float | None = None,
+               out_max: float | None = None) -> float:
+        """One sample: return the limited output for error (per unit)."""
+        lo = self.out_min if out_min is None else out_min
+        hi = self.out_max if out_max is None else out_max
+        if lo > hi:  # degenerate window (e.g. feed-forward beyond the duty range)
+            lo = hi
+        proportional = self.kp * error
+        candidate = self.integral + self.ki * proportional
+        unlimited = proportional + candidate
+        if unlimited > hi and error > 0.0:      # winding up: integrate only up to the limit
+            candidate = max(self.integral, min(candidate, hi - proportional))
+        elif unlimited < lo and error < 0.0:    # winding down
+            candidate = min(self.integral, max(candidate, lo - proportional))
+        self.integral = min(max(candidate, lo), hi)
+        unlimited = proportional + self.integral
+        self.output_unlimited = unlimited
+        # Flag = anti-windup active: output on a limit and the error pushing beyond it.
+        if unlimited >= hi:
+            self.saturated = unlimited > hi or error > 0.0
+            return hi
+        if unlimited <= lo:
+            self.saturated = unlimited < lo or error < 0.0
+            return lo
+        self.saturated = False
+        return unlimited

@@ -1,0 +1,80 @@
+"""pfc_controller node started as ``ros2 run`` would: lockstep answers and runtime parameters."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from drive_common.harness import wait_for_subscribers, wait_until
+
+pytestmark = pytest.mark.ros
+
+
+def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+
+    from drive_common import topics
+    from drive_common.conversions import time_msg
+    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus
+
+    process = start_node('pfc_controller', 'pfc_controller',
+                         parameters={'voltage_reference': 85.0, 'voltage_reference_ramp_rate': 0.0})
+    node = ros_session.node('pfc_test_driver')
+    lock = threading.Lock()
+    duties, statuses = {}, {}
+
+    def on_duty(msg):
+        with lock:
+            duties[msg.step] = msg
+
+    def on_status(msg):
+        with lock:
+            statuses[msg.step] = msg
+
+    node.create_subscription(DutyCommand, topics.DUTY_COMMAND, on_duty, topics.LOCKSTEP_QOS)
+    node.create_subscription(PfcStatus, topics.PFC_STATUS, on_status, topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
+    wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
+    wait_until(lambda: node.count_publishers(topics.PFC_STATUS) >= 1, 20.0, what='status publisher')
+
+    def send(step: int) -> None:
+        msg = PfcMeasurement(step=step, rectified_voltage=20.0, inductor_current=1.0,
+                             output_voltage=75.0)
+        msg.header.stamp = time_msg(step * 12.5e-6)
+        pub.publish(msg)
+
+    for step in (7, 8, 9):
+        send(step)
+        wait_until(lambda: step in duties and step in statuses, 10.0, what=f'answer to step {step}')
+    with lock:
+        duty, status = duties[9], statuses[9]
+    assert duty.header.stamp == time_msg(9 * 12.5e-6)
+    assert duty.enable and 0.0 <= duty.duty <= 0.95
+    assert status.enabled and status.voltage_reference == pytest.approx(85.0)
+    assert status.duty == pytest.approx(duty.duty)
+    assert status.input_per_unit == pytest.approx(20.0 / 70.71)
+
+    client = AsyncParameterClient(node, 'pfc_controller')
+    assert client.wait_for_services(timeout_sec=10.0)
+
+    def call(future):
+        wait_until(future.done, 10.0, what='parameter service')
+        return future.result()
+
+    ok = call(client.set_parameters([Parameter('voltage_reference', value=90.0),
+                                     Parameter('enable', value=False)]))
+    assert all(r.successful for r in ok.results), ok
+    send(10)
+    wait_until(lambda: 10 in statuses and 10 in duties, 10.0, what='answer to step 10')
+    assert not statuses[10].enabled and not duties[10].enable and duties[10].duty == 0.0
+    assert statuses[10].voltage_reference == pytest.approx(90.0)
+
+    bad = call(client.set_parameters([Parameter('voltage_kp', value=-1.0)]))
+    assert not bad.results[0].successful and 'voltage_kp' in bad.results[0].reason
+    bad = call(client.set_parameters([Parameter('voltage_reference', value=150.0)]))
+    assert not bad.results[0].successful and 'over_voltage_limit' in bad.results[0].reason
+    got = call(client.get_parameters(['voltage_kp', 'voltage_reference']))
+    assert got.values[0].double_value == pytest.approx(0.1736)
+    assert got.values[1].double_value == pytest.approx(90.0)
+    assert process.alive(), process.output()

@@ -1,0 +1,153 @@
+"""The plant node as lockstep time master, through real ROS processes (issue 3).
+
+- A fixed-pattern responder answers the plant's measurements: the plant's
+  ground truth equals the headless co-simulation's, sample for sample.
+- The Run action stops exactly at the requested sim time and holds there.
+- The commanding node killed mid-run: the plant applies the safe state,
+  reports it, and still answers its action and its parameters.
+- Bad parameters are rejected with a reason and the old value is kept.
+"""
+import math
+import time
+
+import pytest
+from rclpy.action import ActionClient
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+
+from bldc_plant_sim.core.cosim import CoSimulation
+from bldc_plant_sim.core.plant import PlantCore
+from drive_common import topics
+from drive_common.fixed_commands import FixedGateCore
+from drive_common.harness import wait_until
+from dtc_msgs.action import Run
+from dtc_msgs.msg import PlantState
+
+pytestmark = pytest.mark.ros
+
+PATTERN = (True, False, False, True, False, False)   # a+ b-: vector V_ab
+PLANT = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'motor.initial_speed': 20.0,
+         'load.torque': 0.2, 'command_timeout': 2.0}
+
+
+def _future_result(future, timeout: float, what: str):
+    wait_until(future.done, timeout, what=what)
+    return future.result()
+
+
+class PlantClient:
+    """Test-side view of a running plant: Run goals, parameters, recorded ground truth."""
+
+    def __init__(self, session) -> None:
+        self.node = session.node('plant_test_client')
+        self.states: list = []
+        self.node.create_subscription(PlantState, topics.PLANT_STATE, self.states.append,
+                                      topics.STREAM_QOS)
+        self.action = ActionClient(self.node, Run, topics.RUN_ACTION)
+        self.params = AsyncParameterClient(self.node, '/plant')
+        wait_until(lambda: self.action.server_is_ready(), 30.0, what='plant/run action server')
+        assert self.params.wait_for_services(timeout_sec=30.0)
+        wait_until(lambda: self.node.count_publishers(topics.PLANT_STATE) >= 1, 30.0,
+                   what='plant/state publisher')
+        time.sleep(0.5)  # let the state subscription match before the run starts
+
+    def run(self, target: float, relative: bool = False, timeout: float = 120.0):
+        handle = _future_result(self.action.send_goal_async(
+            Run.Goal(target_time=target, relative=relative)), 30.0, 'goal acceptance')
+        assert handle.accepted
+        return _future_result(handle.get_result_async(), timeout, 'Run result').result
+
+    def set(self, **values):
+        future = self.params.set_parameters([Parameter(k, value=v) for k, v in values.items()])
+        return _future_result(future, 30.0, 'set_parameters').results
+
+    def get(self, name: str):
+        from rclpy.parameter import parameter_value_to_python
+        values = _future_result(self.params.get_parameters([name]), 30.0, 'get_parameters').values
+        return parameter_value_to_python(values[0])
+
+
+def _start_graph(start_node, plant_overrides=None):
+    responder = start_node('drive_common', 'fixed_responder',
+                           parameters={'switch_on': [float(s) for s in PATTERN]})
+    plant = start_node('bldc_plant_sim', 'plant', parameters={**PLANT, **(plant_overrides or {})})
+    return responder, plant
+
+
+def test_ros_graph_equals_headless_loop_sample_for_sample(start_node, ros_session):
+    _start_graph(start_node)
+    client = PlantClient(ros_session)
+    result = client.run(0.01)
+    assert result.success, result.message
+    assert result.final_step == 400 and result.final_time == pytest.approx(0.01, abs=1e-12)
+    wait_until(lambda: client.states and client.states[-1].step == 400, 10.0, what='last state')
+
+    plant = PlantCore(PLANT)
+    cosim = CoSimulation(plant, FixedGateCore(PATTERN), record_every=1)
+    trajectory = cosim.run(steps=400)
+    by_step = {s.step: s for s in client.states}
+    assert set(range(1, 401)) <= set(by_step), 'a ground-truth sample is missing'
+    compared = 0
+    for step, truth in zip(trajectory.steps, trajectory.states):
+        if step not in by_step:
+            continue   # step 0 is published before the test subscribed
+        ros = by_step[step]
+        for name in ('phase_current', 'back_emf', 'terminal_voltage'):
+            assert list(getattr(ros, name)) == list(getattr(truth, name)), (step, name)
+        for name in ('electromagnetic_torque', 'mechanical_speed', 'rotor_angle',
+                     'energy_dc_source', 'energy_copper_loss', 'neutral_voltage'):
+            assert getattr(ros, name) == getattr(truth, name), (step, name)
+        compared += 1
+    assert compared >= 400
+    # The run did something physical: V_ab drove current from phase a to b.
+    last = by_step[400]
+    assert last.phase_current[0] > 1.0 and last.phase_current[1] < -1.0
+
+
+def test_run_action_stops_exactly_and_holds(start_node, ros_session):
+    _start_graph(start_node)
+    client = PlantClient(ros_session)
+    first = client.run(0.0031)
+    assert first.success and first.final_step == 124          # 0.0031 / 25 us
+    time.sleep(0.3)
+    second = client.run(0.001, relative=True)
+    assert second.success and second.final_step == 164
+    assert client.states[-1].step == 164                       # held: nothing after the target
+
+
+def test_dead_controller_gives_safe_state_and_plant_keeps_serving(start_node, ros_session):
+    responder, _ = _start_graph(start_node, {'command_timeout': 0.5})
+    client = PlantClient(ros_session)
+    assert client.run(0.002).success
+    assert client.states[-1].phase_current[0] > 1.0
+    responder.process.kill()
+    responder.process.wait(timeout=10)
+    started = time.monotonic()
+    result = client.run(0.006)
+    assert time.monotonic() - started < 10.0, 'plant hung instead of timing out'
+    assert not result.success and 'safe state' in result.message
+    assert result.final_step == 240                       # went on to the target, switches off
+    wait_until(lambda: client.states[-1].step == 240, 5.0, what='last state')
+    state = client.states[-1]
+    assert state.safe_state and state.protection & PlantState.PROTECTION_COMMAND_TIMEOUT
+    assert not any(state.applied_switch_on)
+    # With every switch off the currents died out through the free-wheeling diodes.
+    assert list(state.phase_current) == [0.0, 0.0, 0.0]
+    # Still serving: parameters and the action answer.
+    assert client.set(**{'load.torque': 0.3})[0].successful
+    assert client.get('load.torque') == 0.3
+    again = client.run(0.001, relative=True)
+    assert again.final_step == 280
+
+
+def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_node, ros_session):
+    _start_graph(start_node)
+    client = PlantClient(ros_session)
+    before = client.get('load.torque')
+    result = client.set(**{'load.torque': float('nan')})[0]
+    assert not result.successful and 'load.torque' in result.reason
+    assert client.get('load.torque') == before
+    result = client.set(**{'inverter.topology': 5})[0]
+    assert not result.successful and 'inverter.topology' in result.reason
+    assert client.get('inverter.topology') == 6
+    assert math.isclose(client.get('dc_link.voltage'), 10.0)
