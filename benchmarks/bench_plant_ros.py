@@ -1,0 +1,75 @@
+"""Plant through ROS vs the raw rclpy publish -> reply ceiling (issue 3 speed goal).
+
+Both measured in the same run, same message types, private DDS domain:
+1. ceiling: raw_responder answers DriveMeasurement with GateCommand and a
+   probe publishes/awaits one at a time (drive_common.ceiling);
+2. plant: the plant node (six-switch BLDC, T_s = 25 us) driven by a Run goal
+   against fixed_responder (a real lockstep controller with a trivial core).
+Prints samples per wall second for both and the ratio (goal >= 0.7).
+
+    source scripts/env.sh && python benchmarks/bench_plant_ros.py [--samples 8000]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import rclpy
+from rclpy.action import ActionClient
+
+from drive_common import topics
+from drive_common.ceiling import measure_round_trips
+from drive_common.harness import NodeProcess, isolated_env, reserve_domain, wait_until
+from dtc_msgs.action import Run
+
+TS = 25e-6
+
+
+def plant_rate(context, env, samples: int, state_period: float) -> float:
+    with NodeProcess('drive_common', 'fixed_responder', env=env), \
+            NodeProcess('bldc_plant_sim', 'plant', env=env,
+                        parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
+                                    'state_period': state_period}):
+        node = rclpy.create_node('bench_client', context=context)
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        client = ActionClient(node, Run, topics.RUN_ACTION)
+        wait_until(lambda: (executor.spin_once(timeout_sec=0.05), client.server_is_ready())[1], 30.0)
+
+        def run(target: float) -> tuple[float, object]:
+            start = time.perf_counter()
+            send = client.send_goal_async(Run.Goal(target_time=target, relative=False))
+            executor.spin_until_future_complete(send)
+            result = send.result().get_result_async()
+            executor.spin_until_future_complete(result)
+            return time.perf_counter() - start, result.result().result
+
+        run(200 * TS)                                   # warm-up (matching, first samples)
+        wall, result = run((200 + samples) * TS)
+        assert result.success, result.message
+        node.destroy_node()
+        return samples / wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--samples', type=int, default=8000)
+    args = parser.parse_args()
+    with reserve_domain() as domain:
+        env = isolated_env(domain)
+        context = rclpy.Context()
+        rclpy.init(context=context, domain_id=domain)
+        try:
+            with NodeProcess('drive_common', 'raw_responder', env=env):
+                ceiling = measure_round_trips(context, args.samples)
+            every = plant_rate(context, env, args.samples, TS)
+            print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
+            print(f'plant + fixed_responder (state every sample): {every:8.0f} samples/s '
+                  f'= {every / ceiling:.2f} of the ceiling (goal >= 0.70)')
+            print(f'real-time factor at T_s = 25 us : {every * TS:.3f}')
+        finally:
+            rclpy.try_shutdown(context=context)
+
+
+if __name__ == '__main__':
+    main()
