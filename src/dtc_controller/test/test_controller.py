@@ -85,8 +85,9 @@ def test_mode_dispatch_and_errors(trap_table):
     gate, st = four.update(sample(theta=math.radians(60)))
     assert gate.topology == 4 and gate.switch_on[4:] == (False, False)
     assert st.sector == 2 and not math.isnan(st.phase_a_torque_estimate)
-    with pytest.raises(NotImplementedError):
-        DtcCore({'mode': 'three_phase_dtifc'}, trap_table)
+    for mode, topology in (('three_phase_dtifc', 6), ('three_phase_pmsm', 6),
+                           ('three_phase_four_switch', 4)):
+        assert DtcCore({'mode': mode}, trap_table).topology == topology
     with pytest.raises(ValueError, match='back-EMF table'):
         DtcCore({}, None)
     with pytest.raises(ValueError, match='pole_pairs'):

@@ -8,12 +8,18 @@ are reserved for modules added beside these.
 """
 from __future__ import annotations
 
+from .three_phase_dtifc import ThreePhaseDtifcMode
+from .three_phase_four_switch import ThreePhaseFourSwitchMode
+from .three_phase_pmsm import ThreePhasePmsmMode
 from .two_phase_four_switch import TwoPhaseFourSwitchMode
 from .two_phase_six_switch import TwoPhaseSixSwitchMode
 
 MODE_CLASSES = {
     TwoPhaseSixSwitchMode.name: TwoPhaseSixSwitchMode,
     TwoPhaseFourSwitchMode.name: TwoPhaseFourSwitchMode,
+    ThreePhaseDtifcMode.name: ThreePhaseDtifcMode,
+    ThreePhasePmsmMode.name: ThreePhasePmsmMode,
+    ThreePhaseFourSwitchMode.name: ThreePhaseFourSwitchMode,
 }
 RESERVED = ('three_phase_dtifc', 'three_phase_pmsm', 'three_phase_four_switch')
 

@@ -1,0 +1,79 @@
+"""Speed of the headless plant loop (prints figures; not a timed test).
+
+Six-switch BLDC of 000 Appendix A at T_s = 25 us with the default inner step
+(one exact step per sample unless an event splits it), driven through
+bldc_plant_sim.core.cosim.CoSimulation by trivial controller cores:
+- 'fixed'     : drive_common FixedGateCore (a+ b-) against a dynamometer at 100 rad/s
+                (current limited by the EMF, no trips);
+- 'six-step'  : hall six-step commutation chopped 3 ticks on / 1 off, from standstill
+                into a viscous load (diode free-wheeling and extinction events).
+Target: >= 40 000 samples per wall second on one core without per-sample
+recording; the recorded variant (plant/state every sample) is printed too.
+Each case is run --repeats times and the best time is reported (the machine
+may be shared); samples per CPU second are printed beside the wall figure.
+
+    python benchmarks/bench_plant_headless.py [--duration 1.0] [--repeats 3]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' / 'test'))
+
+from bldc_plant_sim.core.cosim import CoSimulation  # noqa: E402
+from bldc_plant_sim.core.plant import PlantCore  # noqa: E402
+from bldc_plant_sim.parameters import plant_params  # noqa: E402
+from drive_common.fixed_commands import FixedGateCore  # noqa: E402
+from plant_test_helpers import SixStepChopper  # noqa: E402
+
+
+def bench(name: str, params: dict, make_ctrl, duration: float, record_every: int,
+          repeats: int) -> float:
+    """Best of `repeats` runs (wall clock and process CPU time); returns samples per wall second."""
+    best_wall = best_cpu = float('inf')
+    for _ in range(repeats):
+        plant = PlantCore(params)
+        cosim = CoSimulation(plant, make_ctrl(plant), record_every=record_every)
+        steps = plant.step_of(duration)
+        w0, c0 = time.perf_counter(), time.process_time()
+        cosim.run(steps=steps)
+        best_wall = min(best_wall, time.perf_counter() - w0)
+        best_cpu = min(best_cpu, time.process_time() - c0)
+    rate = steps / best_wall
+    s = plant.state()
+    print(f'{name:<34s} {steps:7d} samples: {rate:8.0f} /wall s, {steps / best_cpu:8.0f} /CPU s '
+          f'(x{duration / best_wall:4.2f} real time; {s.mechanical_speed:6.1f} rad/s, '
+          f'{len(plant.events)} located events)')
+    return rate
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--duration', type=float, default=1.0, help='sim time per case [s]')
+    ap.add_argument('--repeats', type=int, default=3, help='runs per case (best is reported)')
+    args = ap.parse_args()
+    base = {'base_tick': 25e-6, 'dtc_period': 25e-6}
+    fixed = plant_params('ozturk_bldc', **base, **{'load.mode': 'dynamometer', 'load.speed': 100.0,
+                                                   'protection.peak_current': 0.0,
+                                                   'motor.initial_speed': 100.0})
+    chop = plant_params('ozturk_bldc', **base, **{'load.mode': 'viscous', 'load.viscous': 0.004,
+                                                  'protection.peak_current': 0.0})
+    print(f'python {sys.version.split()[0]}, T_s = 25 us, default inner step (25 us)')
+    rates = [
+        bench('fixed gates, no recording', fixed, lambda p: FixedGateCore(), args.duration, 0,
+              args.repeats),
+        bench('six-step chopper, no recording', chop, lambda p: SixStepChopper(p.motor.backemf, 3, 4),
+              args.duration, 0, args.repeats),
+        bench('six-step chopper, state recorded', chop,
+              lambda p: SixStepChopper(p.motor.backemf, 3, 4), args.duration, 1, args.repeats),
+    ]
+    print(f'headless loop, plant + trivial controller: {min(rates[:2]):.0f} samples/s '
+          f'(target >= 40000)')
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

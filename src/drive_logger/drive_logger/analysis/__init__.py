@@ -1,0 +1,1 @@
+"""Bag analysis: the seeds' metrics (metrics.py), figures (figures.py), bag -> arrays (data.py)."""

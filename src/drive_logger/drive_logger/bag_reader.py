@@ -1,0 +1,206 @@
+"""Read a rosbag2 MCAP bag without ROS (``mcap`` + ``mcap-ros2-support``).
+
+:class:`BagReader` checks the bag before reading: a missing ``metadata.yaml``
+(bag never finalized), a data file that is missing, shorter than the MCAP
+magic, lacks its footer (truncated, e.g. the recorder was killed) or has a
+corrupt record is a :class:`BagReadError` whose message names the file and the
+problem. With ``salvage=True`` the intact part is read instead: records are
+streamed from the start of the file up to the first damaged one (for a
+truncated file: every complete chunk).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Iterator
+
+import yaml
+from mcap.exceptions import McapError
+from mcap.reader import NonSeekingReader, make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from drive_logger import qos_yaml
+
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+
+
+class BagReadError(RuntimeError):
+    """The bag is missing, truncated or corrupt (the message names the problem)."""
+
+
+@dataclass
+class TopicInfo:
+    name: str
+    type: str                   # pkg/msg/Type
+    message_count: int | None   # None when unknown (salvaged bag without metadata)
+    qos_profiles: list = field(default_factory=list)
+    type_hash: str = ''
+
+
+@dataclass
+class BagMessage:
+    """One message: topic, type, times (ns) and the raw CDR bytes."""
+
+    topic: str
+    type: str
+    log_time: int
+    publish_time: int
+    data: bytes
+    schema_id: int
+
+
+def check_mcap_file(path: Path) -> str | None:
+    """A description of what is wrong with an MCAP file, or None if its frame is intact."""
+    if not path.is_file():
+        return f'data file {str(path)!r} is missing'
+    size = path.stat().st_size
+    if size < 2 * len(MCAP_MAGIC):
+        return f'data file {str(path)!r} is truncated ({size} bytes: not even the MCAP header)'
+    with open(path, 'rb') as f:
+        head = f.read(len(MCAP_MAGIC))
+        f.seek(size - len(MCAP_MAGIC))
+        tail = f.read(len(MCAP_MAGIC))
+    if head != MCAP_MAGIC:
+        return f'data file {str(path)!r} is not an MCAP file (bad magic)'
+    if tail != MCAP_MAGIC:
+        return (f'data file {str(path)!r} is truncated at byte {size}: no MCAP footer '
+                '(the recorder did not finalize it)')
+    return None
+
+
+class BagReader:
+    """A rosbag2 bag directory (or a single .mcap file), read without ROS.
+
+    :param salvage: read the intact part of a truncated/corrupt bag instead of
+        raising; :attr:`problems` lists what was found.
+    """
+
+    def __init__(self, path: str | os.PathLike, salvage: bool = False) -> None:
+        self.path = Path(path)
+        self.salvage = salvage
+        self.problems: list[str] = []
+        self.metadata: dict[str, Any] | None = None
+        if not self.path.exists():
+            raise BagReadError(f'bag {str(self.path)!r} does not exist')
+        if self.path.is_dir():
+            meta = self.path / 'metadata.yaml'
+            if meta.is_file():
+                try:
+                    self.metadata = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
+                    names = self.metadata['relative_file_paths']
+                except (yaml.YAMLError, KeyError, TypeError) as exc:
+                    self.problems.append(f'metadata.yaml of {str(self.path)!r} is corrupt ({exc})')
+                    self.metadata = None
+                    names = None
+            else:
+                self.problems.append(f'{str(self.path)!r} has no metadata.yaml (bag not finalized)')
+                names = None
+            if names is None:
+                names = sorted(p.name for p in self.path.glob('*.mcap'))
+                if not names:
+                    raise BagReadError(f'{str(self.path)!r} holds no metadata.yaml and no .mcap file')
+            self.files = [self.path / Path(n).name for n in names]
+        else:
+            self.files = [self.path]
+        self._damaged = set()
+        for file in self.files:
+            problem = check_mcap_file(file)
+            if problem:
+                self.problems.append(problem)
+                self._damaged.add(file)
+        if self.problems and not salvage:
+            raise BagReadError('; '.join(self.problems) + ' (pass salvage=True / --salvage to read the intact part)')
+        self._decoders: dict[tuple[Path, int], Any] = {}
+        self._factory = DecoderFactory()
+
+    # ----------------------------------------------------------------- topics
+    @property
+    def topics(self) -> dict[str, TopicInfo]:
+        """Topic name -> TopicInfo, from metadata.yaml (or the MCAP channels)."""
+        if self.metadata is not None:
+            out = {}
+            for entry in self.metadata.get('topics_with_message_count', []):
+                meta = entry['topic_metadata']
+                out[meta['name']] = TopicInfo(meta['name'], meta['type'], entry.get('message_count'),
+                                              qos_yaml.load(meta.get('offered_qos_profiles')),
+                                              meta.get('type_description_hash', ''))
+            return out
+        out = {}
+        for file in self.files:
+            for schema, channel, _ in self._iter_file(file, only_channels=True):
+                if channel.topic not in out:
+                    out[channel.topic] = TopicInfo(
+                        channel.topic, schema.name if schema else '', None,
+                        qos_yaml.load(channel.metadata.get('offered_qos_profiles')),
+                        channel.metadata.get('topic_type_hash', ''))
+        return out
+
+    # --------------------------------------------------------------- messages
+    def _iter_file(self, file: Path, topics: Iterable[str] | None = None, only_channels: bool = False):
+        topics = list(topics) if topics is not None else None
+        with open(file, 'rb') as stream:
+            if file not in self._damaged:
+                try:
+                    reader = make_reader(stream)
+                    if only_channels:
+                        summary = reader.get_summary()
+                        for channel in summary.channels.values():
+                            yield summary.schemas.get(channel.schema_id), channel, None
+                        return
+                    yield from reader.iter_messages(topics=topics, log_time_order=True)
+                    return
+                except (McapError, EOFError, ValueError, KeyError, OSError, RuntimeError) as exc:
+                    problem = f'data file {str(file)!r} is corrupt: {type(exc).__name__}: {exc}'
+                    if not self.salvage:
+                        raise BagReadError(problem + ' (pass salvage=True / --salvage to read the intact part)') from exc
+                    self.problems.append(problem)
+                    self._damaged.add(file)
+                    stream.seek(0)
+            seen_channels = set()
+            try:
+                for schema, channel, message in NonSeekingReader(stream, validate_crcs=True).iter_messages(log_time_order=False):
+                    if only_channels:
+                        if channel.id not in seen_channels:
+                            seen_channels.add(channel.id)
+                            yield schema, channel, None
+                        continue
+                    if topics is None or channel.topic in topics:
+                        yield schema, channel, message
+            except Exception as exc:  # noqa: BLE001 - salvage stops at the first damaged record
+                if not only_channels:
+                    self.problems.append(f'{str(file)!r}: intact part ends here ({type(exc).__name__}: {exc})')
+
+    def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
+        """Every message (of the given topics), file by file, in log-time order."""
+        for file in self.files:
+            for schema, channel, message in self._iter_file(file, topics):
+                yield BagMessage(channel.topic, schema.name if schema else '', message.log_time,
+                                 message.publish_time, bytes(message.data),
+                                 schema.id if schema else 0)
+
+    def decode(self, msg: BagMessage, schema=None) -> Any:
+        """Decode a message's CDR with its schema (mcap-ros2-support dynamic types)."""
+        key = (msg.type, msg.schema_id)
+        decoder = self._decoders.get(key)
+        if decoder is None:
+            if schema is None:
+                schema = self._schema_for(msg.type)
+            decoder = self._factory.decoder_for('cdr', schema)
+            self._decoders[key] = decoder
+        return decoder(msg.data)
+
+    def _schema_for(self, type_name: str):
+        for file in self.files:
+            for schema, _, _ in self._iter_file(file, only_channels=True):
+                if schema is not None and schema.name == type_name:
+                    return schema
+        raise BagReadError(f'no schema for {type_name!r} in {str(self.path)!r}')
+
+    def decoded_messages(self, topics: Iterable[str] | None = None) -> Iterator[tuple[BagMessage, Any]]:
+        """(BagMessage, decoded message) pairs."""
+        for file in self.files:
+            for schema, channel, message in self._iter_file(file, topics):
+                msg = BagMessage(channel.topic, schema.name if schema else '', message.log_time,
+                                 message.publish_time, bytes(message.data), schema.id if schema else 0)
+                yield msg, self.decode(msg, schema)

@@ -1,0 +1,230 @@
+"""Regression: re-drive a controller from a bag's drive measurements and compare its commands.
+
+The controller (any executable: ``--package/--executable`` as ``ros2 run``
+finds it, or ``--command``) is started as its own process with the given
+parameters. The recorded measurements are then replayed in lockstep: for
+each one, /clock is set to its stamp, the exact recorded bytes are published,
+and the controller's command with the same ``step`` is awaited. The commands
+are compared with the recorded ones field by field (header excluded), step by
+step; exit code 0 if every recorded step is reproduced exactly, 1 otherwise.
+
+    compare_replay bags/run1 --package dtc_controller --executable dtc_controller \
+        -p mode:=four_switch_three_phase --json report.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import yaml
+
+from drive_common.harness import NodeProcess, ros_arguments
+from drive_logger.bag_reader import BagReader
+from drive_logger.replay_node import clock_cdr, header_stamp_ns
+
+
+@dataclass
+class ComparisonReport:
+    steps_replayed: int = 0
+    steps_compared: int = 0
+    matching: int = 0
+    byte_identical: int = 0
+    missing_replies: list = field(default_factory=list)     # steps without an answer
+    mismatches: list = field(default_factory=list)          # {step, recorded, replayed} (first 20)
+    mismatch_count: int = 0
+    first_mismatch_step: int | None = None
+
+    @property
+    def identical(self) -> bool:
+        return self.steps_compared > 0 and self.mismatch_count == 0 and not self.missing_replies
+
+
+class CommandProcess(NodeProcess):
+    """A node started from an arbitrary command line (+ --ros-args), torn down like NodeProcess."""
+
+    def __init__(self, argv, *, parameters=None, remappings=None, env=None, log_dir=None) -> None:
+        self.package, self.executable = 'command', Path(argv[0]).name
+        self.command = [*argv, *ros_arguments(parameters, remappings)]
+        log_dir = Path(log_dir or tempfile.mkdtemp(prefix='dtc_node_'))
+        log_dir.mkdir(parents=True, exist_ok=True)
+        self.log_path = log_dir / f'{self.executable}.log'
+        self._log = open(self.log_path, 'wb')
+        self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
+                                        env=dict(env) if env is not None else None, start_new_session=True)
+
+
+def compare_fields(recorded: dict, replayed: dict) -> bool:
+    """Exact equality of plain field values; NaN equals NaN (same bits are not required)."""
+    if recorded.keys() != replayed.keys():
+        return False
+    for key, a in recorded.items():
+        b = replayed[key]
+        if isinstance(a, float) and isinstance(b, float) and a != a and b != b:
+            continue
+        if isinstance(a, list) and isinstance(b, list):
+            if len(a) != len(b) or not all(x == y or (x != x and y != y) for x, y in zip(a, b)):
+                return False
+        elif a != b:
+            return False
+    return True
+
+
+def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage: bool = False):
+    """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}) from a bag."""
+    from rclpy.serialization import deserialize_message
+    from drive_logger import ros_types
+    reader = BagReader(bag, salvage=salvage)
+    infos = reader.topics
+    for topic in (measurement_topic, command_topic):
+        if topic not in infos:
+            raise SystemExit(f'compare_replay: bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
+    meas_cls = ros_types.message_class(infos[measurement_topic].type)
+    cmd_cls = ros_types.message_class(infos[command_topic].type)
+    measurements, commands = [], {}
+    for msg in reader.messages([measurement_topic, command_topic]):
+        if msg.topic == measurement_topic:
+            measurements.append((deserialize_message(msg.data, meas_cls).step, header_stamp_ns(msg.data), msg.data))
+        else:
+            commands[deserialize_message(msg.data, cmd_cls).step] = msg.data
+    return meas_cls, measurements, cmd_cls, commands
+
+
+def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_topic: str = '/drive/measurement',
+                       command_topic: str = '/drive/gate_command', timeout: float = 5.0,
+                       max_steps: int | None = None, salvage: bool = False, context=None,
+                       match_timeout: float = 15.0) -> ComparisonReport:
+    """Drive the (already started) controller with the bag's measurements; compare its commands."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.serialization import deserialize_message
+    from rosgraph_msgs.msg import Clock
+    from drive_common.topics import LOCKSTEP_QOS
+    from drive_logger.ros_types import fields_of
+
+    meas_cls, measurements, cmd_cls, recorded = load_recording(bag, measurement_topic, command_topic, salvage)
+    if max_steps is not None:
+        measurements = measurements[:max_steps]
+    replies: dict[int, bytes] = {}
+    arrived = threading.Condition()
+
+    node = Node('compare_replay', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+
+    def on_command(data: bytes) -> None:
+        step = deserialize_message(data, cmd_cls).step
+        with arrived:
+            replies.setdefault(step, data)
+            arrived.notify_all()
+
+    node.create_subscription(cmd_cls, command_topic, on_command, LOCKSTEP_QOS, raw=True)
+    meas_pub = node.create_publisher(meas_cls, measurement_topic, LOCKSTEP_QOS)
+    clock_pub = node.create_publisher(Clock, '/clock', 10)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    report = ComparisonReport()
+    try:
+        deadline = time.monotonic() + match_timeout
+        while meas_pub.get_subscription_count() < 1 or node.count_publishers(command_topic) < 1:
+            if controller is not None and not controller.alive():
+                raise RuntimeError(f'controller exited (code {controller.process.returncode}):\n{controller.output()[-2000:]}')
+            if time.monotonic() > deadline:
+                raise TimeoutError(f'controller did not subscribe to {measurement_topic} and publish '
+                                   f'{command_topic} within {match_timeout} s')
+            time.sleep(0.02)
+        time.sleep(0.2)  # let discovery settle in both directions
+        for step, stamp, data in measurements:
+            clock_pub.publish(clock_cdr(stamp))
+            meas_pub.publish(data)
+            with arrived:
+                if not arrived.wait_for(lambda: step in replies, timeout=timeout):
+                    report.missing_replies.append(step)
+            report.steps_replayed += 1
+        for step, _, _ in measurements:
+            if step not in recorded or step not in replies:
+                continue
+            report.steps_compared += 1
+            a, b = recorded[step], replies[step]
+            report.byte_identical += a == b
+            rec_f = fields_of(deserialize_message(a, cmd_cls))
+            rep_f = fields_of(deserialize_message(b, cmd_cls))
+            if compare_fields(rec_f, rep_f):
+                report.matching += 1
+            else:
+                report.mismatch_count += 1
+                if report.first_mismatch_step is None:
+                    report.first_mismatch_step = step
+                if len(report.mismatches) < 20:
+                    report.mismatches.append({'step': step, 'recorded': rec_f, 'replayed': rep_f})
+    finally:
+        executor.shutdown(timeout_sec=1.0)
+        node.destroy_node()
+    return report
+
+
+def _parse_param(text: str):
+    name, sep, value = text.partition(':=')
+    if not sep:
+        raise argparse.ArgumentTypeError(f'{text!r} is not name:=value')
+    return name, yaml.safe_load(value)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog='compare_replay', description=__doc__.split('\n\n')[0])
+    ap.add_argument('bag')
+    who = ap.add_mutually_exclusive_group(required=True)
+    who.add_argument('--executable', help='controller executable (with --package), as ros2 run finds it')
+    who.add_argument('--command', nargs='+', help='controller command line (--ros-args are appended)')
+    ap.add_argument('--package', default='dtc_controller')
+    ap.add_argument('-p', '--param', action='append', default=[], type=_parse_param, help='name:=value (YAML)')
+    ap.add_argument('--params-file', help='YAML file {name: value} of controller parameters')
+    ap.add_argument('-r', '--remap', action='append', default=[], help='from:=to remapping for the controller')
+    ap.add_argument('--measurement-topic', default='/drive/measurement')
+    ap.add_argument('--command-topic', default='/drive/gate_command')
+    ap.add_argument('--timeout', type=float, default=5.0, help='s to wait for each reply')
+    ap.add_argument('--max-steps', type=int)
+    ap.add_argument('--salvage', action='store_true', help='use the intact part of a damaged bag')
+    ap.add_argument('--json', help='write the report here')
+    args = ap.parse_args(argv)
+
+    params = {}
+    if args.params_file:
+        params.update(yaml.safe_load(Path(args.params_file).read_text()) or {})
+    params.update(dict(args.param))
+    remaps = dict(r.split(':=', 1) for r in args.remap)
+    env = dict(os.environ)
+    if args.command:
+        controller = CommandProcess(args.command, parameters=params, remappings=remaps, env=env)
+    else:
+        controller = NodeProcess(args.package, args.executable, parameters=params, remappings=remaps, env=env)
+    import rclpy
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        report = replay_and_compare(args.bag, controller, measurement_topic=args.measurement_topic,
+                                    command_topic=args.command_topic, timeout=args.timeout,
+                                    max_steps=args.max_steps, salvage=args.salvage, context=context)
+    finally:
+        controller.stop()
+        rclpy.try_shutdown(context=context)
+    summary = asdict(report) | {'identical': report.identical}
+    text = json.dumps(summary, indent=2)
+    if args.json:
+        Path(args.json).write_text(text)
+    print(json.dumps({k: v for k, v in summary.items() if k != 'mismatches'}, indent=2))
+    if report.mismatches:
+        print('first mismatch:', json.dumps(report.mismatches[0]))
+    return 0 if report.identical else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

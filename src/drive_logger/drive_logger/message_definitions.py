@@ -1,0 +1,132 @@
+"""Message definitions and type hashes of ROS interfaces, as rosbag2 stores them (no rclpy).
+
+rosbag2 (Jazzy) writes one MCAP schema per type: encoding ``ros2msg``, text =
+the root ``.msg`` verbatim, then every dependency once, depth-first with each
+type's dependencies sorted, each as ``"\\n" + "=" * 80 + "\\nMSG: pkg/Type\\n"``
+followed by its text (DESIGN.md §8). The type hash (``RIHS01_...``) is read
+from the ``.json`` type description rosidl installs next to the ``.msg``.
+Definitions are found under ``share/<pkg>/msg/`` of every prefix on
+``AMENT_PREFIX_PATH``.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+DELIMITER = '=' * 80
+PRIMITIVE_TYPES = frozenset({
+    'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16', 'uint16',
+    'int32', 'uint32', 'int64', 'uint64', 'string', 'wstring',
+})
+_ARRAY_OR_BOUND = re.compile(r'(\[[^\]]*\]|<=\d+)')
+
+
+class DefinitionNotFoundError(LookupError):
+    """A message type whose .msg definition is not installed on AMENT_PREFIX_PATH."""
+
+
+@dataclass(frozen=True)
+class TypeDefinition:
+    """What a bag needs to know about one message type."""
+
+    name: str          # pkg/msg/Type
+    text: str          # ros2msg schema text with the dependent definitions
+    type_hash: str     # RIHS01_... ('' when the installed package carries no .json)
+
+
+def normalize_type_name(type_name: str) -> str:
+    """'pkg/Type' or 'pkg/msg/Type' -> 'pkg/msg/Type'; raise ValueError otherwise."""
+    parts = type_name.strip().split('/')
+    if len(parts) == 2 and all(parts):
+        return f'{parts[0]}/msg/{parts[1]}'
+    if len(parts) == 3 and all(parts) and parts[1] == 'msg':
+        return '/'.join(parts)
+    raise ValueError(f'not a message type name: {type_name!r} (expected pkg/msg/Type)')
+
+
+def _short_name(type_name: str) -> str:
+    pkg, _, name = normalize_type_name(type_name).split('/')
+    return f'{pkg}/{name}'
+
+
+def _prefixes() -> list[Path]:
+    return [Path(p) for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
+
+
+@lru_cache(maxsize=None)
+def interface_file(type_name: str, suffix: str = '.msg') -> Path:
+    """Path of share/<pkg>/msg/<Type><suffix> in the first prefix that has it."""
+    pkg, _, name = normalize_type_name(type_name).split('/')
+    for prefix in _prefixes():
+        path = prefix / 'share' / pkg / 'msg' / f'{name}{suffix}'
+        if path.is_file():
+            return path
+    raise DefinitionNotFoundError(
+        f'no definition share/{pkg}/msg/{name}{suffix} for {type_name!r} on AMENT_PREFIX_PATH '
+        '(is the package installed and scripts/env.sh sourced?)')
+
+
+def dependencies(msg_text: str, package: str) -> list[str]:
+    """Sorted 'pkg/Type' names of the non-primitive field types of a .msg text."""
+    deps = set()
+    for line in msg_text.splitlines():
+        line = line.split('#', 1)[0].strip()
+        if not line:
+            continue
+        field_type = _ARRAY_OR_BOUND.sub('', line.split()[0])
+        if field_type in PRIMITIVE_TYPES:
+            continue
+        if field_type == 'Header':
+            deps.add('std_msgs/Header')
+        elif '/' in field_type:
+            deps.add(_short_name(field_type))
+        else:
+            deps.add(f'{package}/{field_type}')
+    return sorted(deps)
+
+
+@lru_cache(maxsize=None)
+def message_text(type_name: str) -> str:
+    """The installed .msg file of type_name, verbatim."""
+    return interface_file(type_name).read_text()
+
+
+@lru_cache(maxsize=None)
+def full_definition(type_name: str) -> str:
+    """ros2msg schema text: root definition, then each dependency once, depth-first."""
+    seen: set[str] = set()
+
+    def append(name: str) -> str:
+        text = message_text(name)
+        result = text
+        for dep in dependencies(text, name.split('/')[0]):
+            if dep not in seen:
+                seen.add(dep)
+                result += f'\n{DELIMITER}\nMSG: {dep}\n' + append(dep)
+        return result
+
+    return append(normalize_type_name(type_name))
+
+
+@lru_cache(maxsize=None)
+def type_hash(type_name: str) -> str:
+    """RIHS01 type description hash from the installed .json ('' if there is none)."""
+    full = normalize_type_name(type_name)
+    try:
+        path = interface_file(full, '.json')
+    except DefinitionNotFoundError:
+        return ''
+    for entry in json.loads(path.read_text()).get('type_hashes', []):
+        if entry.get('type_name') == full:
+            return entry.get('hash_string', '')
+    return ''
+
+
+def type_definition(type_name: str) -> TypeDefinition:
+    """Schema text and hash of type_name; DefinitionNotFoundError if not installed."""
+    full = normalize_type_name(type_name)
+    return TypeDefinition(full, full_definition(full), type_hash(full))

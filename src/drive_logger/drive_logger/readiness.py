@@ -1,0 +1,38 @@
+"""How a scenario runner knows the recorder is ready: its subscriptions are on the graph.
+
+The recorder creates every subscription of its ``topics`` parameter before it
+logs ``recorder ready``; :func:`wait_for_recorder` polls the ROS graph from
+the runner's own node until the recorder (node name ``recorder`` unless
+remapped) has a subscription on each topic. Start the plant only after it
+returns, and stop the recorder with SIGINT/SIGTERM after the run.
+
+Matching with publishers of nodes that already run when the recorder starts
+completes asynchronously on their side: start the recorder first (before the
+plant and controllers), or allow about 1 s after :func:`wait_for_recorder`.
+"""
+from __future__ import annotations
+
+import time
+from typing import Iterable
+
+from drive_logger import graph_topics
+
+
+def recorder_subscribed(node, topic: str, recorder_name: str = 'recorder') -> bool:
+    """True if a node named recorder_name subscribes to topic (as seen from node)."""
+    name = node.resolve_topic_name(topic)
+    return any(info.node_name == recorder_name for info in node.get_subscriptions_info_by_topic(name))
+
+
+def wait_for_recorder(node, topics: Iterable[str] = graph_topics.DEFAULT_TOPICS,
+                      recorder_name: str = 'recorder', timeout: float = 10.0) -> None:
+    """Block until the recorder subscribes to every topic (names without ':type'); TimeoutError otherwise."""
+    names = [graph_topics.parse_topic_spec(t)[0] for t in topics]
+    deadline = time.monotonic() + timeout
+    while True:
+        missing = [t for t in names if not recorder_subscribed(node, t, recorder_name)]
+        if not missing:
+            return
+        if time.monotonic() > deadline:
+            raise TimeoutError(f'recorder {recorder_name!r} not subscribed to {missing} after {timeout} s')
+        time.sleep(0.02)

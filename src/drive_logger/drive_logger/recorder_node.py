@@ -1,0 +1,290 @@
+"""Recorder node: record topics of the drive graph into a rosbag2-layout MCAP bag.
+
+Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw
+subscriptions hand over the exact CDR bytes (no deserialize/re-serialize),
+each callback appends them to the current MCAP chunk, and full chunks are
+compressed and streamed to disk (bounded memory).
+
+Parameters (all read-only, read at start):
+- ``topics`` (string[]): topics to record, ``name`` or ``name:pkg/msg/Type``;
+  default every topic of the drive graph (:data:`graph_topics.DEFAULT_TOPICS`).
+  A name outside the drive graph without a type is looked up on the graph for
+  ``type_discovery_timeout`` s. Subscriptions exist once the node logs
+  ``recorder ready`` -- a runner waits for them with
+  :func:`drive_logger.readiness.wait_for_recorder` before starting the run.
+- ``all_topics`` (bool, false): also subscribe to every topic that appears later.
+- ``output`` (string): bag directory to create; default ``bags/<YYYYmmdd-HHMMSS>``.
+- ``compression`` ('lz4' | 'zstd' | 'none'), ``chunk_size`` (bytes).
+- ``qos_depth`` (int, 1000): KEEP_LAST depth of the RELIABLE subscriptions
+  (0 = KEEP_ALL); /clock is subscribed best effort.
+- ``drain_timeout`` (s, 2.0): at stop, keep taking queued messages until the
+  topics are quiet for 0.1 s or this time has passed.
+
+The recorder takes messages in its own wait loop (the rclpy executor's
+per-callback cost is several times the recording cost), so it serves no
+parameter services: its parameters are fixed at start.
+
+Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
+finalized (MCAP summary + metadata.yaml) and the process exits 0. A bad
+output directory or an unknown/uninstalled topic type is an error at start
+(exit code 2, nothing written).
+"""
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+from rclpy.node import Node
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+from drive_logger import graph_topics, ros_types
+from drive_logger.bag_writer import BagWriteError, BagWriter, check_output_directory
+from drive_logger.message_definitions import DefinitionNotFoundError, normalize_type_name, type_definition
+
+
+class RecorderConfigError(RuntimeError):
+    """Bad recorder configuration detected at start (nothing was written)."""
+
+
+def message_class(type_name: str):
+    """The message class, or RecorderConfigError naming the unknown type."""
+    try:
+        return ros_types.message_class(type_name)
+    except ros_types.UnknownTypeError as exc:
+        raise RecorderConfigError(str(exc)) from exc
+
+
+class _Topic:
+    """A recorded topic: subscription, type and (once the first message came) bag record."""
+
+    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback')
+
+    def __init__(self, name, type_name, definition, qos):
+        self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
+        self.subscription = None
+        self.record = None
+        self.callback = None
+
+
+class RecorderNode(Node):
+    """Subscribes (raw) to the chosen topics and streams their messages into a bag."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('recorder', **kwargs)
+        ro = ParameterDescriptor(read_only=True)
+        self.declare_parameter('topics', list(graph_topics.DEFAULT_TOPICS),
+                               ParameterDescriptor(read_only=True, description='name or name:pkg/msg/Type'))
+        self.declare_parameter('all_topics', False, ro)
+        self.declare_parameter('output', '', ParameterDescriptor(read_only=True, description='bag directory'))
+        self.declare_parameter('compression', 'lz4', ro)
+        self.declare_parameter('chunk_size', 1 << 20, ParameterDescriptor(read_only=True, description='bytes'))
+        self.declare_parameter('qos_depth', 1000, ro)
+        self.declare_parameter('type_discovery_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
+        self.declare_parameter('drain_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
+        p = {name: self.get_parameter(name).value for name in (
+            'topics', 'all_topics', 'output', 'compression', 'chunk_size', 'qos_depth',
+            'type_discovery_timeout', 'drain_timeout')}
+        self.drain_timeout = float(p['drain_timeout'])
+        self.qos_depth = int(p['qos_depth'])
+        self.all_topics = bool(p['all_topics'])
+        self._lock = threading.Lock()
+        self.messages_received = 0
+
+        # 1. Resolve every topic and its type before touching the disk.
+        wanted = self._resolve_topics(p['topics'] or [], float(p['type_discovery_timeout']))
+        output = p['output'] or str(graph_topics.default_output_dir())
+        try:
+            check_output_directory(output)
+        except BagWriteError as exc:
+            raise RecorderConfigError(str(exc)) from exc
+        # 2. Create the bag, then the subscriptions (ready once they exist).
+        try:
+            self.writer = BagWriter(output, compression=p['compression'], chunk_size=int(p['chunk_size']))
+        except BagWriteError as exc:
+            raise RecorderConfigError(str(exc)) from exc
+        self.topics: dict[str, _Topic] = {}
+        for name, (type_name, definition) in wanted.items():
+            self._subscribe(name, type_name, definition)
+        self.get_logger().info(
+            f'recorder ready: recording {len(self.topics)} topic(s) {sorted(self.topics)} '
+            f'into {self.writer.path}')
+
+    # ---------------------------------------------------------------- set-up
+    def _resolve_topics(self, specs, timeout: float) -> dict:
+        resolved = {}
+        unknown = []
+        for spec in specs:
+            try:
+                name, type_name = graph_topics.parse_topic_spec(spec)
+            except ValueError as exc:
+                raise RecorderConfigError(str(exc)) from exc
+            full = self.resolve_topic_name(name)
+            if type_name is None:
+                unknown.append(full)
+            resolved[full] = type_name
+        deadline = time.monotonic() + timeout
+        while unknown:
+            graph = dict(self.get_topic_names_and_types())
+            for name in list(unknown):
+                if graph.get(name):
+                    resolved[name] = graph[name][0]
+                    unknown.remove(name)
+            if not unknown or time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        if unknown:
+            raise RecorderConfigError(
+                f'unknown type of topic(s) {unknown}: not part of the drive graph and not seen on the '
+                f'graph within {timeout} s; give it as name:pkg/msg/Type')
+        out = {}
+        for name, type_name in resolved.items():
+            message_class(type_name)
+            try:
+                out[name] = (normalize_type_name(type_name), type_definition(type_name))
+            except (DefinitionNotFoundError, ValueError) as exc:
+                raise RecorderConfigError(f'topic {name!r}: {exc}') from exc
+        return out
+
+    def _subscription_qos(self, name: str) -> QoSProfile:
+        best_effort = name in graph_topics.BEST_EFFORT_TOPICS or any(
+            info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+            for info in self.get_publishers_info_by_topic(name))
+        if self.qos_depth > 0:
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self.qos_depth)
+        else:
+            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1)
+        qos.reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+        qos.durability = DurabilityPolicy.VOLATILE
+        return qos
+
+    def _subscribe(self, name: str, type_name: str, definition) -> None:
+        topic = _Topic(name, type_name, definition, self._subscription_qos(name))
+        topic.callback = self._callback_for(topic)
+        topic.subscription = self.create_subscription(
+            message_class(type_name), name, topic.callback, topic.qos, raw=True)
+        self.topics[name] = topic
+
+    def discover(self) -> None:
+        for name, types in self.get_topic_names_and_types():
+            if name in self.topics or not types:
+                continue
+            try:
+                message_class(types[0])
+                self._subscribe(name, normalize_type_name(types[0]), type_definition(types[0]))
+                self.get_logger().info(f'recording discovered topic {name} ({types[0]})')
+            except (RecorderConfigError, DefinitionNotFoundError, ValueError) as exc:
+                self.topics[name] = _Topic(name, types[0], None, None)  # remember, do not retry
+                self.get_logger().warning(f'cannot record {name}: {exc}')
+
+    # -------------------------------------------------------------- messages
+    def _offered_qos(self, topic: _Topic) -> list:
+        return [ros_types.qos_to_dict(info.qos_profile) for info in self.get_publishers_info_by_topic(topic.name)]
+
+    def _callback_for(self, topic: _Topic):
+        writer = self.writer
+
+        def on_message(data: bytes, info: dict) -> None:
+            with self._lock:
+                if writer.closed:
+                    return
+                record = topic.record
+                if record is None:
+                    record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
+                writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
+                self.messages_received += 1
+        return on_message
+
+    def finalize(self) -> None:
+        """Register silent topics (count 0) and close the bag."""
+        with self._lock:
+            if self.writer.closed:
+                return
+            for topic in self.topics.values():
+                if topic.record is None and topic.definition is not None:
+                    topic.record = self.writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
+            self.writer.close()
+        counts = {name: t.record.message_count for name, t in self.topics.items() if t.record}
+        self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
+
+
+class TakeLoop:
+    """Take every queued message of every subscription per wake-up (no executor overhead).
+
+    The rclpy executor dispatches one callback per wait; at the graph's rates
+    that costs more than the recording itself, so the recorder waits on its
+    subscriptions directly and drains each one completely.
+    """
+
+    def __init__(self, node: RecorderNode) -> None:
+        self.node = node
+
+    def _entries(self):
+        return [(t.subscription, t.callback) for t in self.node.topics.values() if t.subscription]
+
+    def spin_once(self, timeout_sec: float) -> int:
+        """Wait up to timeout_sec, then take everything queued; return how many were taken."""
+        entries = self._entries()
+        wait_set = _rclpy.WaitSet(len(entries), 0, 0, 0, 0, 0, self.node.context.handle)
+        for sub, _ in entries:
+            wait_set.add_subscription(sub.handle)
+        wait_set.wait(int(timeout_sec * 1e9))
+        ready = wait_set.get_ready_entities('subscription')
+        taken = 0
+        for sub, callback in entries:
+            if sub.handle.pointer not in ready:
+                continue
+            take = sub.handle.take_message
+            msg_type = sub.msg_type
+            while True:
+                item = take(msg_type, True)
+                if item is None:
+                    break
+                callback(item[0], item[1])
+                taken += 1
+        return taken
+
+
+def run(node: RecorderNode, stop: threading.Event) -> None:
+    """Record until stop is set, then take what is still queued and finalize the bag."""
+    loop = TakeLoop(node)
+    next_discovery = time.monotonic()
+    try:
+        while not stop.is_set():
+            loop.spin_once(0.1)
+            if node.all_topics and time.monotonic() >= next_discovery:
+                node.discover()
+                next_discovery = time.monotonic() + 0.5
+        deadline = time.monotonic() + node.drain_timeout
+        while time.monotonic() < deadline and loop.spin_once(0.1):
+            pass
+    finally:
+        node.finalize()
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        node = RecorderNode()
+    except RecorderConfigError as exc:
+        print(f'[recorder] error: {exc}', file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        run(node, stop)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,63 @@
+"""Small rclpy helpers shared by the recorder, replay and regression nodes."""
+from __future__ import annotations
+
+import importlib
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from drive_logger import qos_yaml
+from drive_logger.message_definitions import normalize_type_name
+
+
+class UnknownTypeError(RuntimeError):
+    """A message type that is not installed."""
+
+
+def message_class(type_name: str):
+    """The Python class of a message type 'pkg/msg/Type' (or 'pkg/Type')."""
+    pkg, _, name = normalize_type_name(type_name).split('/')
+    try:
+        return getattr(importlib.import_module(f'{pkg}.msg'), name)
+    except (ImportError, AttributeError) as exc:
+        raise UnknownTypeError(f'unknown message type {type_name!r}: {exc}') from exc
+
+
+def qos_to_dict(qos: QoSProfile) -> dict:
+    """rclpy QoSProfile -> metadata.yaml v9 profile."""
+    return qos_yaml.profile(
+        history=qos_yaml.HISTORY.get(int(qos.history), 'unknown'), depth=qos.depth,
+        reliability=qos_yaml.RELIABILITY.get(int(qos.reliability), 'unknown'),
+        durability=qos_yaml.DURABILITY.get(int(qos.durability), 'unknown'),
+        deadline_ns=qos.deadline.nanoseconds, lifespan_ns=qos.lifespan.nanoseconds,
+        liveliness=qos_yaml.LIVELINESS.get(int(qos.liveliness), 'unknown'),
+        liveliness_lease_duration_ns=qos.liveliness_lease_duration.nanoseconds,
+        avoid_ros_namespace_conventions=qos.avoid_ros_namespace_conventions)
+
+
+def replay_qos(profiles: list, depth: int = 1000) -> QoSProfile:
+    """Publisher QoS for replaying a topic recorded with the given offered profiles.
+
+    Reliable unless every recorded publisher was best effort; transient-local
+    only if one was; KEEP_LAST with a deep queue so a burst is not dropped.
+    """
+    reliable = not profiles or any(p.get('reliability') != 'best_effort' for p in profiles)
+    latched = any(p.get('durability') == 'transient_local' for p in profiles)
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+
+
+def fields_of(msg, exclude=('header',)) -> dict:
+    """A message's fields as plain Python values (arrays -> lists), header excluded."""
+    out = {}
+    for name in msg.get_fields_and_field_types():
+        if name in exclude:
+            continue
+        value = getattr(msg, name)
+        if hasattr(value, 'get_fields_and_field_types'):
+            value = fields_of(value, ())
+        elif not isinstance(value, (str, bytes, int, float, bool)):
+            value = [v.item() if hasattr(v, 'item') else v for v in value]
+        out[name] = value
+    return out

@@ -1,0 +1,51 @@
+#!/usr/bin/env python3
+"""Deterministic stand-in controller for the replay regression tests.
+
+Answers every drive/measurement with a GateCommand of the same step whose
+switches depend on the measurement (hall code and current signs) and on an
+internal counter (state), like a controller. ``corrupt_step`` (>= 0) flips SW1
+at that step, to prove the comparison catches a difference.
+"""
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
+from dtc_msgs.msg import DriveMeasurement, GateCommand
+
+
+class Responder(Node):
+    def __init__(self, **kwargs):
+        super().__init__('responder', **kwargs)
+        self.corrupt_step = self.declare_parameter('corrupt_step', -1).value
+        self.count = 0
+        self.pub = self.create_publisher(GateCommand, GATE_COMMAND, LOCKSTEP_QOS)
+        self.create_subscription(DriveMeasurement, DRIVE_MEASUREMENT, self.on_measurement, LOCKSTEP_QOS)
+
+    def on_measurement(self, msg):
+        self.count += 1
+        bits = [bool(msg.hall_code & 1), bool(msg.hall_code & 2), bool(msg.hall_code & 4),
+                bool(msg.phase_current[0] > 0), bool(msg.phase_current[1] > 0), self.count % 3 == 0]
+        if msg.step == self.corrupt_step:
+            bits[0] = not bits[0]
+        out = GateCommand(step=msg.step, topology=GateCommand.TOPOLOGY_SIX_SWITCH, switch_on=bits)
+        out.header.stamp = msg.header.stamp
+        self.pub.publish(out)
+
+
+def main():
+    rclpy.init()
+    node = Responder()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    sys.exit(main())

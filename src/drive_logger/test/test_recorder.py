@@ -1,0 +1,172 @@
+"""Recorder node as a process: field-exact read-back by two independent readers, SIGINT, bad input."""
+import math
+import os
+import signal
+import threading
+import time
+
+import pytest
+import yaml
+
+from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
+from drive_logger.readiness import wait_for_recorder
+from dtc_msgs.msg import DriveMeasurement, GateCommand
+
+pytestmark = pytest.mark.ros
+TOPICS = ['/drive/measurement', '/drive/gate_command']
+
+
+def _same(a, b) -> bool:
+    return a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b))
+
+
+def _assert_fields(published, decoded):
+    """Field-exact comparison of a published rclpy message and a third-party decoded one."""
+    assert decoded.step == published.step
+    assert decoded.header.stamp.sec == published.header.stamp.sec
+    assert decoded.header.stamp.nanosec == published.header.stamp.nanosec
+    for name in published.get_fields_and_field_types():
+        if name == 'header':
+            continue
+        a, b = getattr(published, name), getattr(decoded, name)
+        if hasattr(a, '__len__') and not isinstance(a, str):
+            assert len(a) == len(b) and all(_same(x, y) for x, y in zip(list(a), list(b))), name
+        else:
+            assert _same(a, b), name
+
+
+def _start_recorder(start_node, output, topics=TOPICS, **extra):
+    return start_node('drive_logger', 'recorder', parameters={'output': str(output), 'topics': topics, **extra})
+
+
+def _stop(process, sig=signal.SIGINT, timeout=15.0) -> int:
+    os.killpg(process.pid, sig)
+    return process.process.wait(timeout=timeout)
+
+
+def test_recorded_bag_reads_back_field_exact(ros_session, start_node, tmp_path, measurement_factory):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag)
+    node = ros_session.node('publisher')
+    meas_pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    gate_pub = node.create_publisher(GateCommand, GATE_COMMAND, LOCKSTEP_QOS)
+    wait_for_recorder(node, TOPICS, timeout=20.0)
+    published = {'/drive/measurement': [], '/drive/gate_command': []}
+    for k in range(2000):
+        meas = measurement_factory(k)
+        gate = GateCommand(step=k, topology=6 - 2 * (k % 2), switch_on=[bool((k >> n) & 1) for n in range(6)])
+        gate.header.stamp = meas.header.stamp
+        meas_pub.publish(meas)
+        gate_pub.publish(gate)
+        published['/drive/measurement'].append(meas)
+        published['/drive/gate_command'].append(gate)
+        if k % 50 == 0:
+            time.sleep(0.002)  # lockstep-like pacing; the recorder must keep up, nothing dropped
+    time.sleep(0.5)
+    assert _stop(recorder) == 0, recorder.output()
+
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    counts = {e['topic_metadata']['name']: e['message_count'] for e in meta['topics_with_message_count']}
+    assert counts == {t: 2000 for t in TOPICS}
+    for entry in meta['topics_with_message_count']:
+        qos = entry['topic_metadata']['offered_qos_profiles']
+        assert qos and qos[0]['reliability'] == 'reliable'
+        assert entry['topic_metadata']['type_description_hash'].startswith('RIHS01_')
+
+    # reader 1: rosbags
+    from rosbags.highlevel import AnyReader
+    got = {t: [] for t in TOPICS}
+    with AnyReader([bag]) as reader:
+        assert {c.topic for c in reader.connections} == set(TOPICS)  # no topic dropped for a QoS mismatch
+        for conn, _, raw in reader.messages():
+            got[conn.topic].append(reader.deserialize(raw, conn.msgtype))
+    for topic in TOPICS:
+        assert [m.step for m in got[topic]] == list(range(2000))
+        for pub, dec in zip(published[topic], got[topic]):
+            _assert_fields(pub, dec)
+
+    # reader 2: mcap + mcap-ros2-support, straight from the .mcap file
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    got = {t: [] for t in TOPICS}
+    with open(bag / 'bag_0.mcap', 'rb') as f:
+        for _, channel, _, decoded in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            got[channel.topic].append(decoded)
+    for topic in TOPICS:
+        assert len(got[topic]) == 2000
+        for pub, dec in zip(published[topic], sorted(got[topic], key=lambda m: m.step)):
+            _assert_fields(pub, dec)
+
+    # the bytes in the bag are the publisher's wire bytes: rclpy decodes them to the very messages
+    from rclpy.serialization import deserialize_message
+    from drive_logger.bag_reader import BagReader
+    for msg, pub in zip(BagReader(bag).messages(['/drive/gate_command']), published['/drive/gate_command']):
+        assert deserialize_message(msg.data, GateCommand) == pub
+
+
+def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_node, tmp_path, measurement_factory):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'])
+    node = ros_session.node('publisher')
+    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    stop_publishing = threading.Event()
+
+    def publish():
+        k = 0
+        while not stop_publishing.is_set():
+            pub.publish(measurement_factory(k))
+            k += 1
+            time.sleep(0.0005)
+
+    thread = threading.Thread(target=publish)
+    thread.start()
+    try:
+        time.sleep(1.5)
+        os.killpg(recorder.pid, signal.SIGINT)   # mid-run: the publisher keeps going
+    finally:
+        time.sleep(0.3)
+        stop_publishing.set()
+        thread.join()
+    assert recorder.process.wait(timeout=15) == 0, recorder.output()
+    from drive_logger.bag_reader import BagReader
+    reader = BagReader(bag)   # finalized: opens without salvage
+    steps = [reader.decode(m).step for m in reader.messages()]
+    assert len(steps) > 500
+    assert steps == list(range(len(steps))), 'gap in the recorded steps'
+    assert reader.topics['/drive/measurement'].message_count == len(steps)
+
+
+def test_sigterm_finalizes_too(ros_session, start_node, tmp_path, measurement_factory):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'])
+    node = ros_session.node('publisher')
+    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    for k in range(100):
+        pub.publish(measurement_factory(k))
+    time.sleep(0.5)
+    assert _stop(recorder, signal.SIGTERM) == 0
+    from drive_logger.bag_reader import BagReader
+    assert [m.log_time > 0 for m in BagReader(bag).messages()] == [True] * 100
+
+
+def test_existing_output_directory_is_refused(start_node, tmp_path):
+    bag = tmp_path / 'bag'
+    bag.mkdir()
+    (bag / 'keep.txt').write_text('mine')
+    recorder = _start_recorder(start_node, bag)
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'already exists' in recorder.output()
+    assert sorted(p.name for p in bag.iterdir()) == ['keep.txt']
+
+
+def test_unknown_topic_type_is_refused_before_writing(start_node, tmp_path):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['drive/measurement', 'foo:nonexistent_pkg/msg/Nope'])
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'nonexistent_pkg/msg/Nope' in recorder.output()
+    recorder = _start_recorder(start_node, bag, topics=['/not_in_graph'], type_discovery_timeout=0.3)
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'unknown type' in recorder.output() and '/not_in_graph' in recorder.output()
+    assert not bag.exists()
