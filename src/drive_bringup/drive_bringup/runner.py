@@ -159,18 +159,15 @@ class GraphRunner:
             if time.monotonic() > deadline:
                 raise RunFailed('the plant action server did not come up within 60 s')
         if self.record:
-            wanted = record_topics(self.scenario)
-            while True:
-                # The recorder subscribes every topic at start: wait until it has.
-                names = {n for n, _ in node.get_topic_names_and_types()}
-                ready = all(node.count_subscribers(t) >= 1 for t in wanted if t in names) and \
-                    node.count_subscribers(_absolute_topic(topics.PLANT_STATE)) >= 1
-                if ready:
-                    break
-                executor.spin_once(timeout_sec=0.05)
-                self._check_alive()
-                if time.monotonic() > deadline:
-                    raise RunFailed('the recorder did not subscribe within 60 s')
+            from drive_logger.readiness import wait_for_recorder
+            try:
+                wait_for_recorder(node, record_topics(self.scenario),
+                                  timeout=max(1.0, deadline - time.monotonic()))
+            except TimeoutError as exc:
+                raise RunFailed(str(exc)) from exc
+            # Matching of the recorder's subscriptions with publishers that
+            # appeared after it is not visible from outside: let discovery settle.
+            time.sleep(1.0)
 
     def _set_parameters(self, node, executor, target: str, values: dict) -> None:
         client = self._param_clients[target]

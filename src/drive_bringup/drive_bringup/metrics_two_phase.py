@@ -1,0 +1,275 @@
+"""Metrics of the two-phase BLDC DTC results (000 ch. II and IV), pure numpy.
+
+Every metric takes the arrays dict of
+:meth:`drive_bringup.headless.HeadlessResult.arrays` -- plant ground truth
+as ``'plant/state.<field>'`` (one row per recorded plant tick, the last row
+is the final state) and controller internals as ``'dtc/status.<field>'``
+(one row per controller sample) -- plus keyword options, and returns a
+float (NaN when the window holds no data). Controller and plant rows are
+paired by their ``step`` (the status of step k and the plant state at t_k).
+Options ``t_start`` / ``t_end`` [s] restrict a metric to a time window
+(default: the whole run). ``RATED_TORQUE`` = 1.28352 N m (000 App. A).
+
+Definitions (the names are the ``metric:`` keys of the scenarios' checks):
+
+``torque_estimation_rms_error_pct_rated``
+    RMS over the window of (T_est - T_true) at the controller samples, in %
+    of rated torque; T_est = ``dtc/status.torque_estimate`` (eq. 2.16 / 4.1
+    from the back-EMF table and the sensed currents), T_true =
+    ``plant/state.electromagnetic_torque`` at the same instant t_k.
+``mean_torque_N_m``
+    Mean of the plant's true electromagnetic torque over the window [N m].
+``mean_torque_error_N_m``
+    Mean of (T_true - T*) over the window [N m]; T* =
+    ``dtc/status.torque_reference``. Hysteresis with a band far below the
+    per-sample torque step (0.001 N m vs about 0.1 N m at 25 us) leaves a
+    small offset of this mean.
+``high_frequency_torque_ripple_pct_rated``
+    Standard deviation of (T_true - its moving average over ``window``
+    [s], default 1 ms) in % of rated torque: the switching ripple.
+``low_frequency_torque_ripple_pct_rated``
+    Peak-to-peak of the moving average over ``window`` (default 1 ms,
+    many switching periods but well below a 60-degree commutation
+    interval) of T_true within the window, in % of rated torque: the
+    commutation-rate torque oscillation that eq. (2.16) with an encoder is
+    meant to suppress (000 Fig. 2.10).
+``rise_time_s``
+    Torque response to the largest step of T* inside the window: time from
+    the step (first controller sample with the new reference) to the first
+    sample at which ``signal`` (default the true torque) reaches
+    T*_before + ``fraction`` (default 0.9) * (T*_after - T*_before). With
+    hysteresis DTC the switching ripple is comparable to the step, so a
+    10-90 % definition on the raw torque is meaningless; this 0-90 %
+    response time is what the seeds call "fast torque response".
+``phase_c_current_rms_sectors_2_5_A`` / ``phase_c_current_rms_other_sectors_A``
+    RMS of the plant's phase-c current over the controller samples whose
+    sector (``dtc/status.sector``) is II or V (four-switch: phase-torque
+    control, i_c should stay near zero, 000 Fig. 4.13) / in I, III, IV, VI.
+``peak_phase_current_A``
+    Largest |i_x| of the true phase currents in the window [A].
+``protection_tripped``
+    1.0 if the plant's motor peak-current protection (PlantState
+    protection bit 0) was set at any recorded sample in the window, else 0.0.
+``trip_time_s``
+    Sim time of the first recorded sample with the protection set (NaN if none).
+``mean_speed_rad_s``
+    Mean mechanical speed [rad/s] over the window.
+``flux_dip_depth_Wb``
+    Depth of the commutation dips of the open-loop estimated stator flux
+    magnitude |psi_s| (``dtc/status.flux_magnitude``): the window is cut
+    into the intervals of constant sector (60 electrical degrees, one
+    commutation each); per complete interval depth = max |psi_s| - min
+    |psi_s|; the metric is the median over the intervals [Wb].
+``flux_dip_depth_ratio``
+    flux_dip_depth_Wb over the ``loaded`` window (t0, t1) divided by the
+    same over the ``unloaded`` window (000 Figs. 2.4 vs 2.5: the dips
+    deepen with load).
+``torque_tracking_rms_error_pct_rated``
+    RMS of (T_true - T*) over the window in % of rated torque (loss of
+    torque control shows as a large value).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+RATED_TORQUE = 1.28352          # N m, 000 Appendix A
+PROTECTION_MOTOR_OVER_CURRENT = 1
+
+Arrays = dict
+
+
+def _window(t: np.ndarray, t_start: float | None, t_end: float | None) -> np.ndarray:
+    lo = -math.inf if t_start is None else t_start
+    hi = math.inf if t_end is None else t_end
+    return (t >= lo - 1e-12) & (t <= hi + 1e-12)
+
+
+def paired(arrays: Arrays, t_start: float | None = None, t_end: float | None = None) -> dict:
+    """Plant rows at the controller samples: {'time', 'plant.<f>', 'dtc.<f>'} over the window."""
+    p_step = arrays['plant/state.step'].astype(np.int64)
+    d_step = arrays['dtc/status.step'].astype(np.int64)
+    index = {int(s): j for j, s in enumerate(p_step)}
+    rows_d = [j for j, s in enumerate(d_step) if int(s) in index]
+    rows_p = [index[int(d_step[j])] for j in rows_d]
+    t = arrays['plant/state.time'][rows_p]
+    keep = _window(t, t_start, t_end)
+    out = {'time': t[keep]}
+    for key, val in arrays.items():
+        if key.startswith('plant/state.'):
+            out['plant.' + key[len('plant/state.'):]] = val[rows_p][keep]
+        elif key.startswith('dtc/status.'):
+            out['dtc.' + key[len('dtc/status.'):]] = val[rows_d][keep]
+    return out
+
+
+def _plant(arrays: Arrays, name: str, t_start=None, t_end=None) -> np.ndarray:
+    keep = _window(arrays['plant/state.time'], t_start, t_end)
+    return arrays[f'plant/state.{name}'][keep]
+
+
+def _moving_average(x: np.ndarray, n: int) -> np.ndarray:
+    n = max(1, min(int(n), len(x)))
+    c = np.cumsum(np.concatenate(([0.0], x)))
+    return (c[n:] - c[:-n]) / n
+
+
+def _samples_in(time: np.ndarray, duration: float) -> int:
+    dt = float(np.median(np.diff(time))) if len(time) > 1 else 1.0
+    return max(1, int(round(duration / dt)))
+
+
+def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
+                                          rated_torque: float = RATED_TORQUE) -> float:
+    d = paired(arrays, t_start, t_end)
+    if not len(d['time']):
+        return math.nan
+    err = d['dtc.torque_estimate'] - d['plant.electromagnetic_torque']
+    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+
+
+def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
+    d = paired(arrays, t_start, t_end)
+    return float(np.mean(d['plant.electromagnetic_torque'])) if len(d['time']) else math.nan
+
+
+def mean_torque_error_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
+    d = paired(arrays, t_start, t_end)
+    if not len(d['time']):
+        return math.nan
+    return float(np.mean(d['plant.electromagnetic_torque'] - d['dtc.torque_reference']))
+
+
+def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
+                                        rated_torque: float = RATED_TORQUE) -> float:
+    d = paired(arrays, t_start, t_end)
+    if not len(d['time']):
+        return math.nan
+    err = d['plant.electromagnetic_torque'] - d['dtc.torque_reference']
+    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+
+
+def high_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
+                                           rated_torque: float = RATED_TORQUE) -> float:
+    d = paired(arrays, t_start, t_end)
+    te = d['plant.electromagnetic_torque']
+    n = _samples_in(d['time'], window)
+    if len(te) <= n:
+        return math.nan
+    avg = _moving_average(te, n)
+    centred = te[n // 2: n // 2 + len(avg)]
+    return float(100.0 * np.std(centred - avg) / rated_torque)
+
+
+def low_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
+                                          rated_torque: float = RATED_TORQUE) -> float:
+    d = paired(arrays, t_start, t_end)
+    te = d['plant.electromagnetic_torque']
+    n = _samples_in(d['time'], window)
+    if len(te) <= n:
+        return math.nan
+    avg = _moving_average(te, n)
+    return float(100.0 * (avg.max() - avg.min()) / rated_torque)
+
+
+def rise_time_s(arrays: Arrays, t_start=None, t_end=None, fraction: float = 0.9,
+                signal: str = 'plant.electromagnetic_torque') -> float:
+    d = paired(arrays, t_start, t_end)
+    ref = d['dtc.torque_reference']
+    if len(ref) < 2:
+        return math.nan
+    jumps = np.abs(np.diff(ref))
+    j = int(np.argmax(jumps))
+    if jumps[j] == 0.0:
+        return math.nan
+    before, after = ref[j], ref[j + 1]
+    level = before + fraction * (after - before)
+    y = d[signal][j + 1:]
+    hit = np.flatnonzero((y - level) * np.sign(after - before) >= 0.0)
+    if not hit.size:
+        return math.nan
+    return float(d['time'][j + 1 + hit[0]] - d['time'][j + 1])
+
+
+def _phase_c_rms(arrays: Arrays, sectors, t_start, t_end) -> float:
+    d = paired(arrays, t_start, t_end)
+    sel = np.isin(d['dtc.sector'].astype(int), sectors)
+    if not sel.any():
+        return math.nan
+    i_c = d['plant.phase_current'][sel, 2]
+    return float(np.sqrt(np.mean(i_c ** 2)))
+
+
+def phase_c_current_rms_sectors_2_5_A(arrays: Arrays, t_start=None, t_end=None) -> float:
+    return _phase_c_rms(arrays, (2, 5), t_start, t_end)
+
+
+def phase_c_current_rms_other_sectors_A(arrays: Arrays, t_start=None, t_end=None) -> float:
+    return _phase_c_rms(arrays, (1, 3, 4, 6), t_start, t_end)
+
+
+def peak_phase_current_A(arrays: Arrays, t_start=None, t_end=None) -> float:
+    i = _plant(arrays, 'phase_current', t_start, t_end)
+    return float(np.max(np.abs(i))) if i.size else math.nan
+
+
+def protection_tripped(arrays: Arrays, t_start=None, t_end=None) -> float:
+    prot = _plant(arrays, 'protection', t_start, t_end).astype(np.int64)
+    return float(bool(np.any(prot & PROTECTION_MOTOR_OVER_CURRENT)))
+
+
+def trip_time_s(arrays: Arrays, t_start=None, t_end=None) -> float:
+    t = _plant(arrays, 'time', t_start, t_end)
+    prot = _plant(arrays, 'protection', t_start, t_end).astype(np.int64)
+    hit = np.flatnonzero(prot & PROTECTION_MOTOR_OVER_CURRENT)
+    return float(t[hit[0]]) if hit.size else math.nan
+
+
+def mean_speed_rad_s(arrays: Arrays, t_start=None, t_end=None) -> float:
+    w = _plant(arrays, 'mechanical_speed', t_start, t_end)
+    return float(np.mean(w)) if w.size else math.nan
+
+
+def flux_dip_depth_Wb(arrays: Arrays, t_start=None, t_end=None) -> float:
+    d = paired(arrays, t_start, t_end)
+    sector = d['dtc.sector'].astype(int)
+    psi = d['dtc.flux_magnitude']
+    edges = np.flatnonzero(np.diff(sector)) + 1
+    depths = [float(psi[a:b].max() - psi[a:b].min()) for a, b in zip(edges[:-1], edges[1:]) if b - a > 2]
+    return float(np.median(depths)) if depths else math.nan
+
+
+def flux_dip_depth_ratio(arrays: Arrays, unloaded=(None, None), loaded=(None, None)) -> float:
+    base = flux_dip_depth_Wb(arrays, *unloaded)
+    return float(flux_dip_depth_Wb(arrays, *loaded) / base) if base > 0.0 else math.nan
+
+
+METRICS = {f.__name__: f for f in (
+    torque_estimation_rms_error_pct_rated, mean_torque_N_m, mean_torque_error_N_m,
+    torque_tracking_rms_error_pct_rated, high_frequency_torque_ripple_pct_rated,
+    low_frequency_torque_ripple_pct_rated, rise_time_s, phase_c_current_rms_sectors_2_5_A,
+    phase_c_current_rms_other_sectors_A, peak_phase_current_A, protection_tripped, trip_time_s,
+    mean_speed_rad_s, flux_dip_depth_Wb, flux_dip_depth_ratio)}
+"""Metric name -> function(arrays, **options) -> float."""
+
+
+def compute(arrays: Arrays, spec: dict | None = None, names=None) -> dict[str, float]:
+    """Evaluate metrics: ``spec`` is a scenario's ``metrics:`` mapping {name: {options}}.
+
+    A spec key may be ``<label>`` with option ``metric: <function name>`` to
+    evaluate one function with several option sets; ``names`` adds metrics
+    with default options. Unknown names raise KeyError.
+    """
+    out = {}
+    for label, options in (spec or {}).items():
+        options = dict(options or {})
+        fname = options.pop('metric', label)
+        for key in ('unloaded', 'loaded'):
+            if key in options:
+                options[key] = tuple(options[key])
+        out[label] = METRICS[fname](arrays, **options)
+    for name in names or ():
+        if name not in out:
+            out[name] = METRICS[name](arrays)
+    return out
