@@ -108,7 +108,7 @@ class PlantNode(Node):
                                     callback_group=self._run_group)
         self.create_service(ResetProtection, topics.RESET_PROTECTION_SERVICE, self._reset,
                             callback_group=ReentrantCallbackGroup())
-        self._publish_state()
+        self._initial_state_sent = False
         self._autorun_timer = None
         if self.parameters['run_until'] > 0.0:
             self._autorun_timer = self.create_timer(0.05, self._autorun,
@@ -199,6 +199,11 @@ class PlantNode(Node):
             if reason:
                 self._fault('startup', reason)
                 return False, reason
+            if not self._initial_state_sent:
+                # Ground truth at t_0, sent once the graph is matched (not at
+                # construction, when nobody could receive it yet).
+                self._initial_state_sent = True
+                self._publish_state()
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
             while self.core.step < target_step:

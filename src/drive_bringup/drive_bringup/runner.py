@@ -102,15 +102,17 @@ class GraphRunner:
                 raise RunFailed(f'node {key} exited with code {process.process.returncode}:\n{tail}')
 
     def _stop_all(self) -> None:
-        recorder = self.processes.pop('recorder', None)
-        # Stop the producers first so the recorder sees everything they sent.
-        for key in list(self.processes):
-            self.processes[key].stop()
+        """Recorder first: sim time is held, so the producers are idle but still
+        alive to deliver what the recorder has not taken yet (their writer
+        history); the recorder drains it, finalizes the bag, then the nodes go."""
+        recorder = self.processes.get('recorder')
         if recorder is not None:
-            code = recorder.stop(timeout=30.0)
-            if code not in (0, -signal.SIGINT, 130, None):
+            code = recorder.stop(timeout=60.0)
+            if code not in (0, None):
                 self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-2000:]}')
-            self.processes['recorder'] = recorder
+        for key, process in self.processes.items():
+            if key != 'recorder':
+                process.stop()
 
     # --- ROS client side ----------------------------------------------------------
     def _spin_until(self, executor, future, timeout: float, what: str):

@@ -1,0 +1,128 @@
+"""Back-EMF generator test (000 §5.4): write the back-EMF table a controller loads.
+
+As the dissertation did offline, the motor is driven at constant speed by the
+dynamometer with every inverter switch open (open circuit), the two
+line-to-line back-EMFs e_ba = v_b - v_a and e_ca = v_c - v_a are recorded from
+the terminal voltages over one electrical cycle and divided by omega_e:
+k_ba, k_ca in V*s/rad. The speed is chosen so the cycle spans exactly
+``points`` samples of ``ticks_per_point`` base ticks (angles on the grid
+2 pi n / points) and so the line-to-line EMF stays below the DC link (the
+diodes stay reverse-biased). Derived columns (docs/architecture.md):
+phase constants without zero sequence by 000 eq. (5.13)
+k_a = -(k_ba + k_ca)/3, k_b = k_a + k_ba, k_c = k_a + k_ca; amplitude-invariant
+Clarke k_alpha, k_beta; Park k_d, k_q at theta_e.
+
+Pure Python (no ROS): ``backemf_generator --motor ozturk_bldc -o table.csv``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from drive_common.samples import ALL_OFF
+
+from .core.plant import PlantCore
+from .parameters import plant_params
+
+COLUMNS = ('theta_e', 'k_a', 'k_b', 'k_c', 'k_ba', 'k_ca', 'k_alpha', 'k_beta', 'k_d', 'k_q')
+TWO_PI = 2.0 * math.pi
+
+
+def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict:
+    """Run the open-circuit constant-speed test; returns {'columns', 'speed', 'ticks_per_point'}.
+
+    params: plant parameter snapshot (motor, DC link); speed: target mechanical
+    speed [rad/s] (the actual one is at most this, to land on the angle grid).
+    """
+    base = dict(params)
+    tick = base['base_tick']
+    p = int(base['motor.pole_pairs'])
+    w_e_target = p * abs(speed)
+    m = max(1, math.ceil(TWO_PI / (points * tick * w_e_target)))
+    w_e = TWO_PI / (points * m * tick)
+    base.update({'load.mode': 'dynamometer', 'load.speed': w_e / p, 'motor.initial_speed': w_e / p,
+                 'motor.initial_angle': 0.0, 'protection.peak_current': 0.0})
+    plant = PlantCore(base)
+    limit = plant.dc.positive + 2.0 * plant.inverter.v_d
+    if w_e * plant.motor.backemf.line_to_line_peak() >= limit:
+        raise ValueError(f'generator test: line-to-line EMF {w_e * plant.motor.backemf.line_to_line_peak():.2f} V '
+                         f'at {w_e / p:.2f} rad/s would forward-bias the diodes (limit {limit:.2f} V); '
+                         'lower the speed')
+    plant.apply_gates(ALL_OFF)
+    k_ba = np.empty(points)
+    k_ca = np.empty(points)
+    for n in range(points):
+        state = plant.state()
+        if any(state.phase_current):
+            raise RuntimeError('generator test: current flowed in the open-circuit test')
+        v = state.terminal_voltage
+        w = state.mechanical_speed * p
+        k_ba[n] = (v[1] - v[0]) / w
+        k_ca[n] = (v[2] - v[0]) / w
+        for _ in range(m):
+            plant.advance()
+    return {'columns': table_columns(k_ba, k_ca), 'speed': w_e / p, 'ticks_per_point': m}
+
+
+def table_columns(k_ba, k_ca) -> dict:
+    """All table columns from the line-to-line constants on the grid 2 pi n / N."""
+    k_ba, k_ca = np.asarray(k_ba, float), np.asarray(k_ca, float)
+    theta = np.arange(len(k_ba)) * (TWO_PI / len(k_ba))
+    k_a = -(k_ba + k_ca) / 3.0
+    k_b, k_c = k_a + k_ba, k_a + k_ca
+    k_alpha = (2.0 * k_a - k_b - k_c) / 3.0
+    k_beta = (k_b - k_c) / math.sqrt(3.0)
+    cos, sin = np.cos(theta), np.sin(theta)
+    return {'theta_e': theta, 'k_a': k_a, 'k_b': k_b, 'k_c': k_c, 'k_ba': k_ba, 'k_ca': k_ca,
+            'k_alpha': k_alpha, 'k_beta': k_beta, 'k_d': k_alpha * cos + k_beta * sin,
+            'k_q': -k_alpha * sin + k_beta * cos}
+
+
+def write_table(path, columns: dict, metadata: dict) -> None:
+    """CSV of docs/architecture.md: '# key: value' lines, header, one row per angle."""
+    lines = [f'# {k}: {v}' for k, v in metadata.items()]
+    lines.append(','.join(COLUMNS))
+    data = np.column_stack([columns[c] for c in COLUMNS])
+    lines += [','.join(f'{v:.12g}' for v in row) for row in data]
+    Path(path).write_text('\n'.join(lines) + '\n')
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog='backemf_generator', description=__doc__.split('\n')[0])
+    parser.add_argument('--motor', default='ozturk_bldc', help='motor file (name in motors/ or path)')
+    parser.add_argument('--points', type=int, default=252, help='points per electrical cycle (252)')
+    parser.add_argument('--speed', type=float, default=30.0, help='test speed, mechanical rad/s (max)')
+    parser.add_argument('-p', '--param', action='append', default=[], metavar='NAME=VALUE',
+                        help='extra plant parameter (YAML value), repeatable')
+    parser.add_argument('-o', '--output', default=None, help='output CSV (default backemf_<motor>.csv)')
+    args = parser.parse_args(argv)
+    import yaml  # noqa: PLC0415
+
+    overrides = {}
+    for item in args.param:
+        name, _, value = item.partition('=')
+        overrides[name] = yaml.safe_load(value)
+    try:
+        params = plant_params(args.motor, **overrides)
+        result = generator_test(params, args.points, args.speed)
+    except (ValueError, OSError) as exc:
+        print(f'error: {exc}', file=sys.stderr)
+        return 2
+    out = Path(args.output or f'backemf_{Path(args.motor).stem}.csv')
+    meta = {'pole_pairs': params['motor.pole_pairs'], 'points': args.points,
+            'source': f'bldc_plant_sim generator test, motor {args.motor}, open circuit at '
+                      f'{result["speed"]:.6g} mech rad/s',
+            'convention': 'docs/architecture.md (k = d psi_r/d theta_e, e = omega_e k; '
+                          'k_a,k_b,k_c without zero sequence, 000 eq. 5.13)'}
+    write_table(out, result['columns'], meta)
+    print(f'wrote {out} ({args.points} points, {result["speed"]:.4g} mech rad/s, '
+          f'k_LL peak {np.max(np.abs(result["columns"]["k_ba"])):.6g} V s/rad)')
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

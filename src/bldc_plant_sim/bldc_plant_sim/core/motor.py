@@ -1,0 +1,57 @@
+"""Y-connected three-phase PM motor: electrical constants and mechanics (000 eq. (2.1)-(2.3)).
+
+Per phase x: v_xn = R i_x + (L - M) di_x/dt + e_x, e_x = omega_e k_x(theta_e),
+T_e = p sum_x k_x i_x, J dw_m/dt = T_e - T_L - B w_m (architecture conventions).
+The star point is isolated, so the conducting phase currents sum to zero and
+the magnetic energy is (L - M)/2 sum i_x^2. Flux linkage of phase x:
+psi_x = (L - M) i_x + psi_rx(theta_e).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .backemf import BackEmfShape
+
+
+@dataclass
+class Motor:
+    """Motor constants (SI) and its back-EMF shape."""
+
+    pole_pairs: int
+    resistance: float          # ohm, R_s
+    self_inductance: float     # H, L_s
+    mutual_inductance: float   # H, M
+    inertia: float             # kg m^2, J
+    friction: float            # N m s/rad, B
+    backemf: BackEmfShape
+
+    @classmethod
+    def from_params(cls, p: dict) -> 'Motor':
+        return cls(int(p['motor.pole_pairs']), p['motor.resistance'], p['motor.self_inductance'],
+                   p['motor.mutual_inductance'], p['motor.inertia'], p['motor.friction'],
+                   BackEmfShape.from_params(p))
+
+    @property
+    def inductance(self) -> float:
+        """Circuit inductance per phase L - M [H]."""
+        return self.self_inductance - self.mutual_inductance
+
+    @property
+    def time_constant(self) -> float:
+        """(L - M) / R [s]."""
+        return self.inductance / self.resistance
+
+    def torque(self, theta_e: float, i: tuple) -> float:
+        """Electromagnetic torque p sum k_x i_x [N m]."""
+        ka, kb, kc = self.backemf.lookup(theta_e)
+        return self.pole_pairs * (ka * i[0] + kb * i[1] + kc * i[2])
+
+    def flux_linkages(self, theta_e: float, i: tuple) -> tuple[float, float, float]:
+        """Phase flux linkages (L - M) i_x + psi_rx(theta_e) [Wb]."""
+        lm = self.inductance
+        pa, pb, pc = self.backemf.pm_flux(theta_e)
+        return lm * i[0] + pa, lm * i[1] + pb, lm * i[2] + pc
+
+    def magnetic_energy(self, i: tuple) -> float:
+        """(L - M)/2 sum i_x^2 [J] (isolated star point)."""
+        return 0.5 * self.inductance * (i[0] * i[0] + i[1] * i[1] + i[2] * i[2])

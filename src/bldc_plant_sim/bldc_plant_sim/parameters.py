@@ -1,0 +1,241 @@
+"""Parameter schema of the ``plant`` node (pure: no rclpy).
+
+One :class:`~drive_common.parameters.ParameterSchema` serves the ROS node,
+scenario files and the headless co-simulation. Defaults describe the BLDC
+motor of 000 Appendix A on a six-switch inverter fed by an ideal
+40*sqrt(2) V source (000 ch. II/V test conditions). Motor, topology and
+periods are ``runtime=False`` (changed only while the simulation is held);
+load, sensor errors, device drops and the trip level may change at any
+sample boundary.
+
+Motor data files (``motors/*.yaml``) hold a ``parameters:`` mapping of these
+same names; :func:`plant_params` merges one into the defaults, and the
+``motor.file`` parameter does the same inside the PlantCore.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+from drive_common.parameters import ParameterError, ParameterSpec, schema
+
+MOTORS_DIR = Path(__file__).resolve().parent.parent / 'motors'
+"""Motor files in the source tree (the symlink install points back here)."""
+
+# 000 Appendix A: lambda_f = 0.1146 Wb is the line-to-line peak back-EMF
+# constant per electrical rad/s (= phase flat top per mechanical rad/s, as
+# p = 2); the phase flat top per electrical rad/s is lambda_f / 2. Pinned by
+# test_motor_files.py with T = 2 p K I = 1.28352 N m at 5.6 A.
+OZTURK_K_PHASE = 0.1146 / 2.0
+
+MOTOR_FILE_EXTRAS = ('protection.peak_current',)
+"""Non-``motor.*`` names a motor file may set (motor ratings)."""
+
+_S = ParameterSpec
+PLANT_SPECS = (
+    # ---- time and lockstep (held) ----
+    _S('base_tick', 25e-6, 'plant base tick T_s: sample period of the time master',
+       's', 1e-7, 1e-2, runtime=False),
+    _S('integration.max_step', 25e-6, 'largest inner integration step (events are located inside it)',
+       's', 1e-9, 1e-2, runtime=False),
+    _S('dtc_period', 25e-6, 'DTC controller period, integer multiple of base_tick (0 = no DTC controller)',
+       's', 0.0, 1.0, runtime=False),
+    _S('pfc_period', 12.5e-6, 'PFC controller period, integer multiple of base_tick',
+       's', 0.0, 1.0, runtime=False),
+    _S('pfc_enabled', False, 'wait for a PFC controller (needs the front end)', runtime=False),
+    _S('state_period', 0.0, 'plant/state publishing period (0 = every DTC sample)', 's', 0.0, 1.0,
+       runtime=False),
+    _S('computation_delay', False, 'apply each command one controller sample late, as a DSP does',
+       runtime=False),
+    _S('command_timeout', 5.0, 'wall-clock wait for a due command before the safe state', 's',
+       1e-3, 600.0),
+    _S('startup_timeout', 30.0, 'wall-clock wait for the controllers to match at start', 's',
+       0.0, 3600.0),
+    _S('run_until', 0.0, 'advance to this sim time at start-up without a Run goal (0 = wait)', 's',
+       0.0, 1e6),
+    # ---- motor (held) ----
+    _S('motor.file', '', 'motor data file (name in motors/ or a path); its values replace motor.*',
+       runtime=False),
+    _S('motor.pole_pairs', 2, 'pole pairs p (000 App. A: 4 poles)', '', 1, 64, runtime=False),
+    _S('motor.resistance', 0.315, 'phase winding resistance R_s', 'ohm', 1e-6, 100.0, runtime=False),
+    _S('motor.self_inductance', 1.4e-3, 'phase self inductance L_s', 'H', 1e-7, 1.0, runtime=False),
+    _S('motor.mutual_inductance', 0.3125e-3, 'mutual inductance M (the circuit uses L - M)', 'H',
+       0.0, 1.0, runtime=False),
+    _S('motor.inertia', 2.0e-4, 'rotor + coupling inertia J (assumed: not in 000)', 'kg m^2',
+       1e-8, 100.0, runtime=False),
+    _S('motor.friction', 1.0e-4, 'viscous friction B of the motor (assumed: not in 000)',
+       'N m s/rad', 0.0, 10.0, runtime=False),
+    _S('motor.backemf.shape', 'trapezoid', 'back-EMF shape', '',
+       choices=('trapezoid', 'harmonic', 'sine', 'table'), runtime=False),
+    _S('motor.backemf.constant', OZTURK_K_PHASE,
+       'phase back-EMF constant K: flat top (trapezoid) or fundamental peak (sine, harmonic), '
+       'per electrical rad/s', 'V s/rad', 0.0, 10.0, runtime=False),
+    _S('motor.backemf.harmonic_orders', [1.0, 3.0, 5.0], 'harmonic orders n of the harmonic shape',
+       '', 1.0, 99.0, runtime=False),
+    _S('motor.backemf.harmonic_coefficients', [1.0, 0.2222222222222222, 0.04],
+       'sine amplitudes of the harmonic orders, per unit of K (000 non-ideal: trapezoid 1st/3rd/5th)',
+       '', -10.0, 10.0, runtime=False),
+    _S('motor.backemf.table_file', '', 'back-EMF table CSV (docs/architecture.md format) for shape=table',
+       runtime=False),
+    _S('motor.backemf.phase_gain', [1.0, 1.0, 1.0], 'per-phase back-EMF scale (imbalance, 001 Table VII)',
+       '', 0.0, 10.0, length=3, runtime=False),
+    _S('motor.backemf.lut_points', 3072, 'back-EMF lookup-table points per electrical cycle '
+       '(multiple of 12 keeps trapezoid corners exact)', '', 12, 1_000_000, runtime=False),
+    _S('motor.initial_angle', 0.0, 'initial mechanical rotor angle', 'rad', -1e6, 1e6, runtime=False),
+    _S('motor.initial_speed', 0.0, 'initial mechanical speed', 'rad/s', -1e5, 1e5, runtime=False),
+    # ---- inverter ----
+    _S('inverter.topology', 6, 'six-switch or four-switch inverter', '', choices=(4, 6), runtime=False),
+    _S('inverter.midpoint_phase', 'c', 'four-switch: phase tied to the capacitor midpoint '
+       '(c for 000 ch. IV, a for 001)', '', choices=('a', 'b', 'c'), runtime=False),
+    _S('inverter.v_ce', 0.0, 'switch on-state threshold V_CE (001 Table IV: 0.9 V; 0 = ideal)', 'V',
+       0.0, 10.0),
+    _S('inverter.v_d', 0.0, 'diode forward drop V_d (001 Table IV: 1.25 V; 0 = ideal)', 'V', 0.0, 10.0),
+    _S('inverter.r_on', 0.0, 'on-state resistance of a conducting device (001 Table IV: 0.075 ohm)',
+       'ohm', 0.0, 10.0),
+    _S('inverter.dead_time', 0.0, 'both switches of a leg off after each gate transition', 's',
+       0.0, 1e-3, runtime=False),
+    # ---- DC link ----
+    _S('dc_link.mode', 'ideal', 'ideal: stiff source (stiff midpoint); split_capacitors: stiff source '
+       'across C_upper + C_lower, midpoint drifts; current_fed: capacitors fed by a source current',
+       '', choices=('ideal', 'split_capacitors', 'current_fed'), runtime=False),
+    _S('dc_link.voltage', 40.0 * math.sqrt(2.0), 'DC source voltage (000: 40*sqrt(2) V; 001: 70 V)',
+       'V', 0.0, 2000.0, runtime=False),
+    _S('dc_link.upper_capacitance', 270e-6, 'upper split capacitor C3 (000 ch. III)', 'F', 1e-9, 10.0,
+       runtime=False),
+    _S('dc_link.lower_capacitance', 270e-6, 'lower split capacitor C4 (000 ch. III)', 'F', 1e-9, 10.0,
+       runtime=False),
+    _S('dc_link.initial_midpoint', 0.5, 'initial lower capacitor voltage per unit of dc_link.voltage',
+       '', 0.0, 1.0, runtime=False),
+    _S('dc_link.source_current', 0.0, 'current_fed mode: source current into the positive rail', 'A',
+       -1000.0, 1000.0),
+    # ---- load machine (runtime) ----
+    _S('load.mode', 'torque', 'load machine: constant torque, viscous, or dynamometer holding a speed',
+       '', choices=('torque', 'viscous', 'dynamometer')),
+    _S('load.torque', 0.0, 'constant load torque against positive rotation', 'N m', -1000.0, 1000.0),
+    _S('load.viscous', 0.0, 'viscous load coefficient (T_L = b w)', 'N m s/rad', 0.0, 1000.0),
+    _S('load.speed', 0.0, 'dynamometer mechanical speed', 'rad/s', -1e5, 1e5),
+    # ---- sensors (runtime, except the seed) ----
+    _S('sensors.current_count', 3, 'phase current sensors: 2 (a, b; c = NaN) or 3', '',
+       choices=(2, 3)),
+    _S('sensors.current_offset', [0.0, 0.0, 0.0], 'current sensor offsets', 'A', -100.0, 100.0,
+       length=3),
+    _S('sensors.current_gain_error', [0.0, 0.0, 0.0], 'current sensor gain errors (measured = (1+g) i)',
+       '', -0.5, 0.5, length=3),
+    _S('sensors.current_noise', 0.0, 'current sensor noise standard deviation', 'A', 0.0, 100.0),
+    _S('sensors.voltage_offset', 0.0, 'DC and midpoint voltage sensor offset', 'V', -100.0, 100.0),
+    _S('sensors.voltage_gain_error', 0.0, 'DC and midpoint voltage sensor gain error', '', -0.5, 0.5),
+    _S('sensors.voltage_noise', 0.0, 'voltage sensor noise standard deviation', 'V', 0.0, 100.0),
+    _S('sensors.speed_noise', 0.0, 'speed sensor noise standard deviation', 'rad/s', 0.0, 1e4),
+    _S('sensors.encoder_pulses', 2048, 'encoder pulses per revolution (x4 quadrature counts)', '',
+       1, 1_000_000, runtime=False),
+    _S('sensors.encoder_offset', 0.0, 'encoder zero offset (electrical angle error)', 'rad',
+       -math.pi, math.pi),
+    _S('sensors.seed', 0, 'seed of the sensor-noise generator (numpy Generator, deterministic)', '',
+       0, 2**63 - 1, runtime=False),
+    # ---- protection ----
+    _S('protection.peak_current', 24.0, 'motor peak-current trip (000 App. A: 24 A); 0 = disabled',
+       'A', 0.0, 10000.0),
+)
+
+
+def _cross_checks(p: Mapping[str, Any]) -> None:
+    """Checks that involve several parameters; raise ParameterError with the reason."""
+    tick = p['base_tick']
+    for name in ('dtc_period', 'pfc_period'):
+        period = p[name]
+        if name == 'pfc_period' and not p['pfc_enabled']:
+            continue
+        if period > 0.0:
+            n = round(period / tick)
+            if n < 1 or abs(n * tick - period) > 1e-9 * period:
+                raise ParameterError(f'{name}: {period} s is not an integer multiple of base_tick {tick} s')
+    if p['integration.max_step'] > tick * (1 + 1e-12):
+        raise ParameterError(f"integration.max_step: {p['integration.max_step']} s exceeds base_tick {tick} s")
+    if p['inverter.dead_time'] >= tick:
+        raise ParameterError(f"inverter.dead_time: {p['inverter.dead_time']} s must be shorter than "
+                             f'base_tick {tick} s')
+    if p['motor.mutual_inductance'] >= p['motor.self_inductance']:
+        raise ParameterError('motor.mutual_inductance: must be below motor.self_inductance '
+                             '(the phase circuit inductance L - M must be positive)')
+    orders = p['motor.backemf.harmonic_orders']
+    coeffs = p['motor.backemf.harmonic_coefficients']
+    if len(orders) != len(coeffs):
+        raise ParameterError(f'motor.backemf.harmonic_coefficients: {len(coeffs)} values for '
+                             f'{len(orders)} harmonic_orders')
+    if any(o != int(o) for o in orders):
+        raise ParameterError('motor.backemf.harmonic_orders: orders must be whole numbers')
+    if p['motor.backemf.shape'] == 'table' and not p['motor.backemf.table_file']:
+        raise ParameterError('motor.backemf.table_file: required when motor.backemf.shape is table')
+
+
+PLANT_NODE_SCHEMA = schema(PLANT_SPECS, _cross_checks)
+"""The plant node's parameters (declared by the ROS wrapper, used by PlantCore)."""
+
+
+def motor_file_path(name: str) -> Path:
+    """Path of a motor file: a path, or a name (with or without .yaml) in ``motors/``."""
+    path = Path(name)
+    if path.suffix in ('.yaml', '.yml') and path.exists():
+        return path
+    candidates = [MOTORS_DIR / name, MOTORS_DIR / f'{name}.yaml']
+    try:  # installed share directory, when running from an install space
+        from ament_index_python.packages import get_package_share_directory  # noqa: PLC0415
+        share = Path(get_package_share_directory('bldc_plant_sim')) / 'motors'
+        candidates += [share / name, share / f'{name}.yaml']
+    except Exception:  # noqa: BLE001 - no ament index: source tree only
+        pass
+    for cand in candidates:
+        if cand.is_file():
+            return cand
+    raise ParameterError(f'motor.file: no motor file {name!r} (looked in {MOTORS_DIR})')
+
+
+def load_motor_file(name: str) -> dict[str, Any]:
+    """The ``parameters:`` mapping of a motor file (values checked by the schema)."""
+    import yaml  # noqa: PLC0415
+
+    path = motor_file_path(name)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ParameterError(f'motor.file: cannot read {path}: {exc}') from exc
+    params = (data or {}).get('parameters')
+    if not isinstance(params, dict):
+        raise ParameterError(f'motor.file: {path} has no "parameters:" mapping')
+    unknown = sorted(set(params) - set(PLANT_NODE_SCHEMA.names()))
+    if unknown:
+        raise ParameterError(f'motor.file: {path}: unknown parameter(s) ' + ', '.join(unknown))
+    foreign = sorted(n for n in params if not n.startswith('motor.') and n not in MOTOR_FILE_EXTRAS
+                     or n == 'motor.file')
+    if foreign:
+        raise ParameterError(f'motor.file: {path}: not motor data: ' + ', '.join(foreign))
+    table = params.get('motor.backemf.table_file')
+    if table and not Path(table).is_absolute():
+        params['motor.backemf.table_file'] = str((path.parent / table).resolve())
+    return dict(params)
+
+
+def with_motor_file(params: Mapping[str, Any]) -> dict[str, Any]:
+    """params with the values of its ``motor.file`` (if any) applied, validated."""
+    params = dict(params)
+    if params.get('motor.file'):
+        params.update(load_motor_file(params['motor.file']))
+        params = PLANT_NODE_SCHEMA.validate_changes(params, {}, running=False)
+    return params
+
+
+def plant_params(motor: str | None = None, **overrides: Any) -> dict[str, Any]:
+    """A validated parameter snapshot: defaults, then a motor file, then overrides.
+
+    Dotted names go in as ``plant_params('fstp_pm_blac', **{'load.torque': 0.3})``;
+    an unknown name raises ParameterError.
+    """
+    unknown = sorted(set(overrides) - set(PLANT_NODE_SCHEMA.names()))
+    if unknown:
+        raise ParameterError('unknown parameter(s): ' + ', '.join(unknown))
+    values = PLANT_NODE_SCHEMA.defaults()
+    if motor:
+        values.update(load_motor_file(motor))
+    values = PLANT_NODE_SCHEMA.validate_changes(values, {}, running=False)
+    return PLANT_NODE_SCHEMA.validate_changes(values, overrides, running=False)
