@@ -4,7 +4,8 @@ Both sources are turned into one flat arrays dict, keys
 ``'<topic without leading slash>.<field>'`` (``'plant/state.phase_current'``,
 ``'dtc/status.torque_estimate'``, ``'plant/state.time'``), which is what the
 scenario metric functions take: ``fn(arrays, **options) -> float``. A
-scenario's ``metrics`` and ``checks`` name such functions; they live in the
+scenario's ``metrics`` and ``checks`` name such functions (or aliases:
+``name: {metric: <function>, ...options}``); they live in the
 ``drive_bringup.metrics_*`` modules (one per family of seed results).
 """
 from __future__ import annotations
@@ -53,9 +54,10 @@ def evaluate_metrics(scenario: Scenario, arrays: dict[str, np.ndarray]) -> dict[
                                       if c.metric not in scenario.metrics]
     values: dict[str, Any] = {}
     for name in names:
-        options = scenario.metrics.get(name) or {}
+        options = dict(scenario.metrics.get(name) or {})
+        function = options.pop('metric', name)   # an alias: {metric: <function>, ...options}
         try:
-            values[name] = float(metric_function(name)(arrays, **options))
+            values[name] = float(metric_function(function)(arrays, **options))
         except Exception as exc:  # noqa: BLE001 - one bad metric must not hide the others
             values[name] = f'error: {type(exc).__name__}: {exc}'
     return values
