@@ -20,6 +20,7 @@ from mcap.reader import make_reader
 
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.harness import isolated_env
 
 pytestmark = pytest.mark.ros
 
@@ -136,3 +137,24 @@ def test_ctrl_c_stops_every_node(tmp_path):
     assert _processes_with_marker(marker) == [], 'orphan node processes left behind'
     # The recorder was stopped cleanly: the bag is finalized and readable.
     assert (out / 'bag' / 'metadata.yaml').exists()
+
+
+def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_run, tmp_path,
+                                                                      ros_domain):
+    """Issue 7: a recorded run re-drives a new dtc_controller; the gates match step for step."""
+    import yaml
+    out, _ = recorded_run
+    scenario = load_scenario(find_scenario(SCENARIO))
+    params = tmp_path / 'dtc.yaml'
+    params.write_text(yaml.safe_dump(scenario.overrides['dtc_controller']))
+    first_event = round(scenario.events[0].time * 30000)      # parameters change there
+    report = tmp_path / 'compare.json'
+    result = subprocess.run(
+        [sys.executable, '-m', 'drive_logger.compare_replay', str(out / 'bag'),
+         '--package', 'dtc_controller', '--executable', 'dtc_controller',
+         '--params-file', str(params), '--max-steps', str(first_event), '--json', str(report)],
+        capture_output=True, text=True, timeout=300,
+        env=isolated_env(ros_domain))
+    assert result.returncode == 0, result.stdout + result.stderr
+    summary = json.loads(report.read_text())
+    assert summary['steps_compared'] == first_event and summary['mismatch_count'] == 0, summary
