@@ -151,3 +151,21 @@ def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_nod
     assert not result.successful and 'inverter.topology' in result.reason
     assert client.get('inverter.topology') == 6
     assert math.isclose(client.get('dc_link.voltage'), 10.0)
+
+
+def test_motor_and_topology_change_only_while_held(start_node, ros_session):
+    _start_graph(start_node)
+    client = PlantClient(ros_session)
+    handle = _future_result(client.action.send_goal_async(Run.Goal(target_time=0.05)), 30.0,
+                            'goal acceptance')
+    wait_until(lambda: client.states and client.states[-1].step > 20, 30.0, what='run under way')
+    refused = client.set(**{'motor.resistance': 0.5})[0]
+    assert not refused.successful and 'held' in refused.reason, refused.reason
+    assert client.set(**{'load.torque': 0.25})[0].successful         # runtime: accepted
+    result = _future_result(handle.get_result_async(), 120.0, 'Run result').result
+    assert result.success
+    assert client.get('motor.resistance') == pytest.approx(0.315)
+    # Held now: the same change is accepted and acts from the next sample on.
+    assert client.set(**{'motor.resistance': 0.5})[0].successful
+    assert client.get('motor.resistance') == 0.5
+    assert client.run(0.001, relative=True).success
