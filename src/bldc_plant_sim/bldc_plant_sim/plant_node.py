@@ -108,7 +108,7 @@ class PlantNode(Node):
                                     callback_group=self._run_group)
         self.create_service(ResetProtection, topics.RESET_PROTECTION_SERVICE, self._reset,
                             callback_group=ReentrantCallbackGroup())
-        self._initial_state_sent = False
+        self._state_sent_step = -1   # step of the last plant/state sent (never twice)
         self._autorun_timer = None
         if self.parameters['run_until'] > 0.0:
             self._autorun_timer = self.create_timer(0.05, self._autorun,
@@ -199,11 +199,6 @@ class PlantNode(Node):
             if reason:
                 self._fault('startup', reason)
                 return False, reason
-            if not self._initial_state_sent:
-                # Ground truth at t_0, sent once the graph is matched (not at
-                # construction, when nobody could receive it yet).
-                self._initial_state_sent = True
-                self._publish_state()
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
             while self.core.step < target_step:
@@ -218,6 +213,7 @@ class PlantNode(Node):
                     goal_handle.publish_feedback(Run.Feedback(
                         sim_time=self.core.time, step=self.core.step,
                         real_time_factor=(self.core.time - start_time) / wall if wall > 0 else 0.0))
+            self._publish_state_once()
             reached = f'reached t = {self.core.time:.6f} s (step {self.core.step})'
             if self._faults:
                 return False, f'{reached} with faults: ' + '; '.join(self._faults[:3])
@@ -250,6 +246,8 @@ class PlantNode(Node):
                                                self.core.time))
         if due_pfc:
             self._pfc_pub.publish(to_message(PfcMeasurement, self.core.pfc_sample(), self.core.time))
+        # Ground truth at t_k goes out while the controllers compute their answers.
+        self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
         if due_dtc:
             msg = self._command('gate', self._gates_in, k, deadline)
@@ -264,7 +262,12 @@ class PlantNode(Node):
             if msg is not None:
                 self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
         self.core.advance()
-        if self.core.step % self.schedule.state_ticks == 0:
+
+    def _publish_state_once(self) -> None:
+        """plant/state and /clock at t_k, for every state_ticks-th step, each step once."""
+        step = self.core.step
+        if step != self._state_sent_step and step % self.schedule.state_ticks == 0:
+            self._state_sent_step = step
             self._publish_state()
 
     def _publish_state(self) -> None:

@@ -43,6 +43,8 @@ these).
     ``flux_locus_radius_variation``: (max - min) / mean of that binned radius
     profile: 0 for a circle; the 12-fold (dodecagon) shape of 000 Fig. 5.5
     gives a clearly non-zero value.
+    ``flux_locus_dominant_order``: the harmonic order (per turn of the flux
+    angle) with the largest amplitude in that profile (12 = dodecagon).
     ``flux_locus_shape_correlation``: Pearson correlation of the binned
     radius profiles of window ``a`` and window ``b`` (each [t0, t1]) after
     removing each profile's mean: 1 = same shape (000 Fig. 5.6).
@@ -57,7 +59,9 @@ these).
     of electrical periods in the window (single-bin DFT at the electrical
     frequency, taken from the mean plant speed times ``pole_pairs`` unless
     ``frequency`` [Hz] is given). 001 Table IX lists peak values (2.2 A is
-    the rated peak: 0.3 N m / (1.5 * 0.0928 Wb)).
+    the rated peak: 0.3 N m / (1.5 * 0.0928 Wb)). A scenario's ``metrics``
+    key is the function name, so the per-phase values are
+    ``phase_a_current_fundamental_A`` / ``_b_`` / ``_c_`` (same options).
     ``current_imbalance``: (max - min) / mean of the three fundamentals.
     ``current_thd_percent``: 001 eq. (39), THD = sqrt(mean over phases of
     THD_x^2), THD_x = sqrt(sum_{n=2}^{N} X_n^2) / X_1 with the integer
@@ -264,6 +268,20 @@ def flux_locus_radius_variation(arrays: Arrays, t_start=None, t_end=None, source
     return float((prof.max() - prof.min()) / prof.mean())
 
 
+def flux_locus_dominant_order(arrays: Arrays, t_start=None, t_end=None, source: str = 'controller',
+                              bins: int = 72) -> float:
+    """Harmonic order (per turn) of the largest non-DC component of the binned radius profile.
+
+    12 for the dodecagon of a 120-degree trapezoidal back-EMF machine (000 Fig. 5.5), 6 for a
+    hexagon; an estimator offset shows as order 1.
+    """
+    prof = _radius_profile(arrays, t_start, t_end, source, bins)
+    if not np.isfinite(prof).all():
+        return math.nan
+    spec = np.abs(np.fft.rfft(prof - prof.mean()))
+    return float(np.argmax(spec[1:]) + 1)
+
+
 def flux_locus_shape_correlation(arrays: Arrays, a=(None, None), b=(None, None), source: str = 'controller',
                                  bins: int = 72) -> float:
     """Correlation of the binned radius profiles of windows a and b (1 = same shape, 000 Fig. 5.6)."""
@@ -320,6 +338,21 @@ def phase_current_fundamental_A(arrays: Arrays, phase: str = 'a', t_start=None, 
     """Peak fundamental amplitude [A] of one true phase current (001 Table IX)."""
     spec = _phase_spectrum(arrays, phase, t_start, t_end, frequency, pole_pairs)
     return float(spec[1]) if spec is not None and len(spec) > 1 else math.nan
+
+
+def phase_a_current_fundamental_A(arrays: Arrays, **options) -> float:
+    """phase_current_fundamental_A of phase a (a scenario's metrics key is the function name)."""
+    return phase_current_fundamental_A(arrays, 'a', **options)
+
+
+def phase_b_current_fundamental_A(arrays: Arrays, **options) -> float:
+    """phase_current_fundamental_A of phase b."""
+    return phase_current_fundamental_A(arrays, 'b', **options)
+
+
+def phase_c_current_fundamental_A(arrays: Arrays, **options) -> float:
+    """phase_current_fundamental_A of phase c."""
+    return phase_current_fundamental_A(arrays, 'c', **options)
 
 
 def current_imbalance(arrays: Arrays, t_start=None, t_end=None, frequency: float | None = None,
@@ -388,7 +421,8 @@ METRICS = {f.__name__: f for f in (
     angle_error_rms_deg, angle_error_max_deg, d_current_mean_A, d_current_positive_fraction, q_current_mean_A,
     estimated_torque_rms_error_pct_rated, true_torque_mean_N_m, estimated_torque_mean_N_m,
     torque_tracking_error_N_m, mean_mechanical_speed_rad_s, speed_estimate_error_pct,
-    flux_locus_mean_radius_Wb, flux_locus_radius_variation, flux_locus_shape_correlation,
-    flux_locus_radius_ratio, phase_current_fundamental_A, current_imbalance, phase_current_thd_percent,
+    flux_locus_mean_radius_Wb, flux_locus_radius_variation, flux_locus_dominant_order, flux_locus_shape_correlation,
+    flux_locus_radius_ratio, phase_current_fundamental_A, phase_a_current_fundamental_A,
+    phase_b_current_fundamental_A, phase_c_current_fundamental_A, current_imbalance, phase_current_thd_percent,
     current_thd_percent, torque_ripple_factor_percent, predicted_minus_actual_torque_pct)}
 """Metric name -> function(arrays, **options) -> float."""

@@ -186,9 +186,13 @@ class GraphRunner:
                       'pfc_controller': '/pfc_controller'}
         self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
         self._wait_ready(node, executor, self._action)
+        deadline = time.monotonic() + 30.0
         for key, client in self._param_clients.items():
-            if not client.wait_for_services(timeout_sec=30.0):
-                raise RunFailed(f'{key} parameter services not available')
+            while not client.services_are_ready():
+                executor.spin_once(timeout_sec=0.05)
+                self._check_alive()
+                if time.monotonic() > deadline:
+                    raise RunFailed(f'{key} parameter services not available within 30 s')
         self.progress(f'[{sc.name}] graph up: {", ".join(sc.nodes)}'
                       + (f' + recorder -> {bag_dir}' if self.record else ''))
         started = time.monotonic()

@@ -1,0 +1,62 @@
+"""The default scenario through the ROS graph, recorded, vs the raw rclpy ceiling (issue 8).
+
+Measured in the same run and the same private DDS domain:
+1. ceiling: raw_responder / measure_round_trips (publish -> reply, one at a time);
+2. the default scenario (plant + dtc_controller + recorder as separate
+   processes, driven by the scenario runner), samples per wall second of
+   the Run goals (start-up and analysis excluded).
+Prints both and their ratio (goal >= 0.6).
+
+    source scripts/env.sh && python benchmarks/bench_scenario_ros.py [--duration 0.1]
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+import rclpy
+
+from drive_bringup.runner import GraphRunner
+from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.ceiling import measure_round_trips
+from drive_common.harness import NodeProcess, isolated_env, reserve_domain
+
+DEFAULT = 'two_phase_six_switch_torque_step'
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--scenario', default=DEFAULT)
+    parser.add_argument('--duration', type=float, default=None, help='sim seconds (default: full)')
+    parser.add_argument('--no-record', action='store_true')
+    args = parser.parse_args()
+    scenario = load_scenario(find_scenario(args.scenario))
+    if args.duration:
+        scenario.duration = args.duration
+        scenario.events = [e for e in scenario.events if e.time < args.duration]
+    with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
+        context = rclpy.Context()
+        rclpy.init(context=context, domain_id=domain)
+        try:
+            with NodeProcess('drive_common', 'raw_responder', env=isolated_env(domain)):
+                ceiling = measure_round_trips(context, 4000)
+        finally:
+            rclpy.try_shutdown(context=context)
+        result = GraphRunner(scenario, Path(tmp) / 'run', domain_id=domain,
+                             record=not args.no_record, progress=lambda m: None).run()
+        bag_mb = (sum(f.stat().st_size for f in (Path(tmp) / 'run' / 'bag').glob('*'))
+                  / 1e6 if result.bag else 0.0)
+    rate = result.samples_per_second
+    print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
+    print(f'{scenario.name} ({"recorded" if not args.no_record else "not recorded"}): '
+          f'{result.final_step} samples, {result.final_time:.4f} s sim in {result.wall_time:.1f} s wall')
+    print(f'graph rate                       : {rate:8.0f} samples/s = {rate / ceiling:.2f} of the '
+          f'ceiling (goal >= 0.60)')
+    if bag_mb:
+        print(f'bag size                         : {bag_mb:.1f} MB '
+              f'({bag_mb / max(result.final_time, 1e-9):.0f} MB per sim second)')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,743 @@
+"""Switching-level boost PFC front end of 000 ch. III (Fig. 3.1), no rclpy.
+
+Circuit (DESIGN.md §6): 60 Hz grid v_g = sqrt(2) V_rms sin(w t + phi)
+-> optional EMI filter (C1 across the grid, L1 and L2 in the two line
+conductors, C2 across the bridge input) -> diode bridge (forward drop V_f per
+diode, two in the path) -> boost inductor L (series resistance R_L) -> boost
+switch (R_on) to the negative rail, or boost diode (drop V_fd) into the
+positive rail of the split capacitor string C3 + C4 (kept by
+:class:`~.dc_link.DcLink` in ``current_fed`` mode). Boost switch held off
+(``enable`` false, duty 0, or a protection) = plain diode-bridge rectifier
+with the inductor in series.
+
+States: i_f (filter inductor current, L_f = L1 + L2 in series), v_c (C2,
+bridge-input voltage), i_L (boost inductor, >= 0: the bridge blocks reverse
+current). With an ideal grid C1 only adds the reactive current C1 dv_g/dt to
+the line current (and its energy 1/2 C1 v_g^2).
+
+Conduction modes of the bridge + boost stage:
+- ``COND`` (i_L > 0 through one diagonal pair, polarity s = +-1):
+  L_f di_f/dt = v_g - v_c - R_f i_f,  C2 dv_c/dt = i_f - s i_L,
+  L di_L/dt = s v_c - 2 V_f - R_L i_L - u,  u = R_on i_L (switch on) or
+  v_o + V_fd (switch off: the boost diode conducts, i_L flows into the link);
+- ``OVERLAP`` (filter only, bridge commutation while i_L > 0 at a v_c zero
+  crossing: both diagonals conduct, C2 is clamped at v_c = 0 until one
+  diagonal's current (i_L +- i_f)/2 reaches zero, i.e. |i_f| = i_L);
+- ``BLOCK`` (i_L = 0 exactly: DCM or the rectifier's non-conducting interval;
+  left when |v_c| - 2 V_f - u_off reaches 0 from below, u_off = 0 with the
+  switch on, v_o + V_fd with it off).
+Without the filter the bridge input is the grid itself: s = sign(v_g),
+commutation is instantaneous at the grid zero crossing (a segment boundary).
+
+Integration: every piece between events is a linear circuit with the grid
+voltage taken at the piece's midpoint and the output voltage v_o held (the
+DC-link voltage predicted at the middle of the plant segment, as
+:meth:`DcLink.segment_voltages` does). The pieces are integrated with the
+implicit midpoint rule, solved in closed form (a scalar elimination, no
+numpy), so the discrete energy balance closes to round-off: with mid values
+(i_f, v_c, i_L) every stored-energy change 1/2 L (i1^2 - i0^2) equals
+h x (power at the mid values), hence
+    grid input = stored change + losses + energy delivered to the link
+exactly, piece by piece. Pieces end at
+- PWM edges (carrier phase-locked to sim time, known in advance),
+- grid zero crossings (no filter), ``max_step`` (filter: resolves the
+  L_f-C2 resonance, 35.6 kHz for 20 uH / 1 uF),
+- located events: i_L reaching 0 (DCM), v_c reaching 0 with i_L > 0
+  (overlap start), |i_f| reaching i_L (overlap end), the bridge becoming
+  forward biased, i_L reaching the over-current limit (switch opened there).
+Events are located on the piece's own (rational in h) trajectory: closed
+form without the filter, bracketed Illinois iteration with it; the state is
+snapped onto the event surface (i_L = 0.0 exactly, v_c = 0.0 exactly) and the
+tiny snapped energy is booked as a loss so the ledger stays closed.
+
+PWM: carrier of ``pwm_frequency`` locked to sim time (period boundaries at
+multiples of 1/f_pwm). ``triangle`` (default): the switch is on while the
+carrier (0 at a period boundary, 1 at mid-period) is below the duty, i.e.
+on for [0, d T/2] and [T - d T/2, T]: a sample at the period boundary sits
+in the middle of the on-time and reads the average current in CCM.
+``sawtooth``: on for [0, d T).
+
+Protections (000 §3.3): i_L above ``over_current_limit`` (located inside the
+piece while the switch is on) or v_o above ``over_voltage_limit`` (checked
+with the link voltage of each advance) open the boost switch and raise the
+flags (PlantState PROTECTION_BOOST_OVER_CURRENT = 2 / _OVER_VOLTAGE = 4).
+Not latched (default): a flag clears at the next PWM period boundary once its
+quantity is back at or below the limit (cycle by cycle); latched: it stays
+until :meth:`FrontEnd.reset_protection`.
+
+PlantCore wiring (DcLink in ``current_fed`` mode), per plant segment [t, t+T]:
+    vp, vm = dc.segment_voltages(T)          # also for the inverter
+    dc.source_current = fe.advance(t, T, vp) / T
+    ... dc.draw(q_p, q_m, T, t)
+apply_duty -> fe.set_duty(duty, enable) (duty 0 / enable false in the safe state);
+pfc_sample -> PfcSample(step, time, *fe.measurement(), dc.positive); energy:
+input = fe.energy.grid, losses += fe.energy.losses, stored += fe.stored_energy()
+(the link's own ``energy_source`` is then internal: not an input).
+Supply impedance (``line_inductance``/``line_resistance``, default 0 = stiff
+grid) sits in series with L1 + L2 (C1 stays at the ideal source: an
+approximation); without the filter it is moved to the DC side of the bridge.
+"""
+from __future__ import annotations
+
+import math
+
+TWO_PI = 2.0 * math.pi
+SQRT2 = math.sqrt(2.0)
+
+BLOCK, COND, OVERLAP = 0, 1, 2
+MODE_NAMES = ('block', 'conduct', 'overlap')
+
+BOOST_OVER_CURRENT = 2   # = dtc_msgs/PlantState PROTECTION_BOOST_OVER_CURRENT
+BOOST_OVER_VOLTAGE = 4   # = dtc_msgs/PlantState PROTECTION_BOOST_OVER_VOLTAGE
+
+CARRIERS = ('triangle', 'sawtooth')
+
+_MAX_PIECES_PER_ADVANCE = 100_000
+_EVENT_LOG_MAX = 10_000
+
+# Plant-schema names -> FrontEnd keyword (see FrontEnd.from_params and the report).
+PARAMETER_NAMES = {
+    'front_end.line_voltage': 'line_voltage',
+    'front_end.line_frequency': 'line_frequency',
+    'front_end.line_phase': 'line_phase',
+    'front_end.line_resistance': 'line_resistance',
+    'front_end.line_inductance': 'line_inductance',
+    'front_end.filter.enabled': 'filter_enabled',
+    'front_end.filter.inductance': 'filter_inductance',
+    'front_end.filter.capacitance': 'filter_capacitance',
+    'front_end.filter.resistance': 'filter_resistance',
+    'front_end.boost.inductance': 'inductance',
+    'front_end.boost.resistance': 'inductor_resistance',
+    'front_end.bridge.diode_drop': 'bridge_diode_drop',
+    'front_end.boost.switch_resistance': 'switch_resistance',
+    'front_end.boost.diode_drop': 'diode_drop',
+    'front_end.pwm_frequency': 'pwm_frequency',
+    'front_end.pwm_carrier': 'pwm_carrier',
+    'front_end.over_current_limit': 'over_current_limit',
+    'front_end.over_voltage_limit': 'over_voltage_limit',
+    'front_end.protection_latched': 'protection_latched',
+    'front_end.max_step': 'max_step',
+}
+
+
+class FrontEndLedger:
+    """Cumulative front-end energies since start [J]."""
+
+    __slots__ = ('grid', 'delivered', 'line_resistance', 'inductor_resistance', 'bridge',
+                 'switch', 'diode', 'numerical')
+
+    def __init__(self) -> None:
+        self.grid = 0.0                 # delivered by the grid (incl. C1's reactive exchange)
+        self.delivered = 0.0            # into the DC link: v_o(predicted) * boost-diode charge
+        self.line_resistance = 0.0      # supply + EMI-filter series resistances
+        self.inductor_resistance = 0.0  # R_L i_L^2
+        self.bridge = 0.0               # 2 V_f i_L
+        self.switch = 0.0               # R_on i_L^2
+        self.diode = 0.0                # V_fd i_L
+        self.numerical = 0.0            # energy of the snaps onto event surfaces (~1e-20 J)
+
+    @property
+    def losses(self) -> float:
+        return (self.line_resistance + self.inductor_resistance + self.bridge + self.switch
+                + self.diode + self.numerical)
+
+
+class FrontEnd:
+    """Grid + EMI filter + diode bridge + boost stage, integrated by :meth:`advance`."""
+
+    def __init__(self, *, line_voltage: float = 25.4, line_frequency: float = 60.0,
+                 line_phase: float = 0.0, line_resistance: float = 0.0,
+                 line_inductance: float = 0.0, filter_enabled: bool = True,
+                 filter_inductance: float = 10e-6, filter_capacitance: float = 1e-6,
+                 filter_resistance: float = 0.05, inductance: float = 1e-3,
+                 inductor_resistance: float = 0.1, bridge_diode_drop: float = 0.8,
+                 switch_resistance: float = 0.07, diode_drop: float = 1.0,
+                 pwm_frequency: float = 80e3, pwm_carrier: str = 'triangle',
+                 over_current_limit: float = 8.0, over_voltage_limit: float = 140.0,
+                 protection_latched: bool = False, max_step: float = 1e-6,
+                 time: float = 0.0) -> None:
+        self.filter_enabled = bool(filter_enabled)
+        self.configure(line_voltage=line_voltage, line_frequency=line_frequency,
+                       line_phase=line_phase, line_resistance=line_resistance,
+                       line_inductance=line_inductance, filter_inductance=filter_inductance,
+                       filter_capacitance=filter_capacitance, filter_resistance=filter_resistance,
+                       inductance=inductance, inductor_resistance=inductor_resistance,
+                       bridge_diode_drop=bridge_diode_drop, switch_resistance=switch_resistance,
+                       diode_drop=diode_drop, pwm_frequency=pwm_frequency, pwm_carrier=pwm_carrier,
+                       over_current_limit=over_current_limit,
+                       over_voltage_limit=over_voltage_limit,
+                       protection_latched=protection_latched, max_step=max_step)
+        # State.
+        self.time = float(time)
+        self.i_f = 0.0
+        self.v_c = self.grid_voltage(self.time) if self.filter_enabled else 0.0
+        self.i_L = 0.0
+        self.s = 1                     # bridge polarity of the conducting diagonal
+        self.mode = BLOCK
+        self.gate = False              # boost switch state at self.time
+        self.duty = 0.0
+        self.enable = False
+        self.over_current = False
+        self.over_voltage = False
+        self._oc_period = -1           # PWM period index of the last over-current trip
+        self.events: list[tuple[float, str]] = []   # (time, what): protections always,
+        self.log_switching_events = False           # zero/start/overlap only when True
+        self.last_event = (math.nan, '')
+        self.event_counts = {'zero': 0, 'start': 0, 'overlap': 0, 'overlap_end': 0,
+                             'over_current': 0, 'over_voltage': 0}
+        self.energy = FrontEndLedger()
+
+    # ------------------------------------------------------------------ parameters
+    @classmethod
+    def from_params(cls, p: dict, time: float = 0.0) -> 'FrontEnd':
+        """Build from a plant parameter snapshot (names in PARAMETER_NAMES)."""
+        kw = {k: p[n] for n, k in PARAMETER_NAMES.items() if n in p}
+        return cls(time=time, **kw)
+
+    def reconfigure(self, p: dict) -> None:
+        """Runtime update from a plant snapshot; the state is kept.
+
+        ``front_end.filter.enabled`` cannot change in place (rebuild the front
+        end; the lead's PlantCore moves the stored-energy baseline then).
+        """
+        kw = {k: p[n] for n, k in PARAMETER_NAMES.items() if n in p and k != 'filter_enabled'}
+        self.configure(**kw)
+
+    def configure(self, **kw) -> None:
+        for k, v in kw.items():
+            setattr(self, k, v)
+        if self.pwm_carrier not in CARRIERS:
+            raise ValueError(f'pwm_carrier {self.pwm_carrier!r} is not one of {CARRIERS}')
+        self.v_peak = SQRT2 * float(self.line_voltage)
+        self.omega = TWO_PI * float(self.line_frequency)
+        self.R_s = float(self.line_resistance)
+        self.R_L = float(self.inductor_resistance)
+        if self.filter_enabled:     # supply impedance in series with L1 + L2
+            self.L = float(self.inductance)
+            self.L_f = 2.0 * float(self.filter_inductance) + float(self.line_inductance)
+            self.R_f = 2.0 * float(self.filter_resistance) + self.R_s
+            self._R_plain = self.R_L
+        else:                       # supply impedance moved to the DC side of the bridge
+            self.L = float(self.inductance) + float(self.line_inductance)
+            self.L_f = 0.0
+            self.R_f = 0.0
+            self._R_plain = self.R_L + self.R_s
+        self.C_f = float(self.filter_capacitance)           # C2 (bridge side)
+        self.C_1 = float(self.filter_capacitance)           # C1 (grid side)
+        self.V_b = 2.0 * float(self.bridge_diode_drop)      # two bridge diodes in the path
+        self.R_on = float(self.switch_resistance)
+        self.V_d = float(self.diode_drop)
+        self.f_pwm = float(self.pwm_frequency)
+        self._triangle = self.pwm_carrier == 'triangle'
+        self.h_max = float(self.max_step) if self.filter_enabled else math.inf
+
+    # ------------------------------------------------------------------ commands
+    def set_duty(self, duty: float, enable: bool) -> None:
+        """Latch the duty command (held until the next call)."""
+        self.duty = min(1.0, max(0.0, float(duty)))
+        self.enable = bool(enable)
+
+    def reset_protection(self) -> None:
+        """Clear latched flags (they re-trip at once if the condition still holds)."""
+        self.over_current = self.over_voltage = False
+
+    @property
+    def protection(self) -> int:
+        """PlantState PROTECTION_BOOST_* bits currently active."""
+        return (BOOST_OVER_CURRENT if self.over_current else 0) | (
+            BOOST_OVER_VOLTAGE if self.over_voltage else 0)
+
+    @property
+    def switch_enabled(self) -> bool:
+        """Boost switching enabled after protections (PlantState.boost_switch_enabled)."""
+        return self.enable and not (self.over_current or self.over_voltage)
+
+    @property
+    def applied_duty(self) -> float:
+        """PlantState.boost_duty: the duty applied (0 while held off)."""
+        return self.duty if self.switch_enabled else 0.0
+
+    # ------------------------------------------------------------------ outputs
+    def grid_voltage(self, t: float) -> float:
+        return self.v_peak * math.sin(self.omega * t + self.line_phase)
+
+    def _grid_slope(self, t: float) -> float:
+        return self.v_peak * self.omega * math.cos(self.omega * t + self.line_phase)
+
+    @property
+    def bridge_input_voltage(self) -> float:
+        """V, C2 voltage (filter) or the grid voltage (no filter) at self.time."""
+        return self.v_c if self.filter_enabled else self.grid_voltage(self.time)
+
+    @property
+    def rectified_voltage(self) -> float:
+        """V, |bridge input| = the rectified line voltage the PFC senses (PfcMeasurement)."""
+        return abs(self.bridge_input_voltage)
+
+    @property
+    def grid_current(self) -> float:
+        """A, line current at self.time (filter: i_f + C1 dv_g/dt; else the bridge input current)."""
+        if self.filter_enabled:
+            return self.i_f + self.C_1 * self._grid_slope(self.time)
+        if self.mode == COND:
+            return self.s * self.i_L
+        return 0.0
+
+    @property
+    def inductor_current(self) -> float:
+        return self.i_L
+
+    def stored_energy(self) -> float:
+        """J: boost inductor, filter inductors, C2 and C1 (C1 at the grid voltage now)."""
+        e = 0.5 * self.L * self.i_L * self.i_L
+        if self.filter_enabled:
+            vg = self.grid_voltage(self.time)
+            e += 0.5 * (self.L_f * self.i_f * self.i_f + self.C_f * self.v_c * self.v_c
+                        + self.C_1 * vg * vg)
+        return e
+
+    def measurement(self) -> tuple[float, float]:
+        """(rectified_voltage, inductor_current) for PfcMeasurement at self.time."""
+        return self.rectified_voltage, self.i_L
+
+    def balance_error(self, stored_initial: float) -> float:
+        """grid - (stored - stored_initial) - losses - delivered [J] (round-off only)."""
+        en = self.energy
+        return en.grid - (self.stored_energy() - stored_initial) - en.losses - en.delivered
+
+    # ------------------------------------------------------------------ PWM carrier
+    def _carrier(self, t: float) -> tuple[bool, float, int]:
+        """(carrier says on, time of the next carrier edge after t, PWM period index at t)."""
+        x = t * self.f_pwm
+        tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
+        k = math.floor(x + tol)
+        u = x - k
+        if u < 0.0:
+            u = 0.0
+        d = self.duty
+        if self._triangle:
+            e1 = 0.5 * d
+            e2 = 1.0 - e1
+            if u < e1 - tol:
+                on, nxt = True, e1
+            elif u < e2 - tol:
+                on, nxt = False, e2
+            else:
+                on, nxt = d > 0.0, 1.0
+        else:
+            if u < d - tol:
+                on, nxt = True, d
+            else:
+                on, nxt = False, 1.0
+        return on, (k + nxt) / self.f_pwm, k
+
+    # ------------------------------------------------------------------ integration
+    def advance(self, t: float, dt: float, v_out: float) -> float:
+        """Integrate [t, t + dt] with the DC-link (positive rail) voltage held at v_out [V].
+
+        Returns the charge [C] delivered into the positive rail (boost-diode
+        current integral); events located inside are appended to self.events.
+        Pass v_out = the link voltage predicted at the segment middle.
+        """
+        self.time = t
+        en = self.energy
+        if self.filter_enabled:
+            vg0 = self.grid_voltage(t)
+        ov = self.over_voltage_limit
+        if ov > 0.0 and v_out > ov and not self.over_voltage:
+            self.over_voltage = True
+            self.event_counts['over_voltage'] += 1
+            self._log(t, 'boost over-voltage: switch opened')
+        q_total = 0.0
+        t_end = t + dt
+        eps = min(1e-9 / self.f_pwm, 1e-6 * dt)   # edges this close to the end merge into it
+        pieces = 0
+        while t_end - self.time > eps:
+            pieces += 1
+            if pieces > _MAX_PIECES_PER_ADVANCE:
+                raise RuntimeError(f'front end: too many pieces at t = {self.time:.9f} s (chattering)')
+            tn = self.time
+            on, t_edge, k = self._carrier(tn)
+            if not self.protection_latched and (self.over_current or self.over_voltage):
+                if self.over_current and k > self._oc_period and self.i_L <= self.over_current_limit:
+                    self.over_current = False
+                if self.over_voltage and v_out <= ov:
+                    self.over_voltage = False
+            if self.i_L > self.over_current_limit > 0.0 and not self.over_current:
+                self._trip_over_current()    # e.g. rectifier inrush with the switch already off
+            gate = on and self.enable and self.duty > 0.0 and not (self.over_current
+                                                                   or self.over_voltage)
+            self.gate = gate
+            t_stop = t_end if t_edge > t_end - eps else t_edge
+            if self.filter_enabled:
+                q_total += self._piece_filter(tn, t_stop - tn, gate, v_out)
+            else:
+                # Split at the grid zero crossing (instantaneous commutation).
+                ph = self.omega * tn + self.line_phase
+                t_zc = ((math.floor(ph / math.pi + 1e-12) + 1.0) * math.pi - self.line_phase) / self.omega
+                if t_zc < t_stop - eps:
+                    t_stop = t_zc
+                q_total += self._piece_plain(tn, t_stop - tn, gate, v_out)
+        self.time = t_end
+        if self.filter_enabled:
+            vg1 = self.grid_voltage(t_end)
+            en.grid += 0.5 * self.C_1 * (vg1 * vg1 - vg0 * vg0)   # C1: exact
+        return q_total
+
+    # ---- no filter: one state i_L, bridge input = grid voltage
+    def _piece_plain(self, t: float, h: float, gate: bool, v_out: float) -> float:
+        """One piece of at most h [s] from t; advances self.time; returns the link charge."""
+        L = self.L
+        vg = self.grid_voltage(t + 0.5 * h)
+        s = 1 if vg >= 0.0 else -1
+        u_off = 0.0 if gate else v_out + self.V_d
+        R = self._R_plain + (self.R_on if gate else 0.0)
+        i0 = self.i_L
+        V_b = self.V_b
+        if i0 == 0.0:
+            # BLOCK unless the bridge (and the diode, switch off) is forward biased.
+            drive = abs(self.grid_voltage(t)) - V_b - u_off
+            if drive <= 0.0:
+                # Locate the instant the drive reaches 0 inside the piece.
+                if abs(vg) - V_b - u_off <= 0.0 and abs(self.grid_voltage(t + h)) - V_b - u_off <= 0.0:
+                    self.mode = BLOCK
+                    self.time = t + h
+                    return 0.0
+                th = self._locate(lambda x: V_b + u_off - abs(self.grid_voltage(t + x)), h)
+                self.mode = BLOCK
+                self.time = t + th
+                self._event(self.time, 'start', 'bridge forward biased: conduction starts')
+                return 0.0
+        g = 2.0 * L / h
+        c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)       # mid-piece current
+        if i0 == 0.0 and c <= 0.0:        # forward bias too brief to build up current
+            self.mode = BLOCK
+            self.time = t + h
+            return 0.0
+        self.mode = COND
+        self.s = s
+        i1 = 2.0 * c - i0
+        event = None
+        lim = self.over_current_limit
+        if i1 < 0.0:
+            # i_L reaches zero: h = 2 L i0 / (R i0 - 2 D), D at the piece's (moving) middle.
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * i0 - 2.0 * D
+                hz = min(h, 2.0 * L * i0 / den) if den > 0.0 else h
+            h, event = hz, 'zero'
+        elif gate and lim > 0.0 and i1 > lim and i0 < lim:
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * (i0 + lim) - 2.0 * D
+                hz = min(h, 2.0 * L * (i0 - lim) / den) if den < 0.0 else h
+            h, event = hz, 'over_current'
+        if event is not None:
+            vg = self.grid_voltage(t + 0.5 * h)
+            g = 2.0 * L / h
+            c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)
+            i1 = 2.0 * c - i0
+        en = self.energy
+        hc = h * c
+        en.grid += abs(vg) * hc
+        en.inductor_resistance += self.R_L * c * hc
+        en.line_resistance += self.R_s * c * hc
+        en.bridge += V_b * hc
+        q = 0.0
+        if gate:
+            en.switch += self.R_on * c * hc
+        else:
+            en.diode += self.V_d * hc
+            en.delivered += v_out * hc
+            q = hc
+        self.time = t + h
+        if event == 'zero':
+            en.numerical += 0.5 * L * i1 * i1
+            self.i_L = 0.0
+            self.mode = BLOCK
+            self._event(self.time, 'zero', 'inductor current zero (bridge blocks)')
+        else:
+            self.i_L = i1
+            if event == 'over_current':
+                self._trip_over_current()
+        return q
+
+    # ---- EMI filter: states i_f, v_c, i_L
+    def _mid(self, t: float, h: float, mode: int, s: int, R: float, u: float):
+        """Midpoint-rule mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece."""
+        vg = self.grid_voltage(t + 0.5 * h)
+        al = 2.0 * self.L_f / h
+        g1 = 1.0 / (al + self.R_f)
+        A1 = vg + al * self.i_f
+        if mode == COND:
+            be = 2.0 * self.C_f / h
+            g3 = 1.0 / (2.0 * self.L / h + R)
+            A3 = 2.0 * self.L / h * self.i_L - self.V_b - u
+            b = (be * self.v_c + A1 * g1 - s * A3 * g3) / (be + g1 + g3)
+            return (A1 - b) * g1, b, (A3 + s * b) * g3, vg
+        if mode == BLOCK:
+            be = 2.0 * self.C_f / h
+            b = (be * self.v_c + A1 * g1) / (be + g1)
+            return (A1 - b) * g1, b, 0.0, vg
+        g3 = 1.0 / (2.0 * self.L / h + R)     # OVERLAP: v_c clamped at 0
+        return A1 * g1, 0.0, (2.0 * self.L / h * self.i_L - self.V_b - u) * g3, vg
+
+    def _piece_filter(self, t: float, span: float, gate: bool, v_out: float) -> float:
+        """Sub-steps of at most h_max over span [s] from t with a fixed gate; stops at an event.
+
+        Advances self.time (to t + span, or to the located event); returns the link charge.
+        """
+        u = 0.0 if gate else v_out + self.V_d
+        R = self.R_L + (self.R_on if gate else 0.0)
+        en = self.energy
+        V_b = self.V_b
+        # Consistent mode at the piece start.
+        if self.i_L > 0.0:
+            if self.mode == OVERLAP:
+                if abs(self.i_f) > self.i_L:
+                    self.mode, self.s = COND, (1 if self.i_f > 0.0 else -1)
+            elif self.mode != COND or self.s * self.v_c < 0.0:
+                if self.s * self.v_c < 0.0:      # reverse biased diagonal: overlap (snap v_c)
+                    en.numerical += 0.5 * self.C_f * self.v_c * self.v_c
+                    self.v_c = 0.0
+                    self.mode = OVERLAP
+                else:
+                    self.mode = COND
+        else:
+            self.i_L = 0.0
+            if abs(self.v_c) - V_b - u > 0.0:
+                self.mode, self.s = COND, (1 if self.v_c > 0.0 else -1)
+            else:
+                self.mode = BLOCK
+        mode, s = self.mode, self.s
+        lim = self.over_current_limit
+        R_f, L_f2, C_f2, L2 = self.R_f, 2.0 * self.L_f, 2.0 * self.C_f, 2.0 * self.L
+        vp, w, ph = self.v_peak, self.omega, self.line_phase
+        sin = math.sin
+        h_max = self.h_max
+        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
+        q = 0.0
+        e_grid = e_line = e_ind = e_sq = 0.0
+        t_end = t + span
+        eps = 1e-9 * span
+        h_c = -1.0
+        event = None
+        while True:
+            h = t_end - t
+            if h > h_max:
+                h = h_max if h - h_max > eps else h
+            if h != h_c:                       # coefficients of this sub-step length
+                h_c = h
+                al = L_f2 / h
+                g1 = 1.0 / (al + R_f)
+                be = C_f2 / h
+                ga = L2 / h
+                g3 = 1.0 / (ga + R)
+                k_c = 1.0 / (be + g1 + g3)
+                k_b = 1.0 / (be + g1)
+            vg = vp * sin(w * (t + 0.5 * h) + ph)
+            A1 = vg + al * i_f0
+            if mode == COND:
+                A3 = ga * i_L0 - V_b - u
+                b = (be * v_c0 + A1 * g1 - s * A3 * g3) * k_c
+                a = (A1 - b) * g1
+                c = (A3 + s * b) * g3
+                i_L1 = 2.0 * c - i_L0
+                v_c1 = 2.0 * b - v_c0
+                if i_L1 < 0.0 or (s * v_c1 < 0.0 < s * v_c0) or (
+                        gate and 0.0 < lim < i_L1 and i_L0 < lim):
+                    event = True
+            elif mode == BLOCK:
+                b = (be * v_c0 + A1 * g1) * k_b
+                a = (A1 - b) * g1
+                c = 0.0
+                v_c1 = 2.0 * b - v_c0
+                i_L1 = 0.0
+                if abs(v_c1) > V_b + u:
+                    event = True
+            else:  # OVERLAP
+                a = A1 * g1
+                b = 0.0
+                c = (ga * i_L0 - V_b - u) * g3
+                i_L1 = 2.0 * c - i_L0
+                v_c1 = 0.0
+                if i_L1 <= abs(2.0 * a - i_f0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim):
+                    event = True
+            if event:
+                break
+            # Ledger (midpoint rule: closes exactly) and state.
+            e_grid += h * vg * a
+            e_line += h * a * a
+            if mode != BLOCK:
+                e_ind += h * c
+                e_sq += h * c * c
+                if not gate:
+                    q += h * c
+            i_f0, v_c0, i_L0 = 2.0 * a - i_f0, v_c1, i_L1
+            t += h
+            if t_end - t <= eps:
+                t = t_end
+                break
+        self.i_f, self.v_c, self.i_L = i_f0, v_c0, i_L0
+        self.time = t
+        self._book(e_grid, e_line, e_ind, e_sq, q, gate, v_out)
+        if event:
+            q += self._filter_event(t, h, mode, s, R, u, gate, v_out)
+        return q
+
+    def _book(self, e_grid, e_line, qc, sq, q, gate, v_out):
+        """Ledger of sub-steps: e_line = int i_f^2, qc = int i_L, sq = int i_L^2, q = link charge."""
+        en = self.energy
+        en.grid += e_grid
+        en.line_resistance += self.R_f * e_line
+        en.bridge += self.V_b * qc
+        en.inductor_resistance += self.R_L * sq
+        if gate:
+            en.switch += self.R_on * sq
+        else:
+            en.diode += self.V_d * q
+            en.delivered += v_out * q
+
+    def _filter_event(self, t, h, mode, s, R, u, gate, v_out) -> float:
+        """The sub-step of length h from t holds an event: locate it, integrate to it, act."""
+        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
+        lim = self.over_current_limit
+        cands = []
+        a, b, c, vg = self._mid(t, h, mode, s, R, u)
+        i_f1, v_c1, i_L1 = 2.0 * a - i_f0, 2.0 * b - v_c0, 2.0 * c - i_L0
+        oc = gate and lim > 0.0 and i_L0 < lim
+        if mode == COND:
+            if i_L1 < 0.0:
+                cands.append(('zero', 2))
+            if s * v_c1 < 0.0 < s * v_c0:
+                cands.append(('overlap', 1))
+            if oc and i_L1 > lim:
+                cands.append(('over_current', 3))
+        elif mode == OVERLAP:
+            if i_L1 - i_f1 <= 0.0:
+                cands.append(('overlap_end+', 4))
+            if i_L1 + i_f1 <= 0.0:
+                cands.append(('overlap_end-', 5))
+            if oc and i_L1 > lim:
+                cands.append(('over_current', 3))
+        else:
+            thr = self.V_b + u
+            if v_c1 - thr > 0.0:
+                cands.append(('start+', 6))
+            if -v_c1 - thr > 0.0:
+                cands.append(('start-', 7))
+        best, event = h, None
+        for name, kind in cands:
+            th = self._locate(self._quantity(t, mode, s, R, u, kind, lim), h)
+            if th <= best:
+                best, event = th, name
+        h = best
+        a, b, c, vg = self._mid(t, h, mode, s, R, u)
+        i_f1, v_c1, i_L1 = 2.0 * a - i_f0, 2.0 * b - v_c0, 2.0 * c - i_L0
+        en = self.energy
+        en.grid += h * vg * a
+        en.line_resistance += h * self.R_f * a * a
+        q = 0.0
+        if mode != BLOCK:
+            hc = h * c
+            en.inductor_resistance += self.R_L * c * hc
+            en.bridge += self.V_b * hc
+            if gate:
+                en.switch += self.R_on * c * hc
+            else:
+                en.diode += self.V_d * hc
+                en.delivered += v_out * hc
+                q = hc
+        self.i_f, self.v_c, self.i_L = i_f1, v_c1, i_L1
+        self.time = when = t + h
+        if event == 'zero':
+            en.numerical += 0.5 * self.L * i_L1 * i_L1
+            self.i_L = 0.0
+            self.mode = BLOCK
+            self._event(when, 'zero', 'inductor current zero (bridge blocks)')
+        elif event == 'overlap':
+            en.numerical += 0.5 * self.C_f * v_c1 * v_c1
+            self.v_c = 0.0
+            self.mode = OVERLAP
+            self._event(when, 'overlap', 'bridge commutation starts (both diagonals conduct)')
+        elif event is not None and event.startswith('overlap_end'):
+            self.mode, self.s = COND, (1 if event[-1] == '+' else -1)
+            self._event(when, 'overlap_end', 'bridge commutation ends')
+        elif event is not None and event.startswith('start'):
+            self.mode, self.s = COND, (1 if event[-1] == '+' else -1)
+            self._event(when, 'start', 'bridge forward biased: conduction starts')
+        elif event == 'over_current':
+            self._trip_over_current()
+        return q
+
+    def _quantity(self, t, mode, s, R, u, kind, lim):
+        """Event quantity after a piece of length x (> 0 before the event)."""
+        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
+        thr = self.V_b + u
+
+        def f(x: float) -> float:
+            a, b, c, _ = self._mid(t, x, mode, s, R, u)
+            if kind == 2:
+                return 2.0 * c - i_L0
+            if kind == 1:
+                return s * (2.0 * b - v_c0)
+            if kind == 3:
+                return lim - (2.0 * c - i_L0)
+            if kind == 4:
+                return (2.0 * c - i_L0) - (2.0 * a - i_f0)
+            if kind == 5:
+                return (2.0 * c - i_L0) + (2.0 * a - i_f0)
+            if kind == 6:
+                return thr - (2.0 * b - v_c0)
+            return thr + (2.0 * b - v_c0)
+        return f
+
+    @staticmethod
+    def _locate(f, h: float) -> float:
+        """Smallest x in (0, h] with f(x) <= 0, given f(0+) > 0 >= f(h) (Illinois)."""
+        lo, hi = 0.0, h
+        f_lo = f(h * 1e-9)
+        if f_lo <= 0.0:
+            return h * 1e-9
+        f_hi = f(h)
+        side = 0
+        for _ in range(60):
+            x = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+            if not lo < x < hi:
+                x = 0.5 * (lo + hi)
+            fx = f(x)
+            if fx <= 0.0:
+                hi, f_hi = x, fx
+                if side == -1:
+                    f_lo *= 0.5
+                side = -1
+            else:
+                lo, f_lo = x, fx
+                if side == 1:
+                    f_hi *= 0.5
+                side = 1
+            if hi - lo <= 1e-12 * h or f_hi == 0.0:
+                break
+        return hi
+
+    def _trip_over_current(self) -> None:
+        self.over_current = True
+        self.gate = False
+        self._oc_period = math.floor(self.time * self.f_pwm + 1e-9)
+        self.event_counts['over_current'] += 1
+        self._log(self.time, f'boost over-current {self.i_L:.3f} A: switch opened')
+
+    def _event(self, when: float, kind: str, text: str) -> None:
+        """Count a switching event; log it only with log_switching_events (80 kHz: many)."""
+        self.event_counts[kind] += 1
+        self.last_event = (when, kind)
+        if self.log_switching_events:
+            self._log(when, text)
+
+    def _log(self, when: float, text: str) -> None:
+        ev = self.events
+        if len(ev) > _EVENT_LOG_MAX:
+            del ev[:_EVENT_LOG_MAX // 2]
+        ev.append((when, text))
