@@ -2,13 +2,14 @@
 
 References, hysteresis bands, gains, rotation and the flux-control switch may
 change while running (``runtime=True``): the core applies them at the next
-sample boundary. ``mode`` is read-only while running because it fixes the
-inverter topology of every gate command (4 or 6 switches, which must match
-the plant's inverter) and the estimator/table state; switching it mid-run
-would send gates for another inverter, so it changes only while the
-simulation is held. The sample period, motor parameters, table file and
-estimation options are likewise fixed while running (they define the
-estimator's integration and the loaded table).
+sample boundary, keeping the estimator state. The other parameters (``mode``,
+sample period, motor parameters, table file, estimation options) define the
+estimator and the table state: a change of any of them re-initialises the
+mode cleanly at the next sample boundary (new estimator state, table
+reloaded), as if the controller were restarted there. ``mode`` also fixes the
+topology of the gate commands (4 or 6 switches), which must match the
+plant's inverter: change the plant's ``inverter.topology`` with it while
+the simulation is held, or the plant refuses the gates (safe state).
 """
 from __future__ import annotations
 
