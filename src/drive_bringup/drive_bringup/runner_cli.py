@@ -56,7 +56,8 @@ def main(argv=None) -> int:
     if args.list:
         for path in sorted(scenario_dir().glob('*.yaml')):
             sc = load_scenario(path)
-            print(f'{sc.name:40s} {sc.seed_reference:24s} {sc.description}')
+            summary = ' '.join(sc.description.split())
+            print(f'{sc.name:42s} {sc.seed_reference[:28]:28s} {summary[:70]}')
         return 0
     if not args.scenario:
         print('run_scenario: name a scenario (or --list)', file=sys.stderr)
