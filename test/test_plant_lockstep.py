@@ -112,6 +112,8 @@ def test_run_action_stops_exactly_and_holds(start_node, ros_session):
     time.sleep(0.3)
     second = client.run(0.001, relative=True)
     assert second.success and second.final_step == 164
+    wait_until(lambda: client.states[-1].step == 164, 10.0, what='state at the target')
+    time.sleep(0.5)
     assert client.states[-1].step == 164                       # held: nothing after the target
 
 
