@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import numpy as np
 
 from drive_common.samples import DriveSample
 from dtc_controller.core.backemf_table import BackEmfTable
 from dtc_controller.core.controller import DtcCore
+from timing import per_call_us  # benchmarks/timing.py
 
 
 def table() -> BackEmfTable:
@@ -34,14 +34,7 @@ def bench(mode: str, n: int, extra: dict) -> float:
         th = (k * 0.0123) % (2 * math.pi)
         i_a, i_b = 3 * math.sin(th), 3 * math.sin(th - 2.1)
         samples.append(DriveSample(k, k * 25e-6, (i_a, i_b, -i_a - i_b), 56.57, 28.28, 0, th, 0, 30.0))
-    update = core.update
-    best = float('inf')
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for k in range(n):
-            update(samples[k % 1000])
-        best = min(best, (time.perf_counter() - t0) / n)
-    return best * 1e6
+    return per_call_us(core.update, samples, n)
 
 
 def main() -> None:

@@ -15,12 +15,12 @@ Each case is run --repeats times from the same state; the best wall time is repo
 from __future__ import annotations
 
 import argparse
-import time
 
 from bldc_plant_sim.core.dc_link import DcLink
 from bldc_plant_sim.core.front_end import FrontEnd
 from drive_common.samples import PfcSample
 from pfc_controller.core import PfcCore
+from timing import best_of  # benchmarks/timing.py
 
 TICK = 12.5e-6
 
@@ -43,15 +43,12 @@ def run(steps: int, fe: FrontEnd, dc: DcLink, r_load: float, core: PfcCore | Non
 def bench(name: str, duration: float, repeats: int, v_rms: float, r_load: float, v0: float,
           pfc: bool, duty: float | None = None, **fe_kw) -> float:
     steps = int(round(duration / TICK))
-    best = best_cpu = float('inf')
-    for _ in range(repeats):
-        fe = FrontEnd(line_voltage=v_rms, **fe_kw)
-        dc = DcLink('current_fed', v0, 270e-6, 270e-6)
-        core = PfcCore({}) if pfc else None
-        w0, c0 = time.perf_counter(), time.process_time()
-        run(steps, fe, dc, r_load, core, duty)
-        best = min(best, time.perf_counter() - w0)
-        best_cpu = min(best_cpu, time.process_time() - c0)
+    def setup():
+        return (FrontEnd(line_voltage=v_rms, **fe_kw), DcLink('current_fed', v0, 270e-6, 270e-6),
+                PfcCore({}) if pfc else None)
+
+    best, best_cpu, (fe, dc, _) = best_of(
+        repeats, setup, lambda objs: run(steps, objs[0], objs[1], r_load, objs[2], duty))
     rate = steps / best
     ev = fe.event_counts
     print(f'{name:<16s} {steps:6d} samples: {rate:8.0f} /wall s, {steps / best_cpu:8.0f} /CPU s '

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 from drive_common.samples import PfcSample
 from pfc_controller.core import PfcCore
+from timing import per_call_us  # benchmarks/timing.py
 
 T_S = 12.5e-6
 
@@ -24,14 +24,7 @@ def bench(n: int, params: dict) -> float:
     for k in range(1334):
         s = abs(math.sin(2 * math.pi * 60 * k * T_S))
         samples.append(PfcSample(k, k * T_S, 35.92 * s, 3.9 * s, 80.0 + 0.5 * math.sin(k * 0.01)))
-    update = core.update
-    best = float('inf')
-    for _ in range(5):
-        t0 = time.perf_counter()
-        for k in range(n):
-            update(samples[k % 1334])
-        best = min(best, (time.perf_counter() - t0) / n)
-    return best * 1e6
+    return per_call_us(core.update, samples, n)
 
 
 def main() -> None:

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' / 'test'))
@@ -28,20 +27,18 @@ from bldc_plant_sim.core.plant import PlantCore  # noqa: E402
 from bldc_plant_sim.parameters import plant_params  # noqa: E402
 from drive_common.fixed_commands import FixedGateCore  # noqa: E402
 from plant_test_helpers import SixStepChopper  # noqa: E402
+from timing import best_of  # benchmarks/timing.py
 
 
 def bench(name: str, params: dict, make_ctrl, duration: float, record_every: int,
           repeats: int) -> float:
     """Best of `repeats` runs (wall clock and process CPU time); returns samples per wall second."""
-    best_wall = best_cpu = float('inf')
-    for _ in range(repeats):
+    def setup():
         plant = PlantCore(params)
-        cosim = CoSimulation(plant, make_ctrl(plant), record_every=record_every)
-        steps = plant.step_of(duration)
-        w0, c0 = time.perf_counter(), time.process_time()
-        cosim.run(steps=steps)
-        best_wall = min(best_wall, time.perf_counter() - w0)
-        best_cpu = min(best_cpu, time.process_time() - c0)
+        return plant, CoSimulation(plant, make_ctrl(plant), record_every=record_every)
+
+    steps = PlantCore(params).step_of(duration)
+    best_wall, best_cpu, (plant, _) = best_of(repeats, setup, lambda objs: objs[1].run(steps=steps))
     rate = steps / best_wall
     s = plant.state()
     print(f'{name:<34s} {steps:7d} samples: {rate:8.0f} /wall s, {steps / best_cpu:8.0f} /CPU s '
