@@ -12,7 +12,12 @@ if [ -z "${ROS_DISTRO:-}" ] || [ ! -d "/opt/ros/${ROS_DISTRO:-none}" ]; then
 fi
 export RMW_IMPLEMENTATION="${RMW_IMPLEMENTATION:-rmw_fastrtps_cpp}"
 if [ "${1:-}" != "--no-workspace" ] && [ -f "$_DTC_ROOT/install/local_setup.bash" ]; then
+  # colcon's scripts read unset variables: relax `set -u` while sourcing them.
+  _dtc_nounset=$(set +o | grep nounset)
+  set +u
   # shellcheck disable=SC1091
   source "$_DTC_ROOT/install/local_setup.bash"
+  eval "$_dtc_nounset"
+  unset _dtc_nounset
 fi
 unset _DTC_ROOT
