@@ -39,6 +39,14 @@ if [ "${ROS_DISTRO:-}" = "jazzy" ] && [ -n "${AMENT_PREFIX_PATH:-}" ]; then
 fi
 
 # --- virtual environment -----------------------------------------------------
+pip_install() {
+  # pip's own chatter goes to a log that is shown only when the install fails.
+  local log=.venv/pip-install.log
+  if ! .venv/bin/python -m pip install -q --disable-pip-version-check "$@" >"$log" 2>&1; then
+    grep -v 'is ignored: it is neither a file nor a directory' "$log" >&2
+    die "pip install failed (full log: $log)"
+  fi
+}
 STAMP=".venv/.dtc-requirements.sha256"
 WANT=$(cat requirements.txt constraints.txt | sha256sum | cut -d' ' -f1)-$SYSTEM_ROS
 if [ "$FORCE" = 1 ] || [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/null)" != "$WANT" ]; then
@@ -46,11 +54,11 @@ if [ "$FORCE" = 1 ] || [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/nul
     "$PYTHON" -m venv --system-site-packages .venv
     say "installing the Python tools (ROS comes from the system)"
     grep -v '^ros-jazzy-' requirements.txt > .venv/requirements-nonros.txt
-    .venv/bin/python -m pip install -q --disable-pip-version-check -r .venv/requirements-nonros.txt
+    pip_install -r .venv/requirements-nonros.txt
   else
     "$PYTHON" -m venv .venv
     say "installing ROS 2 Jazzy wheels and tools into .venv (first time: about a minute)"
-    .venv/bin/python -m pip install -q --disable-pip-version-check -r requirements.txt -c constraints.txt
+    pip_install -r requirements.txt -c constraints.txt
   fi
   echo "$WANT" > "$STAMP"
 else
