@@ -6,7 +6,10 @@ motor of 000 Appendix A on a six-switch inverter fed by an ideal
 40*sqrt(2) V source (000 ch. II/V test conditions). Motor, topology and
 periods are ``runtime=False`` (changed only while the simulation is held);
 load, sensor errors, device drops and the trip level may change at any
-sample boundary.
+sample boundary. ``front_end.*`` describe the boost PFC front end of 000
+ch. III (core/front_end.py); it needs ``dc_link.mode: current_fed`` and a
+PFC controller (``pfc_enabled``) needs it. Line voltage and phase, the
+resistances and drops and the protection levels are runtime parameters.
 
 Motor data files (``motors/*.yaml``) hold a ``parameters:`` mapping of these
 same names; :func:`plant_params` merges one into the defaults, and the
@@ -109,6 +112,50 @@ PLANT_SPECS = (
        '', 0.0, 1.0, runtime=False),
     _S('dc_link.source_current', 0.0, 'current_fed mode: source current into the positive rail', 'A',
        -1000.0, 1000.0),
+    # ---- boost PFC front end (000 ch. III, Fig. 3.1; core/front_end.py) ----
+    _S('front_end.enabled', False, 'feed the DC link from the grid through the EMI filter, diode '
+       'bridge and boost stage (needs dc_link.mode current_fed; dc_link.voltage is then the '
+       'initial capacitor-string voltage)', runtime=False),
+    _S('front_end.line_voltage', 25.4, 'grid voltage, RMS (000 Figs. 3.5-3.6: 25.4 V; Fig. 3.4: '
+       '64.53 V)', 'V', 0.0, 1000.0),
+    _S('front_end.line_frequency', 60.0, 'grid frequency', 'Hz', 1.0, 1000.0, runtime=False),
+    _S('front_end.line_phase', 0.0, 'grid voltage phase at t = 0: v_g = sqrt(2) V sin(2 pi f t + '
+       'phase)', 'rad', -2.0 * math.pi, 2.0 * math.pi),
+    _S('front_end.line_resistance', 0.0, 'supply (source) series resistance, not in 000: 0 = stiff '
+       'grid', 'ohm', 0.0, 100.0),
+    _S('front_end.line_inductance', 0.0, 'supply (source) series inductance, not in 000: 0 = stiff '
+       'grid', 'H', 0.0, 1.0, runtime=False),
+    _S('front_end.filter.enabled', True, 'EMI filter C1 - L1, L2 - C2 between grid and bridge '
+       '(000 ch. III)', runtime=False),
+    _S('front_end.filter.inductance', 10e-6, 'EMI filter inductance L1 = L2, one per line conductor '
+       '(000: 10 uH)', 'H', 1e-9, 1.0, runtime=False),
+    _S('front_end.filter.capacitance', 1e-6, 'EMI filter capacitance C1 = C2 (000: 1 uF)', 'F',
+       1e-12, 1.0, runtime=False),
+    _S('front_end.filter.resistance', 0.05, 'series resistance of each EMI filter inductor (assumed)',
+       'ohm', 0.0, 100.0),
+    _S('front_end.boost.inductance', 1e-3, 'boost inductor L3 (000: 1 mH)', 'H', 1e-7, 1.0,
+       runtime=False),
+    _S('front_end.boost.resistance', 0.1, 'boost inductor series resistance (assumed)', 'ohm',
+       0.0, 100.0),
+    _S('front_end.boost.switch_resistance', 0.07, 'boost switch on-state resistance (FET47N60C3: '
+       '0.07 ohm)', 'ohm', 0.0, 100.0),
+    _S('front_end.boost.diode_drop', 1.0, 'boost diode forward drop (STTH8R06D: about 1 V)', 'V',
+       0.0, 10.0),
+    _S('front_end.bridge.diode_drop', 0.8, 'forward drop of each bridge diode (two conduct)', 'V',
+       0.0, 10.0),
+    _S('front_end.pwm_frequency', 80e3, 'boost PWM frequency, carrier locked to sim time (000: '
+       '80 kHz)', 'Hz', 1.0, 10e6, runtime=False),
+    _S('front_end.pwm_carrier', 'triangle', 'triangle: on-time centred on the period boundary (a '
+       'sample at t_k reads the average current); sawtooth: on for [0, d T)', '',
+       choices=('triangle', 'sawtooth'), runtime=False),
+    _S('front_end.over_current_limit', 8.0, 'boost inductor over-current: switch opened at this '
+       'current (000: 8 A); 0 = disabled', 'A', 0.0, 1000.0),
+    _S('front_end.over_voltage_limit', 140.0, 'boost output over-voltage: switch held off above '
+       'this link voltage (000: 140 V); 0 = disabled', 'V', 0.0, 2000.0),
+    _S('front_end.protection_latched', False, 'boost protections stay latched until a protection '
+       'reset (false: cycle by cycle, released once back within the limit)'),
+    _S('front_end.max_step', 1e-6, 'largest front-end inner step with the EMI filter (resolves the '
+       'L1 + L2 / C2 resonance)', 's', 1e-9, 1e-3, runtime=False),
     # ---- load machine (runtime) ----
     _S('load.mode', 'torque', 'load machine: constant torque, viscous, or dynamometer holding a speed',
        '', choices=('torque', 'viscous', 'dynamometer')),
@@ -165,6 +212,12 @@ def _cross_checks(p: Mapping[str, Any]) -> None:
                              f'{len(orders)} harmonic_orders')
     if any(o != int(o) for o in orders):
         raise ParameterError('motor.backemf.harmonic_orders: orders must be whole numbers')
+    if p['front_end.enabled'] and p['dc_link.mode'] != 'current_fed':
+        raise ParameterError(f"front_end.enabled: needs dc_link.mode current_fed (the front end "
+                             f"feeds the capacitor string), not {p['dc_link.mode']!r}")
+    if p['pfc_enabled'] and not p['front_end.enabled']:
+        raise ParameterError('pfc_enabled: a PFC controller needs the boost front end '
+                             '(front_end.enabled true)')
     if p['motor.backemf.shape'] == 'table' and not p['motor.backemf.table_file']:
         raise ParameterError('motor.backemf.table_file: required when motor.backemf.shape is table')
 

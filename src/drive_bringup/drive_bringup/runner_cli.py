@@ -11,7 +11,6 @@ arguments, 130 interrupted (all nodes stopped).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -34,6 +33,22 @@ def _fresh_dir(path: Path, overwrite: bool) -> Path:
         import shutil
         shutil.rmtree(path)
     return path
+
+
+def print_summary(summary: dict, out: Path) -> None:
+    """The terminal summary of a recorded run: where things are, metrics, seed checks."""
+    print(f'\n{summary["scenario"]} ({summary["seed_reference"]}): '
+          f'{summary["sim_time"]:.4f} s sim in {summary["wall_time"]:.1f} s wall, '
+          f'{summary["samples_per_second"]:.0f} samples/s')
+    print(f'  bag     {summary["bag"]}\n  report  {out / "report.json"}\n  figures {out / "figures"}')
+    for name, value in summary['metrics'].items():
+        print(f'  {name:45s} {value:.6g}' if isinstance(value, float) else f'  {name:45s} {value}')
+    for row in summary['checks']:
+        seed = '' if row['seed'] is None else f'seed {row["seed"]:g}, '
+        sim = row['simulated']
+        sim = f'{sim:.4g}' if isinstance(sim, float) else str(sim)
+        print(f'  [{"pass" if row["pass"] else "FAIL"}] {row["label"]}: {seed}simulated {sim} '
+              f'({row["criterion"]})')
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -97,7 +112,7 @@ def main(argv=None) -> int:
             result = GraphRunner(scenario, out, record=not args.no_record).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)
-            print(json.dumps(summary.get('headline', {}), indent=2))
+            print_summary(summary, out)
         return 0
 
     return main_guard(run)

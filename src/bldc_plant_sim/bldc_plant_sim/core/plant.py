@@ -33,6 +33,7 @@ from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
 from ..parameters import PLANT_NODE_SCHEMA, with_motor_file
 from .dc_link import DcLink
+from .front_end import FrontEnd
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, Inverter
 from .load import LoadMachine
 from .motor import Motor
@@ -109,6 +110,7 @@ class PlantCore:
         self.inverter = Inverter.from_params(p)
         self.topology = self.inverter.topology
         self.dc = DcLink.from_params(p)
+        self.fe = FrontEnd.from_params(p) if p['front_end.enabled'] else None
         self.load = LoadMachine.from_params(p)
         self.sensors = Sensors(p, self.motor.pole_pairs)
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
@@ -148,6 +150,9 @@ class PlantCore:
         if getattr(self, 'step', 0) > 0 and snap['base_tick'] != self.base_tick:
             raise ParameterError(f"base_tick: cannot change from {self.base_tick} s after the "
                                  'simulation started')
+        if getattr(self, 'step', 0) > 0 and snap['front_end.enabled'] != self.params['front_end.enabled']:
+            raise ParameterError('front_end.enabled: cannot change after the simulation started '
+                                 '(the energy ledger would lose its input)')
         return snap
 
     def reconfigure(self, params: dict) -> None:
@@ -175,6 +180,23 @@ class PlantCore:
             self.dc = DcLink.from_params(p)
             self.dc.energy_source = source_energy
         self.dc.source_current = p['dc_link.source_current']
+        fe = self.fe
+        if not p['front_end.enabled']:
+            self.fe = None
+        elif fe is None:
+            self.fe = FrontEnd.from_params(p, time=self.time)
+        else:
+            # A line voltage / phase step changes C1's energy at once: the grid supplies
+            # that jump (booked as grid input, not as a move of the stored-energy baseline).
+            if p['front_end.filter.enabled'] != fe.filter_enabled:
+                self.fe = self._rebuilt_front_end(p)   # the baseline moves below
+            else:
+                e0 = fe.stored_energy()
+                fe.reconfigure(p)
+                if changed & {'front_end.line_voltage', 'front_end.line_phase'}:
+                    jump = fe.stored_energy() - e0
+                    fe.energy.grid += jump
+                    stored_before += jump
         self.load.configure(p['load.mode'], p['load.torque'], p['load.viscous'], p['load.speed'])
         if changed & {'sensors.seed', 'sensors.encoder_pulses', 'motor.pole_pairs'}:
             self.sensors = Sensors(p, self.motor.pole_pairs)
@@ -184,6 +206,17 @@ class PlantCore:
         self.params = p
         self._derive_constants(p['integration.max_step'])
         self.energy.stored_initial += self.stored_energy() - stored_before
+
+    def _rebuilt_front_end(self, p: dict) -> FrontEnd:
+        """A new FrontEnd for a changed filter.enabled: keeps i_L, commands, flags and the ledger."""
+        old = self.fe
+        fe = FrontEnd.from_params(p, time=self.time)
+        fe.i_L = old.i_L
+        fe.duty, fe.enable = old.duty, old.enable
+        fe.over_current, fe.over_voltage = old.over_current, old.over_voltage
+        fe.energy = old.energy
+        fe.events, fe.event_counts = old.events, old.event_counts
+        return fe
 
     def _derive_constants(self, max_step: float) -> None:
         self._legs_of: dict = {}        # gate tuple -> leg codes (memo; reset with the inverter)
@@ -211,26 +244,46 @@ class PlantCore:
         self._commanded = legs
 
     def apply_duty(self, duty: float, enable: bool) -> None:
-        """Boost duty for the front end (none yet: kept and reported)."""
+        """Latch the boost duty command until the next call (duty 0 / off in the safe state)."""
         self._duty = (min(1.0, max(0.0, float(duty))), bool(enable))
+        if self.fe is not None:
+            if self._safe:
+                self.fe.set_duty(0.0, False)
+            else:
+                self.fe.set_duty(*self._duty)
 
     def enter_safe_state(self, reason: int) -> None:
         """All switches off (boost off) until leave_safe_state(reason)."""
         self._safe |= int(reason)
+        if self.fe is not None:
+            self.fe.set_duty(0.0, False)
 
     def leave_safe_state(self, reason: int) -> None:
+        """Clear one reason; the inverter and the boost take the latched commands again."""
         self._safe &= ~int(reason)
+        if self.fe is not None and not self._safe:
+            self.fe.set_duty(*self._duty)
 
     def safe_state_reason(self) -> int:
         return self._safe
 
     def reset_protection(self) -> tuple[bool, str]:
-        """Reset the latched peak-current trip (refused while the current is above the level)."""
-        return self.trip.reset(self.i)
+        """Reset the latched peak-current trip (refused while the current is above the level)
+        and the latched boost protections (they re-trip at once if the cause persists)."""
+        ok, text = self.trip.reset(self.i)
+        fe = self.fe
+        if fe is not None and fe.protection:
+            fe.reset_protection()
+            text += '; boost protections reset'
+        return ok, text
 
     @property
     def protection(self) -> int:
-        return (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
+        """PlantState PROTECTION_* bits: motor trip, boost over-current / over-voltage, safe state."""
+        bits = (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
+        if self.fe is not None:
+            bits |= self.fe.protection
+        return bits
 
     def _effective_legs(self) -> tuple:
         if self._safe or self.trip.tripped:
@@ -247,12 +300,24 @@ class PlantCore:
                                    m.backemf.hall_code(theta_e))
 
     def pfc_sample(self) -> PfcSample | None:
-        """No front end yet (later PFC issue): None."""
-        return None
+        """Sensed boost quantities at t_k (None without the front end)."""
+        fe = self.fe
+        if fe is None:
+            return None
+        v_in, i_l = fe.measurement()
+        return PfcSample(self.step, self.time, v_in, i_l, self.dc.positive)
 
     def stored_energy(self) -> float:
-        return (self.motor.magnetic_energy(self.i) + self.dc.stored_energy()
-                + 0.5 * self.motor.inertia * self.omega * self.omega)
+        """J: motor magnetic + capacitors + kinetic (+ front-end inductors and filter capacitors)."""
+        e = (self.motor.magnetic_energy(self.i) + self.dc.stored_energy()
+             + 0.5 * self.motor.inertia * self.omega * self.omega)
+        if self.fe is not None:
+            e += self.fe.stored_energy()
+        return e
+
+    def energy_input(self) -> float:
+        """J delivered into the plant: the grid with the front end, else the DC source."""
+        return self.fe.energy.grid if self.fe is not None else self.dc.energy_source
 
     def state(self) -> PlantStateSample:
         """Ground truth at t_k."""
@@ -267,6 +332,16 @@ class PlantCore:
         cond, u, vn, _ = self.inverter.resolve(self._legs, i, e, self.dc.positive, self.dc.v_lower)
         term = tuple(u[x] + e[x] if cond[x] else vn + e[x] for x in range(3))
         en = self.energy
+        fe = self.fe
+        if fe is not None:
+            grid_v, grid_i = fe.grid_voltage(self.time), fe.grid_current
+            rect_v, ind_i = fe.rectified_voltage, fe.i_L
+            boost_duty, boost_on = fe.applied_duty, fe.switch_enabled
+            e_grid, e_src, e_fe = fe.energy.grid, 0.0, fe.energy.losses
+        else:
+            grid_v = grid_i = rect_v = ind_i = NAN
+            boost_duty, boost_on = 0.0, False
+            e_grid, e_src, e_fe = 0.0, self.dc.energy_source, 0.0
         return PlantStateSample(
             step=self.step, phase_current=i, back_emf=e, flux_linkage=m.flux_linkages(theta_e, i),
             terminal_voltage=term, neutral_voltage=vn,
@@ -274,18 +349,21 @@ class PlantCore:
             load_torque=self._t_load, rotor_angle=theta_e % TWO_PI, mechanical_angle=self.theta_m,
             mechanical_speed=self.omega, dc_link_voltage=self.dc.positive,
             upper_capacitor_voltage=self.dc.v_upper, lower_capacitor_voltage=self.dc.v_lower,
-            applied_switch_on=self._applied, boost_duty=0.0, boost_switch_enabled=False,
+            grid_voltage=grid_v, grid_current=grid_i, rectified_voltage=rect_v,
+            inductor_current=ind_i,
+            applied_switch_on=self._applied, boost_duty=boost_duty, boost_switch_enabled=boost_on,
             protection=self.protection, safe_state=bool(self._safe or self.trip.tripped),
-            energy_grid_input=0.0, energy_dc_source=self.dc.energy_source,
-            energy_copper_loss=en.copper, energy_device_loss=en.device, energy_front_end_loss=0.0,
+            energy_grid_input=e_grid, energy_dc_source=e_src,
+            energy_copper_loss=en.copper, energy_device_loss=en.device, energy_front_end_loss=e_fe,
             energy_friction_loss=en.friction, energy_mechanical_output=en.mechanical,
             energy_stored=self.stored_energy())
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
         en = self.energy
-        return (self.dc.energy_source - (self.stored_energy() - en.stored_initial)
-                - en.copper - en.device - en.friction - en.mechanical)
+        fe_loss = self.fe.energy.losses if self.fe is not None else 0.0
+        return (self.energy_input() - (self.stored_energy() - en.stored_initial)
+                - en.copper - en.device - en.friction - en.mechanical - fe_loss)
 
     # ------------------------------------------------------------------ integration
     def advance(self) -> None:
@@ -360,6 +438,28 @@ class PlantCore:
         cond, u, vn, rail = self.inverter.resolve(legs, i, e, vp, vm)
         R = self._R
         tau = self._tau
+        if dc.mode == 'current_fed' and cond[0] + cond[1] + cond[2] >= 2:
+            # Corrector: the link prediction above uses the previous segment's average node
+            # currents, a first-order error when the legs just changed (a chopped 20 A phase
+            # current on 135 uF: about 1 % of the energy). Predict again from this segment's
+            # own average rail currents (exact integrals at the predicted voltages).
+            w_avg = tau * (1.0 - (self._a_h if nominal else math.exp(-T / tau))) / T
+            ip = im = 0.0
+            for q in (0, 1, 2):
+                if cond[q]:
+                    r = rail[q]
+                    if r == RAIL_P or r == RAIL_M:
+                        s = (u[q] - vn) / R
+                        avg = s + (i[q] - s) * w_avg
+                        if r == RAIL_P:
+                            ip += avg
+                        else:
+                            im += avg
+            i_s = dc._i_s
+            d_lo = 0.5 * T * (i_s - ip - im) / dc.c_lower
+            vm = dc.v_lower + d_lo
+            vp = dc.v_upper + 0.5 * T * (i_s - ip) / dc.c_upper + vm
+            cond, u, vn, rail = self.inverter.resolve(legs, i, e, vp, vm)
         a = self._a_h if nominal else math.exp(-T / tau)
         n_cond = cond[0] + cond[1] + cond[2]
         event = None
@@ -443,7 +543,10 @@ class PlantCore:
             if dc.stiff:
                 dc.energy_source += vp * q_p + vm * q_m
             elif T > 0.0:
-                dc.draw(q_p, q_m, T, self.time + self._elapsed)
+                t0 = self.time + self._elapsed
+                if self.fe is not None:
+                    dc.source_current = self.fe.advance(t0, T, vp) / T
+                dc.draw(q_p, q_m, T, t0)
             te = p * (ka * q_int[0] + kb * q_int[1] + kc * q_int[2]) / T if T > 0.0 else 0.0
             self.i = i1
         else:
@@ -451,7 +554,10 @@ class PlantCore:
             if i[0] or i[1] or i[2]:
                 self.i = [0.0, 0.0, 0.0]
             if T > 0.0 and dc.mode == 'current_fed':
-                dc.draw(0.0, 0.0, T, self.time + self._elapsed)
+                t0 = self.time + self._elapsed
+                if self.fe is not None:
+                    dc.source_current = self.fe.advance(t0, T, vp) / T
+                dc.draw(0.0, 0.0, T, t0)
         if T > 0.0:
             w1, w_avg, t_load, e_fric, e_load = self.load.step(m.inertia, m.friction, w0, te, T)
             self.omega = w1

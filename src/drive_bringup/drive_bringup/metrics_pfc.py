@@ -1,0 +1,226 @@
+"""Metrics of the boost PFC results (000 ch. III, Figs. 3.4-3.6), pure numpy.
+
+Every metric takes the flat arrays dict of a run (headless
+:meth:`drive_bringup.headless.HeadlessResult.arrays` or a bag through
+:func:`drive_bringup.report.flatten_columns`): plant ground truth as
+``'plant/state.<field>'`` with ``'plant/state.time'``, PFC internals as
+``'pfc/status.<field>'``; plus keyword options; it returns a float (NaN when
+the window holds no data). Options ``t_start`` / ``t_end`` [s] restrict a
+metric to the samples with t_start <= t < t_end (default: the whole run).
+
+Line-side metrics use :mod:`pfc_controller.grid_metrics` over the LAST whole
+line cycles of the window (``cycles`` limits how many; the record must be
+evenly sampled -- the plant state is recorded every DTC sample, 25 us, so 3
+line cycles of 60 Hz are exactly 2000 samples). The voltage is the grid
+source voltage ``grid_voltage`` (behind the supply impedance) and the current
+``grid_current`` (the line current including the EMI filter's C1).
+
+``line_power_factor``      PF = P / (V_rms I_rms) (distortion and displacement).
+``line_current_thd_pct``   THD of the line current, harmonics 2..40, in % of the fundamental.
+``line_displacement_factor``  cos of the angle between the fundamentals.
+``line_current_rms_A`` / ``line_voltage_rms_V`` / ``line_real_power_W``
+``mean_output_voltage_V``  mean boost output (= DC-link) voltage over the window.
+``output_voltage_ripple_pp_V``  its peak-to-peak over the window.
+``max_output_voltage_V`` / ``min_output_voltage_V``  extremes over the window.
+``output_recovery_time_s`` option ``t_event`` (required), ``reference`` (80 V), ``band``
+    (2 V): the output voltage averaged over a moving half line cycle (removes the
+    120 Hz ripple) is compared with the reference; the result is the time from
+    t_event to the last averaged sample outside the band (0 if never outside;
+    NaN if still outside at the end of the window: not recovered).
+``output_voltage_deviation_V``  option ``t_event`` (else t_start), ``reference``: largest
+    |averaged v_o - reference| after t_event (the dip or overshoot of a step).
+``boost_protection_tripped``  option ``bit`` (2 = boost over-current, 4 = over-voltage,
+    PlantState PROTECTION_*; default 6 = either): 1.0 if set at any sample.
+``boost_trip_time_s``  first sim time with that bit set (NaN if never).
+``boost_switch_enabled_fraction``  fraction of the window's samples with the boost
+    switch enabled after protections (0 = held off: the safe state of the front end).
+``peak_inductor_current_A``  largest boost inductor current in the window.
+``final_time_s``  sim time of the last record (the run continued to its end).
+``line_current_mean_A``  dc component of the line current over whole cycles.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pfc_controller import grid_metrics
+
+LINE_FREQUENCY = 60.0
+
+
+def _window(arrays: dict, t_start: float | None, t_end: float | None,
+            topic: str = 'plant/state') -> np.ndarray:
+    t = np.asarray(arrays[f'{topic}.time'], dtype=float)
+    mask = np.ones(t.shape, dtype=bool)
+    if t_start is not None:
+        mask &= t >= t_start - 1e-12
+    if t_end is not None:
+        mask &= t < t_end - 1e-12
+    return mask
+
+
+def _field(arrays: dict, name: str, mask: np.ndarray, topic: str = 'plant/state') -> np.ndarray:
+    return np.asarray(arrays[f'{topic}.{name}'], dtype=float)[mask]
+
+
+def _grid(arrays: dict, t_start=None, t_end=None, cycles=None,
+          line_frequency: float = LINE_FREQUENCY):
+    """(v, i, sample_rate) over the last whole line cycles of the window."""
+    mask = _window(arrays, t_start, t_end)
+    t = _field(arrays, 'time', mask)
+    if len(t) < 3:
+        raise ValueError('window holds too few samples')
+    dt = np.diff(t)
+    # The headless runner appends the final state; keep only the evenly spaced part.
+    step = float(np.median(dt))
+    even = np.abs(dt - step) < 1e-3 * step
+    if not even[-1]:
+        mask_idx = np.flatnonzero(mask)[:-1]
+        mask = np.zeros_like(mask)
+        mask[mask_idx] = True
+        t = t[:-1]
+    rate = 1.0 / step
+    v = grid_metrics.whole_cycles(_field(arrays, 'grid_voltage', mask), rate, line_frequency,
+                                  cycles)
+    i = grid_metrics.whole_cycles(_field(arrays, 'grid_current', mask), rate, line_frequency,
+                                  cycles)
+    if np.isnan(v).any() or np.isnan(i).any():
+        raise ValueError('no grid quantities recorded (front end disabled?)')
+    return v, i, rate
+
+
+def line_power_factor(arrays, t_start=None, t_end=None, cycles=None,
+                      line_frequency=LINE_FREQUENCY) -> float:
+    v, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return grid_metrics.power_factor(v, i)
+
+
+def line_current_thd_pct(arrays, t_start=None, t_end=None, cycles=None,
+                         line_frequency=LINE_FREQUENCY, max_harmonic=40) -> float:
+    _, i, rate = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return 100.0 * grid_metrics.thd(i, rate, line_frequency, max_harmonic)
+
+
+def line_displacement_factor(arrays, t_start=None, t_end=None, cycles=None,
+                             line_frequency=LINE_FREQUENCY) -> float:
+    v, i, rate = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return grid_metrics.displacement_factor(v, i, rate, line_frequency)
+
+
+def line_current_rms_A(arrays, t_start=None, t_end=None, cycles=None,
+                       line_frequency=LINE_FREQUENCY) -> float:
+    _, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return grid_metrics.rms(i)
+
+
+def line_voltage_rms_V(arrays, t_start=None, t_end=None, cycles=None,
+                       line_frequency=LINE_FREQUENCY) -> float:
+    v, _, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return grid_metrics.rms(v)
+
+
+def line_real_power_W(arrays, t_start=None, t_end=None, cycles=None,
+                      line_frequency=LINE_FREQUENCY) -> float:
+    v, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return float(np.mean(v * i))
+
+
+def _output(arrays, t_start, t_end) -> np.ndarray:
+    return _field(arrays, 'dc_link_voltage', _window(arrays, t_start, t_end))
+
+
+def mean_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
+    v = _output(arrays, t_start, t_end)
+    return float(np.mean(v)) if len(v) else math.nan
+
+
+def output_voltage_ripple_pp_V(arrays, t_start=None, t_end=None) -> float:
+    v = _output(arrays, t_start, t_end)
+    return float(np.ptp(v)) if len(v) else math.nan
+
+
+def max_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
+    v = _output(arrays, t_start, t_end)
+    return float(np.max(v)) if len(v) else math.nan
+
+
+def min_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
+    v = _output(arrays, t_start, t_end)
+    return float(np.min(v)) if len(v) else math.nan
+
+
+def _averaged_output(arrays, t_start, t_end, line_frequency):
+    """(t, v_o averaged over a trailing half line cycle) in the window."""
+    mask = _window(arrays, t_start, t_end)
+    t = _field(arrays, 'time', mask)
+    v = _field(arrays, 'dc_link_voltage', mask)
+    if len(t) < 3:
+        return t, v
+    step = float(np.median(np.diff(t)))
+    n = max(1, int(round(0.5 / line_frequency / step)))
+    if len(v) <= n:
+        return t[-1:], np.array([np.mean(v)])
+    c = np.cumsum(np.insert(v, 0, 0.0))
+    avg = (c[n:] - c[:-n]) / n
+    return t[n - 1:], avg
+
+
+def output_recovery_time_s(arrays, t_event, reference=80.0, band=2.0, t_end=None,
+                           line_frequency=LINE_FREQUENCY) -> float:
+    t, avg = _averaged_output(arrays, t_event, t_end, line_frequency)
+    if not len(t):
+        return math.nan
+    outside = np.abs(avg - reference) > band
+    if not outside.any():
+        return 0.0
+    if outside[-1]:
+        return math.nan
+    last = int(np.flatnonzero(outside)[-1])
+    return float(t[last + 1] - t_event)
+
+
+def output_voltage_deviation_V(arrays, t_event=None, reference=80.0, t_start=None, t_end=None,
+                               line_frequency=LINE_FREQUENCY) -> float:
+    start = t_event if t_event is not None else t_start
+    t, avg = _averaged_output(arrays, start, t_end, line_frequency)
+    return float(np.max(np.abs(avg - reference))) if len(t) else math.nan
+
+
+def _protection(arrays, t_start, t_end):
+    mask = _window(arrays, t_start, t_end)
+    return (_field(arrays, 'time', mask),
+            _field(arrays, 'protection', mask).astype(np.int64))
+
+
+def boost_protection_tripped(arrays, bit=6, t_start=None, t_end=None) -> float:
+    _, prot = _protection(arrays, t_start, t_end)
+    return 1.0 if np.any(prot & int(bit)) else 0.0
+
+
+def boost_trip_time_s(arrays, bit=6, t_start=None, t_end=None) -> float:
+    t, prot = _protection(arrays, t_start, t_end)
+    hit = np.flatnonzero(prot & int(bit))
+    return float(t[hit[0]]) if len(hit) else math.nan
+
+
+def boost_switch_enabled_fraction(arrays, t_start=None, t_end=None) -> float:
+    on = _field(arrays, 'boost_switch_enabled', _window(arrays, t_start, t_end))
+    return float(np.mean(on)) if len(on) else math.nan
+
+
+def peak_inductor_current_A(arrays, t_start=None, t_end=None) -> float:
+    i = _field(arrays, 'inductor_current', _window(arrays, t_start, t_end))
+    return float(np.max(i)) if len(i) else math.nan
+
+
+def final_time_s(arrays) -> float:
+    t = np.asarray(arrays['plant/state.time'], dtype=float)
+    return float(t[-1]) if len(t) else math.nan
+
+
+def line_current_mean_A(arrays, t_start=None, t_end=None, cycles=None,
+                        line_frequency=LINE_FREQUENCY) -> float:
+    """DC component of the line current over whole cycles (0 when both half cycles conduct alike)."""
+    _, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return float(np.mean(i))
