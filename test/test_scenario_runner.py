@@ -161,9 +161,13 @@ def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_ru
 
 
 @pytest.mark.parametrize('name', ['four_switch_torque_step', 'three_phase_dtifc_sensorless',
-                                  'fstp_voltage_model_proposed_compensation'])
+                                  'fstp_voltage_model_proposed_compensation', 'pfc_no_load_fig_3_5'])
 def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_path):
-    """The closed-loop results shown headless hold for the ROS graph: same trajectory."""
+    """The closed-loop results shown headless hold for the ROS graph: same trajectory.
+
+    One scenario per inverter/conduction family, and the PFC front end with its
+    own controller at twice the DTC rate.
+    """
     from drive_logger.analysis.data import load_columns
     duration = 0.006
     out = tmp_path / name
@@ -181,3 +185,11 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
     status = columns['/dtc/status']
     assert np.array_equal(status['torque_estimate'], headless['dtc/status.torque_estimate'])
     assert np.ptp(state['phase_current'][:, 1]) > 0.5     # the drive actually switched current
+    if 'pfc_controller' in scenario.nodes:                # boost PFC loop at 80 kHz, DTC at 40 kHz
+        for field in ('inductor_current', 'grid_current', 'dc_link_voltage'):
+            assert np.array_equal(state[field], headless[f'plant/state.{field}']), field
+        pfc = columns['/pfc/status']
+        recorded = np.isin(pfc['step'], headless['pfc/status.step'])   # headless keeps every 2nd
+        assert recorded.sum() == len(headless['pfc/status.step'])
+        assert np.array_equal(pfc['duty'][recorded], headless['pfc/status.duty'])
+        assert np.ptp(state['inductor_current']) > 0.5

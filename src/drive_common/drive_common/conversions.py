@@ -35,6 +35,8 @@ def to_message(msg_type: type, data: Any, time: float | None = None):
         value = getattr(data, name)
         if isinstance(value, tuple):
             value = list(value)
+        elif type(value).__module__ == 'numpy' and not hasattr(value, '__len__'):
+            value = value.item()   # numpy scalar -> Python (the C converter wants bool, float)
         setattr(msg, name, value)
     if time is not None and hasattr(msg, 'header'):
         msg.header.stamp = time_msg(time)

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 
 
 class LinePeriodAverage:
@@ -34,7 +33,7 @@ class LinePeriodAverage:
         frac = window - n
         self._n = n
         self._frac = frac if frac > 1e-9 else 0.0
-        self._buffer = np.zeros(n + 1)  # ring: the last n samples plus the one before
+        self._buffer = [0.0] * (n + 1)  # ring: the last n samples plus the one before (floats)
         self._index = 0
         self._count = 0
         self._sum = 0.0   # sum of the last n samples
@@ -45,7 +44,7 @@ class LinePeriodAverage:
         return self._n + self._frac
 
     def reset(self) -> None:
-        self._buffer[:] = 0.0
+        self._buffer = [0.0] * (self._n + 1)
         self._index = 0
         self._count = 0
         self._sum = 0.0
