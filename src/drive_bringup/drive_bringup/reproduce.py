@@ -4,6 +4,7 @@
     reproduce --only two_phase      # names containing a substring
     reproduce --ros                 # through the ROS graph (slower; recorded bags)
     reproduce --out reports         # where reproduction.md / .json go
+    reproduce --readme README.md    # also refresh the table between the README's markers
 
 Each row: scenario, seed reference, what is checked, the seed's value, the
 simulated value, the criterion (seed ± tolerance, or bounds) and pass/fail.
@@ -66,12 +67,26 @@ def markdown(rows: list[dict]) -> str:
     return '\n'.join(lines)
 
 
+BEGIN, END = '<!-- reproduction table: begin -->', '<!-- reproduction table: end -->'
+
+
+def update_readme(path: Path, table: str) -> None:
+    """Put table between the BEGIN/END markers of path (which must have both)."""
+    text = path.read_text()
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f'{path}: markers {BEGIN} / {END} not found')
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    path.write_text(f'{head}{BEGIN}\n{table.strip()}\n{END}{tail}')
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog='reproduce', description=__doc__.split('\n')[0])
     parser.add_argument('--only', default='', help='run scenarios whose name contains this')
     parser.add_argument('--ros', action='store_true', help='through the ROS graph (recorded)')
     parser.add_argument('--out', type=Path, default=Path('reports'))
     parser.add_argument('--jobs', type=int, default=2)
+    parser.add_argument('--readme', type=Path, help='replace the table between the markers of this file')
     args = parser.parse_args(argv)
     paths = [p for p in sorted(scenario_dir().glob('*.yaml'))
              if args.only in p.stem and load_scenario(p).checks]
@@ -98,6 +113,8 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / 'reproduction.md').write_text(table + footer + ('\n'.join(notes) + '\n' if notes else ''))
     (args.out / 'reproduction.json').write_text(json.dumps(rows, indent=2, default=str))
+    if args.readme:
+        update_readme(args.readme, table + footer)
     print()
     print(table + footer)
     return 0 if passed == len(rows) else 1
