@@ -171,3 +171,23 @@ def test_motor_and_topology_change_only_while_held(start_node, ros_session):
     assert client.set(**{'motor.resistance': 0.5})[0].successful
     assert client.get('motor.resistance') == 0.5
     assert client.run(0.001, relative=True).success
+
+
+def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_session):
+    from dtc_msgs.srv import ResetProtection
+    _start_graph(start_node, {'dc_link.voltage': 56.0, 'motor.initial_speed': 0.0})
+    client = PlantClient(ros_session)
+    assert client.run(0.004).success
+    wait_until(lambda: client.states[-1].step == 160, 10.0, what='last state')
+    tripped = client.states[-1]
+    assert tripped.protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT
+    assert not any(tripped.applied_switch_on)
+    peak = max(max(abs(i) for i in s.phase_current) for s in client.states)
+    assert 23.0 < peak <= 24.0 + 1e-6          # trip located inside the sample, at 24 A
+    reset = ros_session.node('reset_client').create_client(ResetProtection,
+                                                           topics.RESET_PROTECTION_SERVICE)
+    assert reset.wait_for_service(timeout_sec=30.0)
+    answer = _future_result(reset.call_async(ResetProtection.Request()), 30.0, 'reset')
+    assert answer.success, answer.message
+    wait_until(lambda: not client.states[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
+               10.0, what='trip cleared in plant/state')
