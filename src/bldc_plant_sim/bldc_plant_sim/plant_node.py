@@ -46,6 +46,7 @@ from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasure
 from dtc_msgs.srv import ResetProtection
 
 COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
+AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
 
 
 class _Inbox:
@@ -111,7 +112,9 @@ class PlantNode(Node):
         self._state_sent_step = -1   # step of the last plant/state sent (never twice)
         self._autorun_timer = None
         if self.parameters['run_until'] > 0.0:
-            self._autorun_timer = self.create_timer(0.05, self._autorun,
+            # Give discovery a moment, so subscribers started before the plant
+            # (recorders, monitors) are in the graph when sample 0 goes out.
+            self._autorun_timer = self.create_timer(AUTORUN_DISCOVERY_DELAY, self._autorun,
                                                     callback_group=self._run_group)
 
     # --- parameters -------------------------------------------------------
@@ -173,10 +176,20 @@ class PlantNode(Node):
         while True:
             missing = [what for count, what in needs if count() < 1]
             if not missing:
-                return None
+                break
             if time.monotonic() > deadline:
                 return 'no controller matched: ' + ', '.join(missing)
             self._io_executor.spin_once(timeout_sec=0.01)
+        # Every other subscriber already in the graph (a recorder, a monitor) must be
+        # matched too before sample 0 goes out, or it would miss the first samples.
+        outputs = [(self._drive_pub, self._io), (self._pfc_pub, self._io), (self._state_pub, self)]
+        while any(pub.get_subscription_count() < node.count_subscribers(pub.topic_name)
+                  for pub, node in outputs):
+            if time.monotonic() > deadline:
+                self.get_logger().warning('some subscribers were not matched before the run')
+                break
+            self._io_executor.spin_once(timeout_sec=0.01)
+        return None
 
     def _await(self, inbox: _Inbox, step: int, deadline: float | None):
         """The command for step, waiting until deadline (None: only what has arrived)."""

@@ -167,9 +167,38 @@ class GraphRunner:
                                   timeout=max(1.0, deadline - time.monotonic()))
             except TimeoutError as exc:
                 raise RunFailed(str(exc)) from exc
-            # Matching of the recorder's subscriptions with publishers that
-            # appeared after it is not visible from outside: let discovery settle.
-            time.sleep(1.0)
+            self._wait_publishers_matched(node, executor, deadline)
+
+    def _wait_publishers_matched(self, node, executor, deadline: float) -> None:
+        """Wait until this runner is matched with every node's streamed publishers.
+
+        Whether the recorder's subscriptions are matched with publishers that
+        appeared after it is not visible from outside; the runner, started
+        after the recorder, matching them too is the proxy (plus a short
+        settle), so the first samples are not lost to discovery.
+        """
+        from drive_logger.graph_topics import known_type
+        from drive_logger.ros_types import message_class
+        streamed = {_absolute_topic(n) for n in (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND,
+                                                 topics.PLANT_STATE, topics.DTC_STATUS)}
+        if 'pfc_controller' in self.scenario.nodes:
+            streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
+                                                      topics.PFC_STATUS)}
+        wanted = [t for t in record_topics(self.scenario) if t in streamed and known_type(t)]
+        probes = [node.create_subscription(message_class(known_type(t)), t, lambda _msg: None,
+                                           topics.STREAM_QOS, raw=True)
+                  for t in wanted]
+        try:
+            while any(p.get_publisher_count() < 1 for p in probes):
+                executor.spin_once(timeout_sec=0.05)
+                self._check_alive()
+                if time.monotonic() > deadline:
+                    missing = [p.topic_name for p in probes if p.get_publisher_count() < 1]
+                    raise RunFailed(f'no publisher matched on {missing} within 60 s')
+        finally:
+            for probe in probes:
+                node.destroy_subscription(probe)
+        time.sleep(0.5)
 
     def _set_parameters(self, node, executor, target: str, values: dict) -> None:
         client = self._param_clients[target]
