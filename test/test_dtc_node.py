@@ -97,3 +97,17 @@ def test_bad_backemf_table_stops_the_node_with_the_reason(start_node, tmp_path, 
     output = process.output()
     assert code == 2, output
     assert expected in output and 'cannot start' in output, output
+
+
+@pytest.mark.parametrize('package, executable, parameters, name', [
+    ('dtc_controller', 'dtc_controller', {'torque_band': -1.0}, 'torque_band'),
+    ('bldc_plant_sim', 'plant', {'dc_link.voltage': -5.0}, 'dc_link.voltage'),
+    ('pfc_controller', 'pfc_controller', {'voltage_kp': -1.0}, 'voltage_kp'),
+])
+def test_out_of_range_start_up_value_is_refused_with_the_reason(start_node, package, executable,
+                                                                 parameters, name):
+    process = start_node(package, executable, parameters=parameters)
+    code = process.process.wait(timeout=30)
+    output = process.output()
+    assert code == 2 and 'cannot start' in output and name in output, output
+    assert 'Traceback' not in output, output

@@ -100,10 +100,16 @@ def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = Fals
     from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
                                  SingleThreadedExecutor)
 
+    from rclpy.exceptions import InvalidParameterValueException, ParameterException
+
     rclpy.init(args=args)
     node = None
     try:
-        node = factory()
+        try:
+            node = factory()
+        except (InvalidParameterValueException, ParameterException) as exc:
+            # A start-up value outside its declared range: say why, no traceback.
+            raise ParameterError(f'cannot start: {exc}') from exc
         executor = MultiThreadedExecutor(num_threads=4) if multithreaded else SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
