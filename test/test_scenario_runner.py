@@ -160,7 +160,7 @@ def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_ru
     assert summary['steps_compared'] == first_event and summary['mismatch_count'] == 0, summary
 
 
-@pytest.mark.parametrize('name', ['four_switch_torque_step', 'three_phase_dtifc_sensorless',
+@pytest.mark.parametrize('name', ['two_phase_four_switch_torque_step', 'three_phase_dtifc_sensorless',
                                   'fstp_voltage_model_proposed_compensation', 'pfc_no_load_fig_3_5'])
 def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_path):
     """The closed-loop results shown headless hold for the ROS graph: same trajectory.

@@ -9,15 +9,15 @@ from closed_loop_support import (K_TORQUE, L_CIRCUIT, PEAK_CURRENT, VDC_FOUR, ch
 
 
 @pytest.mark.parametrize('name, ref', [
-    ('four_switch_torque_step', 'Figs. 4.13'),
-    ('four_switch_flux_control', 'Figs. 4.10'),
+    ('two_phase_four_switch_torque_step', 'Figs. 4.13'),
+    ('two_phase_four_switch_flux_control', 'Figs. 4.10'),
 ])
 def test_scenario_files(name, ref):
     check_scenario_file(name, ref)
 
 
 def test_figs_4_13_4_14_4_16_phase_c_torque_tracking_and_step():
-    name, dur = 'four_switch_torque_step', 0.1
+    name, dur = 'two_phase_four_switch_torque_step', 0.1
     m = metrics(name, dur, mean_torque_after_N_m={'metric': 'mean_torque_N_m', 't_start': 0.052, 't_end': dur})
     # Fig. 4.13: in sectors II/V the separate phase-torque loops keep i_c at zero up to
     # a ripple of one sample's step (midpoint phase sees V_dc/2 across 1.5 (L - M)):
@@ -37,7 +37,7 @@ def test_figs_4_13_4_14_4_16_phase_c_torque_tracking_and_step():
 
 
 def test_figs_4_10_to_4_12_flux_control_unstable():
-    name, dur = 'four_switch_flux_control', 0.6
+    name, dur = 'two_phase_four_switch_flux_control', 0.6
     m = metrics(name, dur)
     assert m['peak_phase_current_before_A'] < 12.0
     assert m['peak_phase_current_A'] >= 0.98 * PEAK_CURRENT

@@ -49,6 +49,8 @@ PLANT_SPECS = (
     _S('pfc_enabled', False, 'wait for a PFC controller (needs the front end)', runtime=False),
     _S('state_period', 0.0, 'plant/state publishing period (0 = every DTC sample)', 's', 0.0, 1.0,
        runtime=False),
+    _S('clock_period', 1e-3, '/clock publishing period (0 = with every plant/state)', 's', 0.0, 1.0,
+       runtime=False),
     _S('computation_delay', False, 'apply each command one controller sample late, as a DSP does',
        runtime=False),
     _S('command_timeout', 5.0, 'wall-clock wait for a due command before the safe state', 's',

@@ -99,7 +99,7 @@ class PlantNode(Node):
         self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos)
         self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
-        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, 10)
+        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
 
         self._run_group = MutuallyExclusiveCallbackGroup()
@@ -288,7 +288,9 @@ class PlantNode(Node):
         state = to_message(PlantState, self.core.state())
         state.header.stamp = t
         self._state_pub.publish(state)
-        self._clock_pub.publish(Clock(clock=t))
+        clock_ticks = self.schedule.clock_ticks
+        if clock_ticks == 0 or self.core.step % clock_ticks == 0:
+            self._clock_pub.publish(Clock(clock=t))
 
     def _fault(self, which: str, reason: str) -> None:
         """Safe state with a diagnostic; the fault is reported in the goal's result."""

@@ -81,6 +81,7 @@ class GraphRunner:
         self.progress = progress
         self.step_timeout = step_timeout
         self.processes: dict[str, NodeProcess] = {}
+        self._crashed = False
         self.log_dir = self.out_dir / 'logs'
 
     # --- processes ------------------------------------------------------------
@@ -98,6 +99,7 @@ class GraphRunner:
     def _check_alive(self) -> None:
         for key, process in self.processes.items():
             if not process.alive():
+                self._crashed = True
                 tail = '\n'.join(process.output().splitlines()[-15:])
                 raise RunFailed(f'node {key} exited with code {process.process.returncode}:\n{tail}')
 
@@ -106,6 +108,11 @@ class GraphRunner:
         alive to deliver what the recorder has not taken yet (their writer
         history); the recorder drains it, finalizes the bag, then the nodes go."""
         recorder = self.processes.get('recorder')
+        plant = self.processes.get('plant')
+        if self._crashed and recorder is not None and plant is not None and plant.alive():
+            # A controller died mid-run: let the plant time out on it and report the
+            # safe state (/diagnostics, plant/state) so the bag shows what happened.
+            time.sleep(self.scenario.node_parameters['plant']['command_timeout'] + 0.5)
         if recorder is not None:
             code = recorder.stop(timeout=60.0)
             if code not in (0, None):

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -143,6 +144,17 @@ class Scenario:
         return list(self.node_parameters)
 
 
+TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
+
+
+def _known_metric(path: Path, key: str, name: str) -> None:
+    from drive_bringup.report import metric_function
+    try:
+        metric_function(name)
+    except KeyError as exc:
+        raise _fail(path, key, exc.args[0]) from exc
+
+
 def _fail(path: Path, key: str, reason: str) -> ScenarioError:
     return ScenarioError(f'{path}: {key}: {reason}')
 
@@ -237,14 +249,28 @@ def load_scenario(path: str | Path) -> Scenario:
     extra = sorted(set(record) - {'enabled', 'topics'})
     if extra:
         raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics)')
+    enabled = record.get('enabled', True)
+    if not isinstance(enabled, bool):
+        raise _fail(path, 'record.enabled', f'expected true or false, got {enabled!r}')
     topics = record.get('topics') or []
     if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
         raise _fail(path, 'record.topics', 'expected a list of topic names')
+    for i, topic in enumerate(topics):
+        if not TOPIC_NAME.fullmatch(topic):
+            raise _fail(path, f'record.topics[{i}]', f'{topic!r} is not a valid ROS topic name')
 
     metrics = _mapping(raw.get('metrics'), path, 'metrics')
+    for metric_name, options in metrics.items():
+        options = _mapping(options, path, f'metrics.{metric_name}')
+        _known_metric(path, f'metrics.{metric_name}', options.get('metric', metric_name))
     figures = raw.get('figures') or []
     if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
         raise _fail(path, 'figures', 'expected a list of figure names')
+    from drive_logger.analysis.figures import ALL_FIGURES
+    for i, figure in enumerate(figures):
+        if figure not in ALL_FIGURES:
+            raise _fail(path, f'figures[{i}]', f'unknown figure {figure!r} (known: '
+                        + ', '.join(ALL_FIGURES) + ')')
 
     checks = []
     for i, ch in enumerate(raw.get('checks') or []):
@@ -263,13 +289,19 @@ def load_scenario(path: str | Path) -> Scenario:
         hi = _number(ch['max'], path, f'{key}.max') if 'max' in ch else None
         if seed is None and lo is None and hi is None:
             raise _fail(path, key, 'needs seed + tolerance, or min / max')
+        if tol is not None and tol < 0.0:
+            raise _fail(path, f'{key}.tolerance', f'must be >= 0, got {tol}')
+        if lo is not None and hi is not None and lo > hi:
+            raise _fail(path, key, f'min {lo} is above max {hi}')
+        if ch['metric'] not in metrics:
+            _known_metric(path, f'{key}.metric', ch['metric'])
         checks.append(Check(ch['metric'], str(ch.get('label', ch['metric'])), seed, tol, lo, hi))
 
     return Scenario(path=path, name=name, duration=duration, node_parameters=snapshots,
                     overrides=overrides, events=events,
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
-                    record=bool(record.get('enabled', True)), record_topics=list(topics),
+                    record=enabled, record_topics=list(topics),
                     metrics=metrics, figures=list(figures), checks=checks)
 
 

@@ -42,6 +42,20 @@ def test_minimal_scenario_loads_with_node_defaults(tmp_path):
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nchecks: [{metric: m, seed: 1.0}]\n',
      'checks[0]', 'seed and tolerance go together'),
     ('name: [x\n', '', 'not valid YAML'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nchecks: [{metric: no_such_metric, max: 1}]\n',
+     'checks[0].metric', 'no metric named'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nchecks: [{metric: peak_phase_current_A, seed: 1, tolerance: -1}]\n',
+     'checks[0].tolerance', 'must be >= 0'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nchecks: [{metric: peak_phase_current_A, min: 5, max: 1}]\n',
+     'checks[0]', 'above max'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {enabled: "false"}\n',
+     'record.enabled', 'expected true or false'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {topics: ["not a topic!!"]}\n',
+     'record.topics[0]', 'not a valid ROS topic name'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nfigures: [no_such_figure]\n',
+     'figures[0]', 'unknown figure'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nmetrics: {bogus: {x: 1}}\n',
+     'metrics.bogus', 'no metric named'),
 ])
 def test_errors_name_file_key_and_reason(tmp_path, text, key, reason):
     path = tmp_path / 'bad.yaml'

@@ -37,6 +37,7 @@ class LockstepSchedule:
     pfc_ticks: int
     state_ticks: int
     computation_delay: bool
+    clock_ticks: int = 0          # /clock every this many ticks (0 = with every state)
     _held_gates: tuple = field(default=ALL_OFF, repr=False)
     _held_duty: tuple = field(default=(0.0, False), repr=False)
 
@@ -45,7 +46,11 @@ class LockstepSchedule:
         dtc = ticks_of(params['dtc_period'], base_tick, 'dtc_period')
         pfc = ticks_of(params['pfc_period'], base_tick, 'pfc_period') if params['pfc_enabled'] else 0
         state = ticks_of(params['state_period'], base_tick, 'state_period') if params['state_period'] > 0 else (dtc or pfc or 1)
-        return cls(dtc, pfc, max(1, state), bool(params['computation_delay']))
+        state = max(1, state)
+        # /clock goes out with a state sample: a whole number of state periods.
+        clock = (max(1, round(params['clock_period'] / base_tick / state)) * state
+                 if params['clock_period'] > 0 else 0)
+        return cls(dtc, pfc, state, bool(params['computation_delay']), clock)
 
     def updated(self, params: dict, base_tick: float) -> 'LockstepSchedule':
         """A schedule for new parameters that keeps the commands held so far."""
