@@ -118,7 +118,9 @@ def test_ctrl_c_stops_every_node(tmp_path):
     out = tmp_path / 'interrupted'
     marker = f'DTC_TEST_MARKER=ctrl_c_{os.getpid()}_{time.monotonic_ns()}'
     env = dict(os.environ, DTC_TEST_MARKER=marker.split('=', 1)[1])
-    process = subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO,
+    # A long scenario (3 s of sim time, minutes of wall time): still running at the SIGINT.
+    process = subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli',
+                                'two_phase_six_switch_flux_control',
                                 '--isolate', '--out', str(out)], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, env=env)
     try:

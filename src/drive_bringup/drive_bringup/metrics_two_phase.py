@@ -124,13 +124,26 @@ def _samples_in(time: np.ndarray, duration: float) -> int:
     return max(1, int(round(duration / dt)))
 
 
+def _rms_pct_rated(err: np.ndarray, rated_torque: float) -> float:
+    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+
+
+def _torque_and_moving_average(arrays: Arrays, t_start, t_end, window: float):
+    """(T_true, its moving average over ``window`` [s], samples per window), or None if too short."""
+    d = paired(arrays, t_start, t_end)
+    te = d['plant.electromagnetic_torque']
+    n = _samples_in(d['time'], window)
+    if len(te) <= n:
+        return None
+    return te, _moving_average(te, n), n
+
+
 def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
                                           rated_torque: float = RATED_TORQUE) -> float:
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
-    err = d['dtc.torque_estimate'] - d['plant.electromagnetic_torque']
-    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+    return _rms_pct_rated(d['dtc.torque_estimate'] - d['plant.electromagnetic_torque'], rated_torque)
 
 
 def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
@@ -150,30 +163,25 @@ def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
-    err = d['plant.electromagnetic_torque'] - d['dtc.torque_reference']
-    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+    return _rms_pct_rated(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'], rated_torque)
 
 
 def high_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
                                            rated_torque: float = RATED_TORQUE) -> float:
-    d = paired(arrays, t_start, t_end)
-    te = d['plant.electromagnetic_torque']
-    n = _samples_in(d['time'], window)
-    if len(te) <= n:
+    smoothed = _torque_and_moving_average(arrays, t_start, t_end, window)
+    if smoothed is None:
         return math.nan
-    avg = _moving_average(te, n)
+    te, avg, n = smoothed
     centred = te[n // 2: n // 2 + len(avg)]
     return float(100.0 * np.std(centred - avg) / rated_torque)
 
 
 def low_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
                                           rated_torque: float = RATED_TORQUE) -> float:
-    d = paired(arrays, t_start, t_end)
-    te = d['plant.electromagnetic_torque']
-    n = _samples_in(d['time'], window)
-    if len(te) <= n:
+    smoothed = _torque_and_moving_average(arrays, t_start, t_end, window)
+    if smoothed is None:
         return math.nan
-    avg = _moving_average(te, n)
+    avg = smoothed[1]
     return float(100.0 * (avg.max() - avg.min()) / rated_torque)
 
 

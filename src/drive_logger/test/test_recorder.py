@@ -44,6 +44,15 @@ def _stop(process, sig=signal.SIGINT, timeout=15.0) -> int:
     return process.process.wait(timeout=timeout)
 
 
+def _record_measurements(ros_session, start_node, bag):
+    """A recorder of drive/measurement into bag, matched with a new publisher: (recorder, publisher)."""
+    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'])
+    node = ros_session.node('publisher')
+    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    return recorder, pub
+
+
 def test_recorded_bag_reads_back_field_exact(ros_session, start_node, tmp_path, measurement_factory):
     bag = tmp_path / 'bag'
     recorder = _start_recorder(start_node, bag)
@@ -106,10 +115,7 @@ def test_recorded_bag_reads_back_field_exact(ros_session, start_node, tmp_path, 
 
 def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_node, tmp_path, measurement_factory):
     bag = tmp_path / 'bag'
-    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'])
-    node = ros_session.node('publisher')
-    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
-    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    recorder, pub = _record_measurements(ros_session, start_node, bag)
     stop_publishing = threading.Event()
 
     def publish():
@@ -139,10 +145,7 @@ def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_no
 
 def test_sigterm_finalizes_too(ros_session, start_node, tmp_path, measurement_factory):
     bag = tmp_path / 'bag'
-    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'])
-    node = ros_session.node('publisher')
-    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
-    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    recorder, pub = _record_measurements(ros_session, start_node, bag)
     for k in range(100):
         pub.publish(measurement_factory(k))
     time.sleep(0.5)

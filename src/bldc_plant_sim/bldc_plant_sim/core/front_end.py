@@ -442,27 +442,37 @@ class FrontEnd:
         en = self.energy
         hc = h * c
         en.grid += abs(vg) * hc
-        en.inductor_resistance += self.R_L * c * hc
         en.line_resistance += self.R_s * c * hc
-        en.bridge += V_b * hc
-        q = 0.0
-        if gate:
-            en.switch += self.R_on * c * hc
-        else:
-            en.diode += self.V_d * hc
-            en.delivered += v_out * hc
-            q = hc
+        q = self._book_conduction(hc, c, gate, v_out)
         self.time = t + h
         if event == 'zero':
-            en.numerical += 0.5 * L * i1 * i1
-            self.i_L = 0.0
-            self.mode = BLOCK
-            self._event(self.time, 'zero', 'inductor current zero (bridge blocks)')
+            self._block_at_current_zero(self.time, i1)
         else:
             self.i_L = i1
             if event == 'over_current':
                 self._trip_over_current()
         return q
+
+    def _book_conduction(self, hc: float, c: float, gate: bool, v_out: float) -> float:
+        """Ledger of a piece with the inductor conducting at mid current c [A], hc = h c [C]:
+        inductor resistance, bridge, switch or diode and link; returns the link charge."""
+        en = self.energy
+        en.inductor_resistance += self.R_L * c * hc
+        en.bridge += self.V_b * hc
+        if gate:
+            en.switch += self.R_on * c * hc
+            return 0.0
+        en.diode += self.V_d * hc
+        en.delivered += v_out * hc
+        return hc
+
+    def _block_at_current_zero(self, when: float, i_end: float) -> None:
+        """The located inductor-current zero at ``when``: L i_end^2 / 2 of the piece's end
+        current goes to the numerical ledger, i_L = 0 and the bridge blocks."""
+        self.energy.numerical += 0.5 * self.L * i_end * i_end
+        self.i_L = 0.0
+        self.mode = BLOCK
+        self._event(when, 'zero', 'inductor current zero (bridge blocks)')
 
     # ---- EMI filter: states i_f, v_c, i_L
     def _mid(self, t: float, h: float, mode: int, s: int, R: float, u: float):
@@ -639,24 +649,11 @@ class FrontEnd:
         en = self.energy
         en.grid += h * vg * a
         en.line_resistance += h * self.R_f * a * a
-        q = 0.0
-        if mode != BLOCK:
-            hc = h * c
-            en.inductor_resistance += self.R_L * c * hc
-            en.bridge += self.V_b * hc
-            if gate:
-                en.switch += self.R_on * c * hc
-            else:
-                en.diode += self.V_d * hc
-                en.delivered += v_out * hc
-                q = hc
+        q = self._book_conduction(h * c, c, gate, v_out) if mode != BLOCK else 0.0
         self.i_f, self.v_c, self.i_L = i_f1, v_c1, i_L1
         self.time = when = t + h
         if event == 'zero':
-            en.numerical += 0.5 * self.L * i_L1 * i_L1
-            self.i_L = 0.0
-            self.mode = BLOCK
-            self._event(when, 'zero', 'inductor current zero (bridge blocks)')
+            self._block_at_current_zero(when, i_L1)
         elif event == 'overlap':
             en.numerical += 0.5 * self.C_f * v_c1 * v_c1
             self.v_c = 0.0

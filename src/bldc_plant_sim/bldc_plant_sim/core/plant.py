@@ -543,10 +543,7 @@ class PlantCore:
             if dc.stiff:
                 dc.energy_source += vp * q_p + vm * q_m
             elif T > 0.0:
-                t0 = self.time + self._elapsed
-                if self.fe is not None:
-                    dc.source_current = self.fe.advance(t0, T, vp) / T
-                dc.draw(q_p, q_m, T, t0)
+                self._draw_link(T, vp, q_p, q_m)
             te = p * (ka * q_int[0] + kb * q_int[1] + kc * q_int[2]) / T if T > 0.0 else 0.0
             self.i = i1
         else:
@@ -554,10 +551,7 @@ class PlantCore:
             if i[0] or i[1] or i[2]:
                 self.i = [0.0, 0.0, 0.0]
             if T > 0.0 and dc.mode == 'current_fed':
-                t0 = self.time + self._elapsed
-                if self.fe is not None:
-                    dc.source_current = self.fe.advance(t0, T, vp) / T
-                dc.draw(0.0, 0.0, T, t0)
+                self._draw_link(T, vp, 0.0, 0.0)
         if T > 0.0:
             w1, w_avg, t_load, e_fric, e_load = self.load.step(m.inertia, m.friction, w0, te, T)
             self.omega = w1
@@ -570,6 +564,15 @@ class PlantCore:
         if event is not None:
             self._record_event(T, event)
         return T
+
+    def _draw_link(self, T: float, vp: float, q_p: float, q_m: float) -> None:
+        """Advance the soft DC link over the segment [t0, t0 + T): the front end (if any) sets the
+        source current at link voltage vp, the inverter draws q_p / q_m [C] from the rails."""
+        dc = self.dc
+        t0 = self.time + self._elapsed
+        if self.fe is not None:
+            dc.source_current = self.fe.advance(t0, T, vp) / T
+        dc.draw(q_p, q_m, T, t0)
 
     def _record_event(self, T: float, event: tuple) -> None:
         """Act on and log an event located at the end of the segment just integrated."""

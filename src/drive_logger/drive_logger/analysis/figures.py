@@ -27,6 +27,13 @@ def _save(fig, path) -> Path:
     return Path(path)
 
 
+def _save_time_plot(fig, ax, path, ylabel: str, title: str) -> Path:
+    """Label a plot over t (s), add its legend and grid, and save it."""
+    ax.set(xlabel='t (s)', ylabel=ylabel, title=title)
+    ax.legend(), ax.grid(True)
+    return _save(fig, path)
+
+
 def flux_locus(cols, path):
     """Estimated stator flux locus psi_beta vs psi_alpha (Wb)."""
     if not _has(cols, STATUS, 'flux_alpha', 'flux_beta'):
@@ -49,9 +56,7 @@ def torque(cols, path):
         ax.plot(cols[STATUS]['t'], cols[STATUS]['torque_estimate'], lw=0.6, label='estimate')
     if _has(cols, STATUS, 'torque_reference'):
         ax.plot(cols[STATUS]['t'], cols[STATUS]['torque_reference'], lw=1.2, label='reference')
-    ax.set(xlabel='t (s)', ylabel='torque (N m)', title='Electromagnetic torque')
-    ax.legend(), ax.grid(True)
-    return _save(fig, path)
+    return _save_time_plot(fig, ax, path, 'torque (N m)', 'Electromagnetic torque')
 
 
 def phase_currents(cols, path):
@@ -61,9 +66,7 @@ def phase_currents(cols, path):
     fig, ax = plt.subplots(figsize=(8, 4))
     for k, name in enumerate('abc'):
         ax.plot(cols[STATE]['t'], cols[STATE]['phase_current'][:, k], lw=0.6, label=f'i_{name}')
-    ax.set(xlabel='t (s)', ylabel='current (A)', title='Phase currents')
-    ax.legend(), ax.grid(True)
-    return _save(fig, path)
+    return _save_time_plot(fig, ax, path, 'current (A)', 'Phase currents')
 
 
 def speed(cols, path):
@@ -74,9 +77,7 @@ def speed(cols, path):
     ax.plot(cols[STATE]['t'], cols[STATE]['mechanical_speed'], label='true')
     if _has(cols, STATUS, 'speed_reference'):
         ax.plot(cols[STATUS]['t'], cols[STATUS]['speed_reference'], label='reference')
-    ax.set(xlabel='t (s)', ylabel='speed (rad/s)', title='Mechanical speed')
-    ax.legend(), ax.grid(True)
-    return _save(fig, path)
+    return _save_time_plot(fig, ax, path, 'speed (rad/s)', 'Mechanical speed')
 
 
 def rotor_angle(cols, path):
@@ -87,9 +88,7 @@ def rotor_angle(cols, path):
     ax.plot(cols[STATE]['t'], cols[STATE]['rotor_angle'], lw=0.8, label='true')
     if _has(cols, STATUS, 'rotor_angle_estimate'):
         ax.plot(cols[STATUS]['t'], cols[STATUS]['rotor_angle_estimate'], lw=0.8, ls='--', label='estimated')
-    ax.set(xlabel='t (s)', ylabel='angle (rad)', title='Electrical rotor angle')
-    ax.legend(), ax.grid(True)
-    return _save(fig, path)
+    return _save_time_plot(fig, ax, path, 'angle (rad)', 'Electrical rotor angle')
 
 
 def grid(cols, path):

@@ -51,17 +51,17 @@ class BackEmfTable:
         self.points = n
         self._scale = n / TWO_PI
         # Python lists with a wrap-around copy of the first point: scalar fast path.
-        self._ka = _closed(self.columns['k_a'])
-        self._kb = _closed(self.columns['k_b'])
-        self._kc = _closed(self.columns['k_c'])
-        self._kal = _closed(self.columns['k_alpha'])
-        self._kbe = _closed(self.columns['k_beta'])
+        self._ka = periodic_list(self.columns['k_a'])
+        self._kb = periodic_list(self.columns['k_b'])
+        self._kc = periodic_list(self.columns['k_c'])
+        self._kal = periodic_list(self.columns['k_alpha'])
+        self._kbe = periodic_list(self.columns['k_beta'])
         psi_a, psi_b = _integrate_zero_mean(self.columns['k_alpha']), _integrate_zero_mean(self.columns['k_beta'])
         self.rotor_flux_alpha = psi_a
         self.rotor_flux_beta = psi_b
-        self._psia = _closed(psi_a)
-        self._psib = _closed(psi_b)
-        self._psim = _closed(np.hypot(psi_a, psi_b))
+        self._psia = periodic_list(psi_a)
+        self._psib = periodic_list(psi_b)
+        self._psim = periodic_list(np.hypot(psi_a, psi_b))
 
     # ----------------------------------------------------------------- construction
     @classmethod
@@ -151,7 +151,8 @@ class BackEmfTable:
         Path(path).write_text('\n'.join(out) + '\n')
 
     # ----------------------------------------------------------------- scalar lookups
-    def _index(self, theta: float) -> tuple[int, float]:
+    def lookup_index(self, theta: float) -> tuple[int, float]:
+        """(row, fraction) of the linear, wrapped interpolation at theta [rad] (rows of ``points``)."""
         x = theta * self._scale
         i = math.floor(x)
         frac = x - i
@@ -160,6 +161,7 @@ class BackEmfTable:
 
     def k_alpha_beta(self, theta: float) -> tuple[float, float]:
         """(k_alpha, k_beta) [V*s/rad] at electrical angle theta [rad] (linear, wrapped)."""
+        # lookup_index inlined: the torque estimate calls this every sample.
         x = theta * self._scale
         i = math.floor(x)
         f = x - i
@@ -169,25 +171,25 @@ class BackEmfTable:
 
     def k_abc(self, theta: float) -> tuple[float, float, float]:
         """(k_a, k_b, k_c) [V*s/rad] at theta [rad]."""
-        i, f = self._index(theta)
+        i, f = self.lookup_index(theta)
         a, b, c = self._ka, self._kb, self._kc
         return (a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i]), c[i] + f * (c[i + 1] - c[i]))
 
     def k_phase(self, phase: int, theta: float) -> float:
         """k of phase 0/1/2 (a/b/c) [V*s/rad] at theta [rad]."""
-        i, f = self._index(theta)
+        i, f = self.lookup_index(theta)
         col = (self._ka, self._kb, self._kc)[phase]
         return col[i] + f * (col[i + 1] - col[i])
 
     def rotor_flux(self, theta: float) -> tuple[float, float]:
         """(psi_r_alpha, psi_r_beta) [Wb]: integral of k over theta, zero mean (eq. 2.19's phi_r)."""
-        i, f = self._index(theta)
+        i, f = self.lookup_index(theta)
         a, b = self._psia, self._psib
         return a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i])
 
     def rotor_flux_magnitude(self, theta: float) -> float:
         """|psi_r(theta)| [Wb]: the position-dependent stator flux reference of eq. (2.20)/(4.3)."""
-        i, f = self._index(theta)
+        i, f = self.lookup_index(theta)
         m = self._psim
         return m[i] + f * (m[i + 1] - m[i])
 
@@ -199,7 +201,8 @@ class BackEmfTable:
         return np.interp(th, grid, vals)
 
 
-def _closed(values) -> list:
+def periodic_list(values) -> list:
+    """Python floats with a wrap-around copy of the first value (for linear, wrapped lookups)."""
     values = [float(v) for v in values]
     return values + [values[0]]
 

@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import math
 
-from .backemf_table import BackEmfTable
-from .transforms import INV_SQRT3, TWO_PI, alpha_beta_from_line_to_line
+from .backemf_table import BackEmfTable, periodic_list
+from .transforms import INV_SQRT3, alpha_beta_from_line_to_line
 
 _PI6 = math.pi / 6.0
 _TWO_THIRDS = 2.0 / 3.0
@@ -70,42 +70,26 @@ class DqBackEmf:
     and the current model), one index computation per sample.
     """
 
-    __slots__ = ('table', 'points', '_scale', '_kd', '_kq', '_pa', '_pb', 'rotor_flux_max', 'rotor_flux_min')
+    __slots__ = ('table', 'points', '_kd', '_kq', 'rotor_flux_max', 'rotor_flux_min')
 
     def __init__(self, table: BackEmfTable) -> None:
         self.table = table
         self.points = table.points
-        self._scale = table.points / TWO_PI
-        self._kd = _closed(table.columns['k_d'])
-        self._kq = _closed(table.columns['k_q'])
-        self._pa = _closed(table.rotor_flux_alpha)
-        self._pb = _closed(table.rotor_flux_beta)
-        mags = [math.hypot(a, b) for a, b in zip(self._pa, self._pb)]
+        self._kd = periodic_list(table.columns['k_d'])
+        self._kq = periodic_list(table.columns['k_q'])
+        mags = [math.hypot(a, b) for a, b in zip(table.rotor_flux_alpha, table.rotor_flux_beta)]
         self.rotor_flux_max = max(mags)
         self.rotor_flux_min = min(mags)
 
     def k_dq(self, theta: float) -> tuple[float, float]:
         """(k_d, k_q) [V s/rad] at electrical angle theta [rad]."""
-        x = theta * self._scale
-        i = math.floor(x)
-        f = x - i
-        i %= self.points
+        i, f = self.table.lookup_index(theta)
         kd, kq = self._kd, self._kq
         return kd[i] + f * (kd[i + 1] - kd[i]), kq[i] + f * (kq[i + 1] - kq[i])
 
     def rotor_flux(self, theta: float) -> tuple[float, float]:
         """(psi_r_alpha, psi_r_beta) [Wb] at theta [rad] (table integral, zero mean)."""
-        x = theta * self._scale
-        i = math.floor(x)
-        f = x - i
-        i %= self.points
-        a, b = self._pa, self._pb
-        return a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i])
-
-
-def _closed(values) -> list:
-    out = [float(v) for v in values]
-    return out + [out[0]]
+        return self.table.rotor_flux(theta)
 
 
 def trapezoid_rotor_flux(k_ll: float) -> dict:

@@ -37,39 +37,20 @@ PureIntegrator = VoltageModelFluxEstimator
 TWO_PI = 2.0 * math.pi
 
 
-class _LeakyBase:
-    """Shared state and trapezoidal-current EMF of the leaky integrators."""
+class _LeakyBase(VoltageModelFluxEstimator):
+    """The pure integrator's state, ``reset``, ``magnitude`` and ``angle`` plus the leak w_c."""
 
-    __slots__ = ('resistance', 'sample_period', 'cutoff', 'psi_alpha', 'psi_beta', '_i_alpha', '_i_beta',
-                 '_primed', '_leak')
+    __slots__ = ('cutoff', '_leak')
 
     def __init__(self, resistance: float, sample_period: float, cutoff: float,
                  psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
-        self.resistance = float(resistance)
-        self.sample_period = float(sample_period)
+        super().__init__(resistance, sample_period, psi_alpha, psi_beta)
         self.set_cutoff(cutoff)
-        self.reset(psi_alpha, psi_beta)
 
     def set_cutoff(self, cutoff: float) -> None:
         """w_c [rad/s]."""
         self.cutoff = float(cutoff)
         self._leak = 1.0 - math.exp(-self.cutoff * self.sample_period)
-
-    def reset(self, psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
-        """Initial flux [Wb]; the next update only stores the current (as the pure integrator)."""
-        self.psi_alpha = float(psi_alpha)
-        self.psi_beta = float(psi_beta)
-        self._primed = False
-        self._i_alpha = 0.0
-        self._i_beta = 0.0
-
-    @property
-    def magnitude(self) -> float:
-        return math.hypot(self.psi_alpha, self.psi_beta)
-
-    @property
-    def angle(self) -> float:
-        return math.atan2(self.psi_beta, self.psi_alpha) % TWO_PI
 
 
 class LowPassIntegrator(_LeakyBase):

@@ -21,22 +21,21 @@ from __future__ import annotations
 import math
 
 from ..backemf_table import BackEmfTable
-from ..hysteresis import TwoLevelHysteresis
 from ..line_to_line import DqBackEmf
-from ..speed_loop import SpeedPI
 from ..status import NAN, DtcStatusSample
 from ..stator_flux_estimators import CurrentModelFlux, compensate_low_pass, make_voltage_model
 from ..three_phase_tables import six_switch_sector, six_switch_table
 from ..transforms import INV_SQRT3, TWO_PI, reconstruct_currents
 from ..vectors import leg_states, voltage_coefficients
 from ..voltage_drop_compensation import VoltageDropCompensation
+from .regulation import DtcRegulation
 
 _ALL_OFF = (False,) * 6
 DEFAULT_CUTOFF = {'low_pass': 5.0, 'hu_wu': 20.0, 'pure': 0.0}
 """rad/s: 001 uses a 5 rad/s low-pass integrator, 000 ch. V a 20 rad/s Hu-Wu integrator."""
 
 
-class ThreePhaseBase:
+class ThreePhaseBase(DtcRegulation):
     """Shared state and per-sample helpers; subclasses set name, topology, defaults and ``step``."""
 
     name = ''
@@ -91,11 +90,7 @@ class ThreePhaseBase:
 
         # ---- tables and controllers
         self.tables = {r: self.make_table(r) for r in (1, -1)}
-        self.torque_hyst = TwoLevelHysteresis(params['torque_band'])
-        self.flux_hyst = TwoLevelHysteresis(params['flux_band'])
-        self.speed_pi = SpeedPI(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['sample_period'],
-                                params['speed_loop.torque_limit'])
+        self._build_regulators(params)
         self.apply_runtime(params)
 
         self._started = False
@@ -116,18 +111,9 @@ class ThreePhaseBase:
 
     def apply_runtime(self, params: dict) -> None:
         """References, bands, gains, rotation, compensation and device drops (from the next sample)."""
-        self.rotation = int(params['rotation'])
-        self.table_now = self.tables[self.rotation]
-        self.torque_reference = float(params['torque_reference'])
-        self.torque_hyst.band = float(params['torque_band'])
-        self.flux_hyst.band = float(params['flux_band'])
         self.flux_ref_from_table = (params['flux_control.reference_source'] == 'backemf_table'
                                     and self.dq is not None)
-        self.flux_reference = float(params['flux_reference'])
-        self.speed_loop = bool(params['speed_loop.enabled'])
-        self.speed_reference = float(params['speed_reference'])
-        self.speed_pi.set_gains(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
+        self._apply_references(params)
         self.lpf_compensation = bool(params['three_phase.low_pass_compensation'])
         self.compensation.configure(params['voltage_drop.compensation'], params['voltage_drop.v_ce'],
                                     params['voltage_drop.v_d'], params['voltage_drop.v_f'],

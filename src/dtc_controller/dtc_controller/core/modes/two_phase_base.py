@@ -12,17 +12,16 @@ import math
 
 from ..backemf_table import BackEmfTable
 from ..flux_estimator import InverterVoltageModel, VoltageModelFluxEstimator
-from ..hysteresis import TwoLevelHysteresis
-from ..speed_loop import SpeedPI
 from ..status import NAN, DtcStatusSample
 from ..switching_tables import SECTOR_WIDTH, derive_flux_table
 from ..torque_estimator import TorqueEstimator
 from ..transforms import INV_SQRT3, TWO_PI
+from .regulation import DtcRegulation
 
 _HALF = 0.5 * SECTOR_WIDTH
 
 
-class TwoPhaseModeBase:
+class TwoPhaseModeBase(DtcRegulation):
     """Common state and pipeline; subclasses set name, topology, vectors and override _select."""
 
     name = ''
@@ -50,11 +49,7 @@ class TwoPhaseModeBase:
         self.vectors = self.make_vectors()
         # tables for both rotations: {rotation: {(sector, phi, tau): vector}}
         self.tables = {r: derive_flux_table(self.vectors, r) for r in (1, -1)}
-        self.torque_hyst = TwoLevelHysteresis(params['torque_band'])
-        self.flux_hyst = TwoLevelHysteresis(params['flux_band'])
-        self.speed_pi = SpeedPI(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['sample_period'],
-                                params['speed_loop.torque_limit'])
+        self._build_regulators(params)
         self.apply_runtime(params)
         self._prev_switch = (False,) * 6
         self._prev_vdc = 0.0
@@ -68,18 +63,9 @@ class TwoPhaseModeBase:
 
     def apply_runtime(self, params: dict) -> None:
         """References, bands, gains, rotation, flux-control switch (act from the next sample)."""
-        self.rotation = int(params['rotation'])
-        self.table_now = self.tables[self.rotation]
-        self.torque_reference = float(params['torque_reference'])
-        self.torque_hyst.band = float(params['torque_band'])
-        self.flux_hyst.band = float(params['flux_band'])
         self.flux_control = bool(params['flux_control.enabled'])
         self.flux_ref_from_table = params['flux_control.reference_source'] == 'backemf_table'
-        self.flux_reference = float(params['flux_reference'])
-        self.speed_loop = bool(params['speed_loop.enabled'])
-        self.speed_reference = float(params['speed_reference'])
-        self.speed_pi.set_gains(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
+        self._apply_references(params)
 
     # -------------------------------------------------------------- per sample
     def _select(self, sector: int, phi: int, tau: int, theta: float, i_a: float, i_b: float,
