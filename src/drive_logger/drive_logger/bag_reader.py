@@ -23,6 +23,8 @@ from mcap_ros2.decoder import DecoderFactory
 from drive_logger import qos_yaml
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
+SALVAGE_HINT = (' (to use the intact part: --salvage for analyze and compare_replay, '
+                '-p salvage:=true for replay, salvage=True in Python)')
 
 
 class BagReadError(RuntimeError):
@@ -110,7 +112,7 @@ class BagReader:
                 self.problems.append(problem)
                 self._damaged.add(file)
         if self.problems and not salvage:
-            raise BagReadError('; '.join(self.problems) + ' (pass salvage=True / --salvage to read the intact part)')
+            raise BagReadError('; '.join(self.problems) + SALVAGE_HINT)
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
 
@@ -153,7 +155,7 @@ class BagReader:
                 except (McapError, EOFError, ValueError, KeyError, OSError, RuntimeError) as exc:
                     problem = f'data file {str(file)!r} is corrupt: {type(exc).__name__}: {exc}'
                     if not self.salvage:
-                        raise BagReadError(problem + ' (pass salvage=True / --salvage to read the intact part)') from exc
+                        raise BagReadError(problem + SALVAGE_HINT) from exc
                     self.problems.append(problem)
                     self._damaged.add(file)
                     stream.seek(0)

@@ -30,9 +30,6 @@ OPTIONAL_TOPIC_TYPES = {
     '/rosout': 'rcl_interfaces/msg/Log',
 }
 
-BEST_EFFORT_TOPICS = frozenset({t.CLOCK})
-"""Topics whose publishers may be best effort (/clock): recorded with a best-effort subscription."""
-
 DEFAULT_TOPICS = list(GRAPH_TOPIC_TYPES)
 
 

@@ -16,7 +16,7 @@ Parameters (all read-only, read at start):
 - ``output`` (string): bag directory to create; default ``bags/<YYYYmmdd-HHMMSS>``.
 - ``compression`` ('lz4' | 'zstd' | 'none'), ``chunk_size`` (bytes).
 - ``qos_depth`` (int, 1000): KEEP_LAST depth of the RELIABLE subscriptions
-  (0 = KEEP_ALL); /clock is subscribed best effort.
+  (0 = KEEP_ALL); reliable unless a known publisher offers only best effort.
 - ``drain_timeout`` (s, 2.0): at stop, keep taking queued messages until the
   topics are quiet for 0.1 s or this time has passed.
 
@@ -152,9 +152,10 @@ class RecorderNode(Node):
         return out
 
     def _subscription_qos(self, name: str) -> QoSProfile:
-        best_effort = name in graph_topics.BEST_EFFORT_TOPICS or any(
-            info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
-            for info in self.get_publishers_info_by_topic(name))
+        # Reliable unless a publisher already known offers only best effort
+        # (the plant's /clock is reliable, so nothing of it is lost either).
+        best_effort = any(info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+                          for info in self.get_publishers_info_by_topic(name))
         if self.qos_depth > 0:
             qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self.qos_depth)
         else:

@@ -80,15 +80,15 @@ def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
         wait_for_recorder(node, [DRIVE_MEASUREMENT, GATE_COMMAND], timeout=20.0)
         wait_until(lambda: pub.get_subscription_count() >= 2 and node.count_publishers(GATE_COMMAND) >= 1, 20.0,
                    what='responder matched')
-        time.sleep(0.3)
+        time.sleep(1.0)   # the responder's publisher and the recorder match out of our sight
         for k in range(STEPS):
             pub.publish(measurement_factory(k))
             with arrived:
                 assert arrived.wait_for(lambda: k in replies, timeout=5.0), f'no reply for step {k}'
         time.sleep(0.3)
     finally:
+        recorder.stop()    # first: the responder stays up to deliver what is still in flight
         responder.stop()
-        recorder.stop()
     return replies
 
 
