@@ -35,7 +35,8 @@ NODE_PROGRAMS = {
     'pfc_controller': ('pfc_controller', 'pfc_controller'),
 }
 DEFAULT_RECORD_TOPICS = [topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND, topics.PLANT_STATE,
-                         topics.DTC_STATUS, topics.CLOCK, topics.DIAGNOSTICS]
+                         topics.DTC_STATUS, topics.CLOCK, topics.DIAGNOSTICS,
+                         '/parameter_events']   # the events' changes, for compare_replay
 PFC_RECORD_TOPICS = [topics.PFC_MEASUREMENT, topics.DUTY_COMMAND, topics.PFC_STATUS]
 
 

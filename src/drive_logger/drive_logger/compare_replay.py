@@ -4,7 +4,11 @@ The controller (any executable: ``--package/--executable`` as ``ros2 run``
 finds it, or ``--command``) is started as its own process with the given
 parameters. The recorded measurements are then replayed in lockstep: for
 each one, /clock is set to its stamp, the exact recorded bytes are published,
-and the controller's command with the same ``step`` is awaited. The commands
+and the controller's command with the same ``step`` is awaited. Parameter
+changes the recorded controller accepted during the run (its
+``/parameter_events``, when the bag has them) are applied to the fresh one
+at the same place in the sequence, before the next measurement, as the
+original took them at its next sample. The commands
 are compared with the recorded ones field by field (header excluded), step by
 step; exit code 0 if every recorded step is reproduced exactly, 1 otherwise.
 
@@ -34,6 +38,7 @@ from drive_logger.replay_node import clock_cdr, header_stamp_ns
 @dataclass
 class ComparisonReport:
     steps_replayed: int = 0
+    parameter_changes: int = 0                              # recorded changes re-applied
     steps_compared: int = 0
     matching: int = 0
     byte_identical: int = 0
@@ -77,8 +82,16 @@ def compare_fields(recorded: dict, replayed: dict) -> bool:
     return True
 
 
-def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage: bool = False):
-    """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}) from a bag."""
+PARAMETER_EVENTS = '/parameter_events'
+
+
+def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage: bool = False,
+                   controller_node: str = '/dtc_controller'):
+    """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}, changes) from a bag.
+
+    changes: {index of the first measurement after the change: [(name, value), ...]} from the
+    controller node's recorded parameter events (changed parameters only).
+    """
     from rclpy.serialization import deserialize_message
     from drive_logger import ros_types
     reader = BagReader(bag, salvage=salvage)
@@ -88,19 +101,28 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
             raise SystemExit(f'compare_replay: bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
     meas_cls = ros_types.message_class(infos[measurement_topic].type)
     cmd_cls = ros_types.message_class(infos[command_topic].type)
-    measurements, commands = [], {}
-    for msg in reader.messages([measurement_topic, command_topic]):
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.parameter import parameter_value_to_python
+    measurements, commands, changes = [], {}, {}
+    topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
+    for msg in reader.messages(topics):
         if msg.topic == measurement_topic:
             measurements.append((deserialize_message(msg.data, meas_cls).step, header_stamp_ns(msg.data), msg.data))
-        else:
+        elif msg.topic == command_topic:
             commands[deserialize_message(msg.data, cmd_cls).step] = msg.data
-    return meas_cls, measurements, cmd_cls, commands
+        else:
+            event = deserialize_message(msg.data, ParameterEvent)
+            if event.node == controller_node and event.changed_parameters:
+                changes.setdefault(len(measurements), []).extend(
+                    (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters)
+    return meas_cls, measurements, cmd_cls, commands, changes
 
 
 def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_topic: str = '/drive/measurement',
                        command_topic: str = '/drive/gate_command', timeout: float = 5.0,
                        max_steps: int | None = None, salvage: bool = False, context=None,
-                       match_timeout: float = 15.0) -> ComparisonReport:
+                       match_timeout: float = 15.0,
+                       controller_node: str = '/dtc_controller') -> ComparisonReport:
     """Drive the (already started) controller with the bag's measurements; compare its commands."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -110,7 +132,10 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     from drive_common.topics import LOCKSTEP_QOS
     from drive_logger.ros_types import fields_of
 
-    meas_cls, measurements, cmd_cls, recorded = load_recording(bag, measurement_topic, command_topic, salvage)
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+    meas_cls, measurements, cmd_cls, recorded, changes = load_recording(
+        bag, measurement_topic, command_topic, salvage, controller_node)
     if max_steps is not None:
         measurements = measurements[:max_steps]
     replies: dict[int, bytes] = {}
@@ -129,6 +154,7 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     node.create_subscription(cmd_cls, command_topic, on_command, LOCKSTEP_QOS, raw=True)
     meas_pub = node.create_publisher(meas_cls, measurement_topic, LOCKSTEP_QOS)
     clock_pub = node.create_publisher(Clock, '/clock', 10)
+    params = AsyncParameterClient(node, controller_node) if changes else None
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
     report = ComparisonReport()
@@ -142,7 +168,16 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                                    f'{command_topic} within {match_timeout} s')
             time.sleep(0.02)
         time.sleep(0.2)  # let discovery settle in both directions
-        for step, stamp, data in measurements:
+        if params is not None and not params.wait_for_services(timeout_sec=match_timeout):
+            raise TimeoutError(f'{controller_node} parameter services not available')
+        for index, (step, stamp, data) in enumerate(measurements):
+            if index in changes:
+                future = params.set_parameters([Parameter(n, value=v) for n, v in changes[index]])
+                done = threading.Event()
+                future.add_done_callback(lambda _f: done.set())
+                if not done.wait(timeout) or not all(r.successful for r in future.result().results):
+                    raise RuntimeError(f'the controller refused the recorded change {changes[index]}')
+                report.parameter_changes += 1
             clock_pub.publish(clock_cdr(stamp))
             meas_pub.publish(data)
             with arrived:
@@ -192,6 +227,8 @@ def main(argv=None) -> int:
     ap.add_argument('--command-topic', default='/drive/gate_command')
     ap.add_argument('--timeout', type=float, default=5.0, help='s to wait for each reply')
     ap.add_argument('--max-steps', type=int)
+    ap.add_argument('--controller-node', default='/dtc_controller',
+                    help="whose recorded /parameter_events to re-apply (the replayed node's name)")
     ap.add_argument('--salvage', action='store_true', help='use the intact part of a damaged bag')
     ap.add_argument('--json', help='write the report here')
     args = ap.parse_args(argv)
@@ -212,7 +249,8 @@ def main(argv=None) -> int:
     try:
         report = replay_and_compare(args.bag, controller, measurement_topic=args.measurement_topic,
                                     command_topic=args.command_topic, timeout=args.timeout,
-                                    max_steps=args.max_steps, salvage=args.salvage, context=context)
+                                    max_steps=args.max_steps, salvage=args.salvage, context=context,
+                                    controller_node=args.controller_node)
     finally:
         controller.stop()
         rclpy.try_shutdown(context=context)
