@@ -32,10 +32,17 @@ command -v cc >/dev/null || command -v gcc >/dev/null || die "no C compiler (Deb
 command -v c++ >/dev/null || command -v g++ >/dev/null || die "no C++ compiler (Debian: apt-get install build-essential)"
 command -v cmake >/dev/null || die "no cmake (Debian: apt-get install cmake)"
 
+# A sourced system ROS (not this project's own env.sh, which also sets ROS_DISTRO).
 SYSTEM_ROS=0
-if [ "${ROS_DISTRO:-}" = "jazzy" ] && [ -n "${AMENT_PREFIX_PATH:-}" ]; then
+if [ "${ROS_DISTRO:-}" = "jazzy" ] && [ -d /opt/ros/jazzy ] \
+   && [[ ":${AMENT_PREFIX_PATH:-}:" == *":/opt/ros/jazzy:"* ]]; then
   SYSTEM_ROS=1
   say "system ROS 2 Jazzy is sourced: building against it"
+  # Its Python modules are built against the system numpy (1.x on Ubuntu 24.04):
+  # use the system's numpy, matplotlib and yaml rather than newer wheels.
+  for mod in numpy:python3-numpy matplotlib:python3-matplotlib yaml:python3-yaml; do
+    "$PYTHON" -c "import ${mod%%:*}" 2>/dev/null || die "missing ${mod%%:*} (apt-get install ${mod#*:})"
+  done
 fi
 
 # --- virtual environment -----------------------------------------------------
@@ -53,7 +60,7 @@ if [ "$FORCE" = 1 ] || [ ! -x .venv/bin/python ] || [ "$(cat "$STAMP" 2>/dev/nul
   if [ "$SYSTEM_ROS" = 1 ]; then
     "$PYTHON" -m venv --system-site-packages .venv
     say "installing the Python tools (ROS comes from the system)"
-    grep -v '^ros-jazzy-' requirements.txt > .venv/requirements-nonros.txt
+    grep -v -E '^(ros-jazzy-|numpy|matplotlib|PyYAML)' requirements.txt > .venv/requirements-nonros.txt
     pip_install -r .venv/requirements-nonros.txt
   else
     "$PYTHON" -m venv .venv

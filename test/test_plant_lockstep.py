@@ -117,29 +117,63 @@ def test_run_action_stops_exactly_and_holds(start_node, ros_session):
     assert client.states[-1].step == 164                       # held: nothing after the target
 
 
-def test_dead_controller_gives_safe_state_and_plant_keeps_serving(start_node, ros_session):
-    responder, _ = _start_graph(start_node, {'command_timeout': 0.5})
+def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(start_node,
+                                                                             ros_session):
+    # The load machine holds 20 rad/s: line back-EMF 4.6 V peak < V_dc, so with every
+    # switch off the diodes stop conducting once the currents have died out.
+    responder, _ = _start_graph(start_node, {'command_timeout': 0.5, 'startup_timeout': 2.0,
+                                             'load.mode': 'dynamometer', 'load.speed': 20.0})
     client = PlantClient(ros_session)
-    assert client.run(0.002).success
+    handle = _future_result(client.action.send_goal_async(Run.Goal(target_time=0.2)), 30.0,
+                            'goal acceptance')
+    wait_until(lambda: client.states and client.states[-1].step > 100, 30.0, what='run under way')
     assert client.states[-1].phase_current[0] > 1.0
-    responder.process.kill()
+    responder.process.kill()                       # in the middle of the goal
     responder.process.wait(timeout=10)
     started = time.monotonic()
-    result = client.run(0.006)
-    assert time.monotonic() - started < 10.0, 'plant hung instead of timing out'
+    result = _future_result(handle.get_result_async(), 120.0, 'Run result').result
     assert not result.success and 'safe state' in result.message
-    assert result.final_step == 240                       # went on to the target, switches off
-    wait_until(lambda: client.states[-1].step == 240, 5.0, what='last state')
+    assert result.final_step == 8000               # went on to the target, switches off
+    assert time.monotonic() - started < 100.0, 'plant hung instead of timing out'
+    wait_until(lambda: client.states[-1].step == 8000, 10.0, what='last state')
     state = client.states[-1]
     assert state.safe_state and state.protection & PlantState.PROTECTION_COMMAND_TIMEOUT
     assert not any(state.applied_switch_on)
     # With every switch off the currents died out through the free-wheeling diodes.
     assert list(state.phase_current) == [0.0, 0.0, 0.0]
-    # Still serving: parameters and the action answer.
+    # Still serving: parameters and the action answer (without its controller the next
+    # goal ends unsuccessful, in safe state, within a bounded time).
     assert client.set(**{'load.torque': 0.3})[0].successful
     assert client.get('load.torque') == 0.3
+    started = time.monotonic()
     again = client.run(0.001, relative=True)
-    assert again.final_step == 280
+    assert not again.success and time.monotonic() - started < 30.0
+
+
+def test_gate_command_for_the_wrong_inverter_is_refused_with_safe_state(start_node, ros_session):
+    start_node('drive_common', 'fixed_responder',
+               parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0], 'topology': 4})
+    start_node('bldc_plant_sim', 'plant', parameters=PLANT)
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success and '4-switch inverter' in result.message
+    assert result.message.count('safe state at') == 1          # reported once, not every sample
+    wait_until(lambda: client.states[-1].step == 80, 10.0, what='last state')
+    assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
+
+
+def test_computation_delay_through_ros_equals_headless(start_node, ros_session):
+    _start_graph(start_node, {'computation_delay': True})
+    client = PlantClient(ros_session)
+    assert client.run(0.002).success
+    wait_until(lambda: client.states[-1].step == 80, 10.0, what='last state')
+    plant = PlantCore({**PLANT, 'computation_delay': True})
+    trajectory = CoSimulation(plant, FixedGateCore(PATTERN), record_every=1).run(steps=80)
+    by_step = {s.step: s for s in client.states}
+    for step, truth in zip(trajectory.steps, trajectory.states):
+        assert list(by_step[step].phase_current) == list(truth.phase_current), step
+    # The delay shows: nothing was applied over the first sample.
+    assert not any(by_step[1].applied_switch_on) and any(by_step[2].applied_switch_on)
 
 
 def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_node, ros_session):

@@ -73,7 +73,7 @@ class PlantNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__('plant', **kwargs)
         self._running = False
-        self._silent = {'gate': False, 'duty': False}   # controllers that stopped answering
+        self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
@@ -212,6 +212,9 @@ class PlantNode(Node):
             if reason:
                 self._fault('startup', reason)
                 return False, reason
+            for which, reason in self._faulted.items():
+                if reason is not None:   # faulted in an earlier goal and not answered since
+                    self._faults.append(f'safe state continues ({which}): {reason}')
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
             while self.core.step < target_step:
@@ -234,21 +237,36 @@ class PlantNode(Node):
         finally:
             self._running = False
 
-    def _command(self, which: str, inbox: _Inbox, k: int, deadline: float):
-        """The due command of one controller, or None (safe state) if it stays silent."""
-        msg = self._await(inbox, k, None if self._silent[which] else deadline)
-        if msg is None:
-            if not self._silent[which]:
-                self._silent[which] = True
-                self._fault(which, f'no {which} command for step {k} within '
-                            f'{self.parameters["command_timeout"]} s')
+    def _command(self, which: str, inbox: _Inbox, k: int, deadline: float,
+                 invalid=lambda msg: None):
+        """The due, valid command of one controller, or None (safe state).
+
+        A controller that stays silent past the deadline, or sends a command
+        the plant cannot apply (``invalid(msg)`` returns the reason), is
+        faulted once: safe state, diagnostic, and no more waiting for it
+        until it sends a valid command for a due sample again.
+        """
+        msg = self._await(inbox, k, None if self._faulted[which] else deadline)
+        reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
+                  if msg is None else invalid(msg))
+        if reason is not None:
+            # Report a new fault once; a controller that stays silent is not re-reported.
+            if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
+                self._fault(which, reason)
+                self._faulted[which] = reason
             return None
-        if self._silent[which]:
-            self._silent[which] = False
-            if not any(self._silent.values()):
+        if self._faulted[which]:
+            self._faulted[which] = None
+            if not any(self._faulted.values()):
                 self.core.leave_safe_state(COMMAND_TIMEOUT)
             self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
         return msg
+
+    def _wrong_topology(self, msg) -> str | None:
+        if msg.topology != self.core.topology:
+            return (f'gate command for a {msg.topology}-switch inverter, the plant has '
+                    f'{self.core.topology}')
+        return None
 
     def _tick(self) -> None:
         """One base tick of the lockstep protocol."""
@@ -263,13 +281,9 @@ class PlantNode(Node):
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
         if due_dtc:
-            msg = self._command('gate', self._gates_in, k, deadline)
+            msg = self._command('gate', self._gates_in, k, deadline, self._wrong_topology)
             if msg is not None:
-                if msg.topology != self.core.topology:
-                    self._fault('gate', f'gate command for a {msg.topology}-switch inverter, '
-                                f'the plant has {self.core.topology}')
-                else:
-                    self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
+                self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
         if due_pfc:
             msg = self._command('duty', self._duty_in, k, deadline)
             if msg is not None:
