@@ -13,8 +13,14 @@ from rclpy.node import Node
 from drive_common.lockstep_controller import run_node
 from drive_common.topics import LOCKSTEP_QOS
 
-MESSAGE_TYPES = ('DriveMeasurement', 'GateCommand', 'PfcMeasurement', 'DutyCommand',
-                 'DtcStatus', 'PfcStatus', 'PlantState')
+def _message_types() -> tuple[str, ...]:
+    """Every message type of dtc_msgs (read from the generated package, not listed by hand)."""
+    module = importlib.import_module('dtc_msgs.msg')
+    return tuple(sorted(name for name, value in vars(module).items()
+                        if isinstance(value, type) and hasattr(value, 'get_fields_and_field_types')))
+
+
+MESSAGE_TYPES = _message_types()
 
 
 def message_class(name: str) -> type:

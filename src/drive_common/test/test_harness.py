@@ -1,0 +1,111 @@
+"""The launch-free harness itself (issue 2): domains, in-process nodes, process teardown."""
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+from rclpy.parameter import Parameter
+
+from drive_common import topics
+from drive_common.fixed_responder import FixedResponder
+from drive_common.harness import (NodeProcess, isolated_env, reserve_domain, ros_arguments,
+                                  wait_for_subscribers, wait_until)
+
+
+def test_reserved_domains_are_exclusive_across_processes():
+    probe = ('from drive_common.harness import reserve_domain\n'
+             'import sys, time\n'
+             'with reserve_domain() as d:\n'
+             '    print(d, flush=True); time.sleep(5)\n')
+    with reserve_domain() as mine:
+        others = [subprocess.Popen([sys.executable, '-c', probe], stdout=subprocess.PIPE, text=True)
+                  for _ in range(3)]
+        try:
+            ids = [int(p.stdout.readline()) for p in others]
+        finally:
+            for p in others:
+                p.kill()
+                p.wait()
+    assert len({mine, *ids}) == 4, (mine, ids)
+
+
+def test_ros_arguments_are_what_ros2_run_takes():
+    args = ros_arguments({'a': 1.0, 'b': True, 'c': 'x y', 'd': [1.0, 2.0], 'e': 3},
+                         {'from': 'to'}, node_name='n')
+    assert args == ['--ros-args', '-r', '__node:=n', '-p', 'a:=1.0', '-p', 'b:=true',
+                    '-p', 'c:="x y"', '-p', 'd:=[1.0, 2.0]', '-p', 'e:=3', '-r', 'from:=to']
+
+
+def test_isolated_env_confines_discovery():
+    env = isolated_env(42, base={'ROS_LOCALHOST_ONLY': '1', 'PATH': '/bin'})
+    assert env['ROS_DOMAIN_ID'] == '42' and env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
+    assert 'ROS_LOCALHOST_ONLY' not in env and env['PATH'] == '/bin'
+
+
+@pytest.mark.ros
+def test_node_in_process_with_injected_context_and_parameter_overrides(ros_session):
+    """A project node built in the test's own context, its parameters overridden at birth."""
+    from dtc_msgs.msg import DriveMeasurement, GateCommand
+    pattern = [0.0, 1.0, 1.0, 0.0, 0.0, 0.0]
+    responder = ros_session.add(FixedResponder(
+        context=ros_session.context,
+        parameter_overrides=[Parameter('switch_on', value=pattern)]))
+    assert responder.parameters['switch_on'] == pattern
+    node = ros_session.node('probe')
+    replies = []
+    node.create_subscription(GateCommand, topics.GATE_COMMAND, replies.append, topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
+    wait_for_subscribers(node, topics.DRIVE_MEASUREMENT)
+    wait_until(lambda: node.count_publishers(topics.GATE_COMMAND) >= 1, 10.0)
+    pub.publish(DriveMeasurement(step=5))
+    wait_until(lambda: replies, 10.0, what='reply')
+    assert replies[0].step == 5 and [float(s) for s in replies[0].switch_on] == pattern
+
+
+def _marked_processes(marker: str) -> list[int]:
+    found = []
+    for proc in Path('/proc').iterdir():
+        if proc.name.isdigit() and int(proc.name) != os.getpid():
+            try:
+                if marker.encode() in (proc / 'environ').read_bytes():
+                    found.append(int(proc.name))
+            except OSError:
+                pass
+    return found
+
+
+@pytest.mark.ros
+def test_node_process_stops_and_leaves_nothing(ros_domain, tmp_path):
+    marker = f'DTC_HARNESS_PROBE=stop_{os.getpid()}_{time.monotonic_ns()}'
+    env = dict(isolated_env(ros_domain), DTC_HARNESS_PROBE=marker.split('=', 1)[1])
+    process = NodeProcess('drive_common', 'message_echo', env=env, log_dir=tmp_path)
+    wait_until(lambda: _marked_processes(marker), 10.0, what='node started')
+    assert process.alive()
+    process.stop()
+    assert not process.alive() and _marked_processes(marker) == []
+
+
+@pytest.mark.ros
+def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
+    """A failing test that started a node leaves no process behind."""
+    marker = f'DTC_HARNESS_PROBE=fail_{os.getpid()}_{time.monotonic_ns()}'
+    test_file = tmp_path / 'test_failing_probe.py'
+    test_file.write_text(textwrap.dedent('''
+        import time
+        def test_fails(start_node):
+            node = start_node('drive_common', 'message_echo')
+            time.sleep(2.0)
+            assert node.alive()
+            assert False, 'deliberate failure'
+    '''))
+    conftest = Path(__file__).resolve().parents[3] / 'conftest.py'
+    (tmp_path / 'conftest.py').write_text(conftest.read_text())
+    env = dict(os.environ, DTC_HARNESS_PROBE=marker.split('=', 1)[1])
+    result = subprocess.run([sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider',
+                             str(test_file)], cwd=tmp_path, env=env, capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 1 and 'deliberate failure' in result.stdout, result.stdout
+    assert _marked_processes(marker) == []
