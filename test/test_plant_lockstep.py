@@ -225,3 +225,22 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     assert answer.success, answer.message
     wait_until(lambda: not client.states[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
                10.0, what='trip cleared in plant/state')
+
+
+def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):
+    """What `ros2 param get` shows is what the plant uses: the file's values, explicit overrides
+    on top, and a later motor.file change brings the new file's values with it."""
+    start_node('drive_common', 'fixed_responder')
+    start_node('bldc_plant_sim', 'plant', parameters={'motor.file': 'fstp_pm_blac',
+                                                      'motor.inertia': 1e-3})
+    client = PlantClient(ros_session)
+    assert client.get('motor.resistance') == pytest.approx(0.466)        # from the file
+    assert client.get('motor.pole_pairs') == 1
+    assert client.get('motor.inertia') == 1e-3                            # explicit override
+    assert client.set(**{'motor.resistance': 2.0})[0].successful
+    assert client.get('motor.resistance') == 2.0
+    assert client.set(**{'motor.file': 'ozturk_bldc_nonideal'})[0].successful
+    assert client.get('motor.resistance') == pytest.approx(0.315)
+    assert client.get('motor.pole_pairs') == 2
+    assert list(client.get('motor.backemf.harmonic_orders')) == [1.0, 3.0, 5.0]
+    assert client.run(0.001).success

@@ -3,7 +3,8 @@
 Reduced versions of the shipped ``pfc_*`` scenarios (fewer line cycles, events
 moved earlier): the plain rectifier of Fig. 3.4, the PFC of Fig. 3.5 holding
 80 V with a sinusoidal line current, a load step, and the induced boost
-over-current / over-voltage trips after which the run goes on in a safe state.
+over-current (over-load step) / over-voltage (load dump) trips at the default
+8 A / 140 V limits, after which the run goes on with the boost held off.
 The full scenarios (checks against the seed values) run with the reproduce
 command; these keep the suite under about a minute.
 """
@@ -19,7 +20,7 @@ from drive_bringup.report import evaluate_metrics, metric_function
 from drive_bringup.scenario import Event, find_scenario, load_scenario
 
 PFC_SCENARIOS = ('pfc_without_pfc_fig_3_4', 'pfc_no_load_fig_3_5', 'pfc_load_fig_3_6',
-                 'pfc_load_and_line_steps', 'pfc_protection_trips')
+                 'pfc_load_and_line_steps', 'pfc_protection_trips', 'pfc_seed_structure_only')
 
 
 @functools.lru_cache(maxsize=None)
@@ -100,21 +101,24 @@ def test_load_step_output_recovers():
     assert v['boost_protection_tripped'] == 0.0
 
 
-def test_induced_trips_leave_the_run_going_in_a_safe_state():
-    events = ((0.3, 'plant', (('front_end.over_current_limit', 3.0),)),
-              (0.35, 'plant', (('front_end.over_current_limit', 8.0),)),
-              (0.4, 'plant', (('front_end.protection_latched', True),
-                              ('front_end.over_voltage_limit', 75.0))))
+def test_physical_trips_at_the_default_limits():
+    """Over-load step -> 8 A over-current (cycle by cycle); load dump -> 140 V over-voltage (latched)."""
+    events = ((0.3, 'dtc_controller', (('torque_reference', 0.9),)),
+              (0.35, 'dtc_controller', (('torque_reference', 0.4),)),
+              (0.42, 'plant', (('front_end.protection_latched', True), ('load.mode', 'torque'),
+                               ('load.torque', 0.0))),
+              (0.42, 'dtc_controller', (('torque_reference', 0.0),)))
     v, arrays = _values(
-        'pfc_protection_trips', 0.45, events=events,
+        'pfc_protection_trips', 0.5, events=events,
         before={'metric': 'boost_protection_tripped', 'bit': 6, 't_end': 0.3},
         oc={'metric': 'boost_protection_tripped', 'bit': 2, 't_start': 0.3, 't_end': 0.35},
         peak={'metric': 'peak_inductor_current_A', 't_start': 0.3, 't_end': 0.35},
-        ov={'metric': 'boost_protection_tripped', 'bit': 4, 't_start': 0.4},
-        on_at_end={'metric': 'boost_switch_enabled_fraction', 't_start': 0.42},
+        ov_time={'metric': 'boost_trip_time_s', 'bit': 4, 't_start': 0.42},
+        on_at_end={'metric': 'boost_switch_enabled_fraction', 't_start': 0.46},
         final_time_s={})
-    assert v['before'] == 0.0 and v['oc'] == 1.0 and v['ov'] == 1.0, v
-    assert v['peak'] <= 3.0 + 1e-6, v
+    assert v['before'] == 0.0 and v['oc'] == 1.0, v
+    assert 7.5 <= v['peak'] <= 8.1, v                       # held at the default 8 A level
+    assert 0.42 < v['ov_time'] < 0.46, v                    # default 140 V level
     assert v['on_at_end'] == 0.0, v
-    assert v['final_time_s'] == pytest.approx(0.45)
+    assert v['final_time_s'] == pytest.approx(0.5)
     assert arrays['plant/state.boost_duty'][-1] == 0.0

@@ -51,6 +51,8 @@ def test_dtifc_sensorless_000(bldc_table):
     ts = 15e-6
     pp = plant_params('ozturk_bldc', **{'base_tick': ts, 'dtc_period': ts, 'integration.max_step': ts,
                                         'dc_link.voltage': 40 * math.sqrt(2), 'load.torque': 0.5,
+                                        # ideal switches, as the scenario (000 neglects the drops)
+                                        'inverter.v_ce': 0.0, 'inverter.v_d': 0.0, 'inverter.r_on': 0.0,
                                         'motor.initial_angle': 0.0})
     core = DtcCore({'mode': 'three_phase_dtifc', 'sample_period': ts, 'torque_reference': 0.51,
                     'torque_band': 0.001, 'dtifc.d_current_band': 0.001, 'dtifc.d_current_reference': 0.0,

@@ -2,8 +2,11 @@
 
 One :class:`~drive_common.parameters.ParameterSchema` serves the ROS node,
 scenario files and the headless co-simulation. Defaults describe the BLDC
-motor of 000 Appendix A on a six-switch inverter fed by an ideal
-40*sqrt(2) V source (000 ch. II/V test conditions). Motor, topology and
+motor of 000 Appendix A (the values of ``motors/ozturk_bldc.yaml``, pinned by
+test_motor_files.py) on a six-switch inverter with the device drops of 001
+Table IV (V_CE 0.9 V, V_d 1.25 V, R_on 0.075 ohm; set them to 0 for ideal
+switches, as the 000 scenarios do) fed by an ideal 40*sqrt(2) V source (000
+ch. II/V test conditions). Motor, topology and
 periods are ``runtime=False`` (changed only while the simulation is held);
 load, sensor errors, device drops and the trip level may change at any
 sample boundary. ``front_end.*`` describe the boost PFC front end of 000
@@ -12,14 +15,19 @@ PFC controller (``pfc_enabled``) needs it. Line voltage and phase, the
 resistances and drops and the protection levels are runtime parameters.
 
 Motor data files (``motors/*.yaml``) hold a ``parameters:`` mapping of these
-same names; :func:`plant_params` merges one into the defaults, and the
-``motor.file`` parameter does the same inside the PlantCore.
+same names, checked by the schema like any other change (an error names the
+file, the key and the reason). :func:`plant_params` merges one into the
+defaults before its overrides. The ``motor.file`` parameter: the file gives
+the motor's values and explicit parameters set in the same snapshot override
+it; :func:`effective_params` turns a requested snapshot into the values
+actually used (PlantCore.params, and what the node writes back into its
+declared parameters).
 """
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterable, Mapping
 
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 
@@ -60,8 +68,8 @@ PLANT_SPECS = (
     _S('run_until', 0.0, 'advance to this sim time at start-up without a Run goal (0 = wait)', 's',
        0.0, 1e6),
     # ---- motor (held) ----
-    _S('motor.file', '', 'motor data file (name in motors/ or a path); its values replace motor.*',
-       runtime=False),
+    _S('motor.file', '', 'motor data file (name in motors/ or a path): gives the motor.* values '
+       'that are not set explicitly (explicit values override the file)', runtime=False),
     _S('motor.pole_pairs', 2, 'pole pairs p (000 App. A: 4 poles)', '', 1, 64, runtime=False),
     _S('motor.resistance', 0.315, 'phase winding resistance R_s', 'ohm', 1e-6, 100.0, runtime=False),
     _S('motor.self_inductance', 1.4e-3, 'phase self inductance L_s', 'H', 1e-7, 1.0, runtime=False),
@@ -69,7 +77,8 @@ PLANT_SPECS = (
        0.0, 1.0, runtime=False),
     _S('motor.inertia', 2.0e-4, 'rotor + coupling inertia J (assumed: not in 000)', 'kg m^2',
        1e-8, 100.0, runtime=False),
-    _S('motor.friction', 1.0e-4, 'viscous friction B of the motor (assumed: not in 000)',
+    _S('motor.friction', 3.33e-4, 'viscous friction B of the motor (assumed: not in 000; '
+       'ozturk_bldc.yaml gives the reason)',
        'N m s/rad', 0.0, 10.0, runtime=False),
     _S('motor.backemf.shape', 'trapezoid', 'back-EMF shape', '',
        choices=('trapezoid', 'harmonic', 'sine', 'table'), runtime=False),
@@ -93,11 +102,11 @@ PLANT_SPECS = (
     _S('inverter.topology', 6, 'six-switch or four-switch inverter', '', choices=(4, 6), runtime=False),
     _S('inverter.midpoint_phase', 'c', 'four-switch: phase tied to the capacitor midpoint '
        '(c for 000 ch. IV, a for 001)', '', choices=('a', 'b', 'c'), runtime=False),
-    _S('inverter.v_ce', 0.0, 'switch on-state threshold V_CE (001 Table IV: 0.9 V; 0 = ideal)', 'V',
+    _S('inverter.v_ce', 0.9, 'switch on-state threshold V_CE (default 001 Table IV; 0 = ideal)', 'V',
        0.0, 10.0),
-    _S('inverter.v_d', 0.0, 'diode forward drop V_d (001 Table IV: 1.25 V; 0 = ideal)', 'V', 0.0, 10.0),
-    _S('inverter.r_on', 0.0, 'on-state resistance of a conducting device (001 Table IV: 0.075 ohm)',
-       'ohm', 0.0, 10.0),
+    _S('inverter.v_d', 1.25, 'diode forward drop V_d (default 001 Table IV; 0 = ideal)', 'V', 0.0, 10.0),
+    _S('inverter.r_on', 0.075, 'on-state resistance of a conducting device (default 001 Table IV; '
+       '0 = ideal)', 'ohm', 0.0, 10.0),
     _S('inverter.dead_time', 0.0, 'both switches of a leg off after each gate transition', 's',
        0.0, 1e-3, runtime=False),
     # ---- DC link ----
@@ -247,7 +256,11 @@ def motor_file_path(name: str) -> Path:
 
 
 def load_motor_file(name: str) -> dict[str, Any]:
-    """The ``parameters:`` mapping of a motor file (values checked by the schema)."""
+    """The ``parameters:`` mapping of a motor file, each value checked by the schema.
+
+    A value the schema refuses (type, range, choices) raises ParameterError
+    naming the file, the key and the reason, as any other parameter change.
+    """
     import yaml  # noqa: PLC0415
 
     path = motor_file_path(name)
@@ -255,7 +268,7 @@ def load_motor_file(name: str) -> dict[str, Any]:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:
         raise ParameterError(f'motor.file: cannot read {path}: {exc}') from exc
-    params = (data or {}).get('parameters')
+    params = data.get('parameters') if isinstance(data, dict) else None
     if not isinstance(params, dict):
         raise ParameterError(f'motor.file: {path} has no "parameters:" mapping')
     unknown = sorted(set(params) - set(PLANT_NODE_SCHEMA.names()))
@@ -265,26 +278,90 @@ def load_motor_file(name: str) -> dict[str, Any]:
                      or n == 'motor.file')
     if foreign:
         raise ParameterError(f'motor.file: {path}: not motor data: ' + ', '.join(foreign))
-    table = params.get('motor.backemf.table_file')
+    clean = {}
+    for key, value in params.items():
+        try:
+            clean[key] = PLANT_NODE_SCHEMA[key].check(value)
+        except ParameterError as exc:
+            raise ParameterError(f'motor.file: {path}: {exc}') from exc
+    table = clean.get('motor.backemf.table_file')
     if table and not Path(table).is_absolute():
-        params['motor.backemf.table_file'] = str((path.parent / table).resolve())
-    return dict(params)
+        clean['motor.backemf.table_file'] = str((path.parent / table).resolve())
+    return clean
 
 
-def with_motor_file(params: Mapping[str, Any]) -> dict[str, Any]:
-    """params with the values of its ``motor.file`` (if any) applied, validated."""
-    params = dict(params)
-    if params.get('motor.file'):
-        params.update(load_motor_file(params['motor.file']))
-        params = PLANT_NODE_SCHEMA.validate_changes(params, {}, running=False)
-    return params
+def _cross_check_with_file(values: dict[str, Any], file_name: str) -> dict[str, Any]:
+    """Schema cross-checks of a merged snapshot; an error names the motor file that fed it."""
+    try:
+        return PLANT_NODE_SCHEMA.validate_changes(values, {}, running=False)
+    except ParameterError as exc:
+        if not file_name:
+            raise
+        raise ParameterError(f'{exc} (motor.file {motor_file_path(file_name)} with the '
+                             'explicit parameters)') from exc
+
+
+def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | None = None, *,
+                     explicit: Iterable[str] = (),
+                     previous_effective: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The parameter values the plant uses for a requested snapshot (``motor.file`` applied).
+
+    Semantics: the motor file gives the motor's values; parameters set
+    explicitly in the same snapshot override it. "Set in this snapshot" means
+    the value differs from ``previous`` (the snapshot requested before:
+    start-up overrides and scenario values differ from the defaults, a
+    runtime ``ros2 param set`` differs from the value held), or the name is in
+    ``explicit`` (start-up overrides equal to a default). Per name a file sets:
+
+    - set in this snapshot: the snapshot's value;
+    - else, when ``motor.file`` changed (or at start-up): the new file's value
+      (a name only the old file set returns to its schema default);
+    - else: the value used before (``previous_effective``, default ``previous``).
+
+    Other names take the snapshot's value. Pure (reads only the motor file).
+
+    snapshot: requested values (full node snapshot, or partial: missing
+        names take their defaults).
+    previous: the snapshot requested before; None at start-up (= defaults).
+    explicit: names to count as set in this snapshot whatever their value.
+    previous_effective: the values used before, when they differ from
+        ``previous`` (PlantCore keeps both; a node that writes the effective
+        values back into its parameters has previous_effective == previous).
+
+    Returns a full validated snapshot; raises ParameterError (a file value
+    or a cross-check involving one names the file).
+    """
+    defaults = PLANT_NODE_SCHEMA.defaults()
+    requested = PLANT_NODE_SCHEMA.validate_changes(defaults, snapshot, running=False)
+    start = previous is None
+    before = defaults if start else PLANT_NODE_SCHEMA.validate_changes(defaults, previous, running=False)
+    used_before = before if previous_effective is None else dict(previous_effective)
+    explicit = set(explicit)
+    file_name = requested['motor.file']
+    file_changed = start or file_name != before['motor.file']
+    new_file = load_motor_file(file_name) if file_name else {}
+    if file_changed:
+        old_file = load_motor_file(before['motor.file']) if before['motor.file'] and not start else {}
+    else:
+        old_file = {}
+    governed = set(new_file) | set(old_file)
+    values = dict(requested)
+    for name in governed:
+        if name in explicit or requested[name] != before[name]:
+            continue                                    # set in this snapshot: overrides the file
+        if file_changed:
+            values[name] = new_file.get(name, defaults[name])
+        else:
+            values[name] = used_before.get(name, requested[name])
+    return _cross_check_with_file(values, file_name)
 
 
 def plant_params(motor: str | None = None, **overrides: Any) -> dict[str, Any]:
     """A validated parameter snapshot: defaults, then a motor file, then overrides.
 
     Dotted names go in as ``plant_params('fstp_pm_blac', **{'load.torque': 0.3})``;
-    an unknown name raises ParameterError.
+    an unknown name raises ParameterError. The snapshot keeps ``motor.file``
+    empty: the file's values are already in it.
     """
     unknown = sorted(set(overrides) - set(PLANT_NODE_SCHEMA.names()))
     if unknown:
@@ -292,5 +369,5 @@ def plant_params(motor: str | None = None, **overrides: Any) -> dict[str, Any]:
     values = PLANT_NODE_SCHEMA.defaults()
     if motor:
         values.update(load_motor_file(motor))
-    values = PLANT_NODE_SCHEMA.validate_changes(values, {}, running=False)
+    values = _cross_check_with_file(values, motor or '')
     return PLANT_NODE_SCHEMA.validate_changes(values, overrides, running=False)

@@ -30,11 +30,12 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA
+from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import time_msg, to_message
 from drive_common.lockstep_controller import run_node
@@ -79,12 +80,17 @@ class PlantNode(Node):
         self._lock = threading.Lock()
         self.parameters = SchemaParameters(self, PLANT_NODE_SCHEMA, on_change=self._on_parameters,
                                            is_running=lambda: self._running)
-        params = dict(self.parameters.values)
+        explicit = {n for n in PLANT_NODE_SCHEMA.names() if n in self._parameter_overrides}
         try:
+            params = effective_params(self.parameters.values, explicit=explicit)
             self.core = PlantCore(params)
         except (ValueError, OSError) as exc:
             raise ParameterError(f'plant: cannot start: {exc}') from exc
         self.schedule = LockstepSchedule.from_params(params, self.core.base_tick)
+        # The declared parameters show the values in use (a motor file's included) ...
+        self._set_atomically({n: v for n, v in params.items() if v != self.parameters.values[n]})
+        # ... and a later motor.file change brings the file's values with it, atomically.
+        self.add_pre_set_parameters_callback(self._with_motor_file_values)
 
         # Lockstep side: private node + executor, spun only by the stepping thread.
         self._io = rclpy.create_node('plant_lockstep', context=self.context,
@@ -118,6 +124,34 @@ class PlantNode(Node):
                                                     callback_group=self._run_group)
 
     # --- parameters -------------------------------------------------------
+    def _set_atomically(self, values: dict[str, Any]) -> None:
+        """Set several declared parameters in one validation (cross-checks see them together)."""
+        if values:
+            result = self.set_parameters_atomically([Parameter(n, value=v) for n, v in values.items()])
+            if not result.successful:
+                raise ParameterError(result.reason)
+
+    def _with_motor_file_values(self, params: list[Parameter]) -> list[Parameter]:
+        """Pre-set hook: a change that brings motor-file values sets them first, atomically.
+
+        ``ros2 param set`` sends one parameter at a time and rclpy applies a list
+        one by one, so the file's values (whose lists must agree in length)
+        are set together here before the requested change itself.
+        """
+        changes = {p.name: p.value for p in params if p.name in PLANT_NODE_SCHEMA}
+        if not changes:
+            return params
+        current = self.parameters.values
+        try:
+            requested = PLANT_NODE_SCHEMA.validate_changes(current, changes,
+                                                           running=self._running)
+            used = effective_params(requested, current)
+            self._set_atomically({n: v for n, v in used.items()
+                                  if v != requested[n] and n not in changes})
+        except (ValueError, OSError):
+            pass                   # the set callback refuses the change, with the reason
+        return params
+
     def _on_parameters(self, snapshot: dict[str, Any]) -> None:
         """Check the new snapshot against the core; swap it in at the next tick."""
         try:

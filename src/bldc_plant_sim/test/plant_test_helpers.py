@@ -49,6 +49,10 @@ class ScriptedGates:
         return GateSample(step=sample.step, topology=self.topology, switch_on=tuple(self.fn(sample.step))), None
 
 
+IDEAL_SWITCHES = {'inverter.v_ce': 0.0, 'inverter.v_d': 0.0, 'inverter.r_on': 0.0}
+"""000's simulations neglect the devices (the schema defaults are 001 Table IV)."""
+
+
 def bldc_params(**overrides) -> dict:
-    """000 Appendix A motor (ozturk_bldc.yaml), six-switch, ideal source, plus overrides."""
-    return plant_params('ozturk_bldc', **overrides)
+    """000 Appendix A motor (ozturk_bldc.yaml), six-switch, ideal switches and source, plus overrides."""
+    return plant_params('ozturk_bldc', **{**IDEAL_SWITCHES, **overrides})

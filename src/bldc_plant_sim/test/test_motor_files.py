@@ -9,6 +9,7 @@ import pytest
 from bldc_plant_sim.core.motor import Motor
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import load_motor_file, plant_params
+from plant_test_helpers import bldc_params
 
 
 def test_ozturk_lambda_f_is_the_line_to_line_constant_per_electrical_rad_s():
@@ -20,24 +21,43 @@ def test_ozturk_lambda_f_is_the_line_to_line_constant_per_electrical_rad_s():
     torque = motor.torque(math.radians(90), (-i_rated, i_rated, 0.0))
     assert torque == pytest.approx(1.28352, rel=1e-9)            # 000 App. A rated torque
     assert motor.backemf.line_to_line_peak() == pytest.approx(0.1146, rel=1e-12)   # = lambda_f
-    # the rejected readings miss the rating by a factor of two
-    assert p['motor.backemf.constant'] == pytest.approx(0.1146 / 2)
-    phase_per_electrical = 2 * 2 * 0.1146 * i_rated            # K = lambda_f
-    line_per_mechanical = 2 * 2 * (0.1146 / 2 / 2) * i_rated    # k_LL = lambda_f per mech rad/s
-    assert phase_per_electrical == pytest.approx(2 * 1.28352, rel=1e-4)
-    assert line_per_mechanical == pytest.approx(1.28352 / 2, rel=1e-4)
+
+
+def _simulated_torque_at(i_target: float, constant: float) -> tuple[float, float]:
+    """(T_e, i_b) once the b+ a- current of the locked 000 motor has risen to i_target,
+    with the phase flat-top constant K = constant (the reading of lambda_f under test)."""
+    p = bldc_params(**{'load.mode': 'dynamometer', 'load.speed': 0.0,
+                       'motor.initial_angle': math.radians(45),       # theta_e = 90 deg: flat tops
+                       'motor.backemf.constant': constant})
+    plant = PlantCore(p)
+    plant.apply_gates((False, True, True, False, False, False))      # b+ a-: i_b = -i_a > 0
+    # V_dc / (2 (L - M)) = 26 kA/s: about 9 ticks to 5.6 A; the bound only guards a broken plant
+    for _ in range(200):
+        if plant.i[1] >= i_target:
+            break
+        plant.advance()
+    s = plant.state()
+    assert s.phase_current[1] >= i_target, 'current never reached the target'
+    return s.electromagnetic_torque, s.phase_current[1]
 
 
 def test_ozturk_rated_torque_is_produced_in_the_simulation():
-    # dynamometer at low speed, six-step on the flat top, current held near 5.6 A by the supply
-    p = plant_params('ozturk_bldc', **{'load.mode': 'dynamometer', 'load.speed': 0.0,
-                                       'motor.initial_angle': math.radians(45)})    # theta_e = 90 deg
-    plant = PlantCore(p)
-    plant.apply_gates((False, True, True, False, False, False))   # b+ a-: i_b = -i_a > 0
-    while plant.i[1] < 5.6:
-        plant.advance()
-    s = plant.state()
-    assert s.electromagnetic_torque == pytest.approx(2 * 2 * 0.0573 * s.phase_current[1], rel=1e-9)
+    torque, i_b = _simulated_torque_at(5.6, 0.0573)
+    assert torque == pytest.approx(2 * 2 * 0.0573 * i_b, rel=1e-9)
+    assert torque * 5.6 / i_b == pytest.approx(1.28352, rel=1e-9)    # rated torque at 5.6 A
+
+
+@pytest.mark.parametrize('reading, constant, ratio', [
+    ('lambda_f as the phase constant per electrical rad/s', 0.1146, 2.0),
+    ('lambda_f as the line-to-line constant per mechanical rad/s', 0.1146 / 2 / 2, 0.5),
+])
+def test_the_rejected_readings_of_lambda_f_miss_the_rated_torque_by_two(reading, constant, ratio):
+    # Simulate the plant with each alternative reading of 000 App. A's lambda_f = 0.1146 Wb:
+    # at the rated 5.6 A it makes ratio x the rated 1.28352 N m, so only K = lambda_f / p fits.
+    torque, i_b = _simulated_torque_at(5.6, constant)
+    rated, i_rated = _simulated_torque_at(5.6, 0.0573)
+    assert torque * 5.6 / i_b == pytest.approx(ratio * 1.28352, rel=1e-9), reading
+    assert (torque / i_b) / (rated / i_rated) == pytest.approx(ratio, rel=1e-9), reading
 
 
 def test_fstp_machine_rated_torque_and_table_vii_imbalance():

@@ -236,6 +236,29 @@ def test_dead_time_delays_each_turn_on_by_the_dead_time():
     assert loss == pytest.approx(expected, rel=0.01)
 
 
+@pytest.mark.parametrize('dead, max_step', [(10e-6, 5e-6), (12e-6, 5e-6), (5e-6, 5e-6),
+                                             (3e-6, 5e-6), (24e-6, 25e-6 / 6)])
+def test_integrated_time_equals_sim_time_when_the_dead_time_exceeds_the_inner_step(dead, max_step):
+    # A gate change every tick puts a dead time in every tick. The rotor is held at constant
+    # speed by the dynamometer, so the angle it turns through measures the time integrated:
+    # before the fix a 10 us dead time with 5 us inner steps integrated 30 us per 25 us tick.
+    tick, speed = 25e-6, 100.0
+    params = bldc_params(**{'inverter.dead_time': dead, 'integration.max_step': max_step,
+                            'load.mode': 'dynamometer', 'load.speed': speed,
+                            'motor.initial_speed': speed, 'protection.peak_current': 0.0})
+    plant = PlantCore(params)
+    other = (False, True, True, False, False, False)
+    peak = 0.0
+    for k in range(100):
+        plant.apply_gates(A_PLUS_B_MINUS if k % 2 == 0 else other)
+        plant.advance()
+        assert plant._elapsed == pytest.approx(tick, rel=1e-12, abs=1e-18), k
+        peak = max(peak, abs(plant.i[0]))
+    assert plant.time == pytest.approx(100 * tick)
+    assert plant.theta_m == pytest.approx(speed * plant.time, rel=1e-12)
+    assert peak > 0.01                                  # the legs did conduct
+
+
 @pytest.mark.parametrize('source_current', [0.5, -0.2])
 def test_current_fed_link_charges_the_capacitors_from_the_source_port(source_current):
     params = bldc_params(**{'dc_link.mode': 'current_fed', 'dc_link.source_current': source_current,

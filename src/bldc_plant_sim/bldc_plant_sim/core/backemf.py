@@ -82,12 +82,30 @@ def trapezoid_fundamental() -> float:
     return 4.0 * math.sin(math.pi / 6.0) / (math.pi * math.pi / 6.0)
 
 
+MIN_TABLE_ROWS = 12
+"""Fewest data rows a back-EMF table may have: one per 30 electrical degrees, the corner
+spacing of the 120-degree trapezoid (fewer rows cannot describe a six-step waveform)."""
+
+
 def read_line_to_line_table(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-    """(theta_e, k_ba, k_ca, metadata) from a back-EMF table CSV (docs/architecture.md)."""
+    """(theta_e, k_ba, k_ca, metadata) from a back-EMF table CSV (docs/architecture.md).
+
+    Checked: a header naming theta_e, k_ba and k_ca; one numeric, finite cell per
+    header column on every row; theta_e in rad, strictly increasing within
+    [0, 2 pi) (a last angle of 2 pi or more is reported as a likely table in
+    degrees); at least MIN_TABLE_ROWS rows, and as many as a ``# points:``
+    line says. Every error is a ValueError starting ``<path>:<line>:``
+    (a missing file raises OSError).
+    """
     meta: dict[str, str] = {}
     header = None
-    rows = []
-    for line in Path(path).read_text().splitlines():
+    header_line = 0
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    text = Path(path).read_text()
+    last = 0
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        last = lineno
         if not line.strip():
             continue
         if line.startswith('#'):
@@ -98,16 +116,55 @@ def read_line_to_line_table(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, d
             continue
         if header is None:
             header = [h.strip() for h in line.split(',')]
+            header_line = lineno
+            for col in ('theta_e', 'k_ba', 'k_ca'):
+                if col not in header:
+                    raise ValueError(f'{path}:{lineno}: back-EMF table header lacks column {col} '
+                                     f'(header: {",".join(header)})')
             continue
-        rows.append([float(v) for v in line.split(',')])
-    if header is None or not rows:
-        raise ValueError(f'{path}: no header/data rows in back-EMF table')
-    for col in ('theta_e', 'k_ba', 'k_ca'):
-        if col not in header:
-            raise ValueError(f'{path}: column {col} missing (header: {",".join(header)})')
+        cells = line.split(',')
+        if len(cells) != len(header):
+            raise ValueError(f'{path}:{lineno}: {len(cells)} cells, the header has {len(header)}')
+        row = []
+        for name, cell in zip(header, cells):
+            try:
+                value = float(cell)
+            except ValueError:
+                raise ValueError(f'{path}:{lineno}: column {name}: {cell.strip()!r} is not a '
+                                 'number') from None
+            if not math.isfinite(value):
+                raise ValueError(f'{path}:{lineno}: column {name}: {cell.strip()!r} is not finite')
+            row.append(value)
+        rows.append(row)
+        lines.append(lineno)
+    if header is None:
+        raise ValueError(f'{path}:{last}: no header line in back-EMF table')
+    if len(rows) < MIN_TABLE_ROWS:
+        raise ValueError(f'{path}:{lines[-1] if lines else header_line}: {len(rows)} data row(s); '
+                         f'a back-EMF table needs at least {MIN_TABLE_ROWS} over one electrical cycle')
+    if 'points' in meta:
+        try:
+            points = int(meta['points'])
+        except ValueError:
+            points = None
+        if points != len(rows):
+            raise ValueError(f'{path}:{lines[-1]}: {len(rows)} data rows, the "# points:" line '
+                             f'says {meta["points"]}')
     data = np.array(rows, dtype=float)
     col = {name: data[:, j] for j, name in enumerate(header)}
-    return col['theta_e'], col['k_ba'], col['k_ca'], meta
+    theta = col['theta_e']
+    if theta[0] < 0.0:
+        raise ValueError(f'{path}:{lines[0]}: theta_e {theta[0]:g} is negative; angles must lie in '
+                         '[0, 2 pi) rad')
+    for n in range(1, len(theta)):
+        if not theta[n] > theta[n - 1]:
+            raise ValueError(f'{path}:{lines[n]}: theta_e {theta[n]:g} does not increase (previous '
+                             f'row {theta[n - 1]:g}); rows must be in strictly increasing angle')
+    if theta[-1] >= TWO_PI:
+        hint = ' (angles in degrees? the table wants rad)' if theta[-1] > 2.0 * TWO_PI else ''
+        raise ValueError(f'{path}:{lines[-1]}: theta_e {theta[-1]:g} is not below 2 pi; angles '
+                         f'must lie in [0, 2 pi) rad{hint}')
+    return theta, col['k_ba'], col['k_ca'], meta
 
 
 @dataclass

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from drive_common.parameters import ParameterError
 from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
-from ..parameters import PLANT_NODE_SCHEMA, with_motor_file
+from ..parameters import PLANT_NODE_SCHEMA, effective_params
 from .dc_link import DcLink
 from .front_end import FrontEnd
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, Inverter
@@ -97,11 +97,15 @@ class PlantCore:
     """The plant of DESIGN.md §6 without ROS (API: docs/architecture.md "Core APIs").
 
     params: a parameter snapshot of PLANT_NODE_SCHEMA (missing names take
-    their defaults; ``motor.file`` is applied first).
+    their defaults). With ``motor.file`` the file gives the motor's values and
+    explicit parameters override it (:func:`~bldc_plant_sim.parameters.effective_params`);
+    ``params`` holds the values actually used.
     """
 
     def __init__(self, params: dict | None = None) -> None:
         p = self.validate(params or {})
+        self._requested = PLANT_NODE_SCHEMA.validate_changes(PLANT_NODE_SCHEMA.defaults(),
+                                                             params or {}, running=False)
         self.params = p
         self.base_tick = p['base_tick']
         self.step = 0
@@ -136,17 +140,22 @@ class PlantCore:
 
     # ------------------------------------------------------------------ parameters
     @staticmethod
-    def validate(params: dict) -> dict:
-        """Full validated snapshot (defaults + motor file + params); raises ParameterError/OSError."""
-        snap = PLANT_NODE_SCHEMA.validate_changes(PLANT_NODE_SCHEMA.defaults(), params, running=False)
-        snap = with_motor_file(snap)
+    def validate(params: dict, previous: dict | None = None,
+                 previous_effective: dict | None = None) -> dict:
+        """Full validated snapshot of the values used (defaults, motor file, explicit params);
+        raises ParameterError/OSError. previous / previous_effective: see effective_params."""
+        snap = effective_params(params, previous, previous_effective=previous_effective)
         if snap['motor.backemf.shape'] == 'table':
             Motor.from_params(snap)   # reads the table file now: bad files are refused up front
         return snap
 
     def check_params(self, params: dict) -> dict:
-        """validate(), and refuse what this running plant cannot take (a new base tick after t = 0)."""
-        snap = self.validate(params)
+        """The values this plant would use for a new requested snapshot (validate() relative to
+        the snapshot it runs on), refusing what it cannot take (a new base tick after t = 0)."""
+        if hasattr(self, 'params'):
+            snap = self.validate(params, self._requested, self.params)
+        else:
+            snap = self.validate(params)
         if getattr(self, 'step', 0) > 0 and snap['base_tick'] != self.base_tick:
             raise ParameterError(f"base_tick: cannot change from {self.base_tick} s after the "
                                  'simulation started')
@@ -163,6 +172,8 @@ class PlantCore:
         The stored-energy baseline moves with a rebuilt part so the balance stays closed.
         """
         p = self.check_params(params)
+        requested = PLANT_NODE_SCHEMA.validate_changes(PLANT_NODE_SCHEMA.defaults(), params,
+                                                       running=False)
         old = self.params
         changed = {n for n in p if p[n] != old.get(n)}
         stored_before = self.stored_energy()
@@ -204,6 +215,7 @@ class PlantCore:
         self.sensors.configure(p)
         self.trip.level = p['protection.peak_current']
         self.params = p
+        self._requested = requested
         self._derive_constants(p['integration.max_step'])
         self.energy.stored_initial += self.stored_energy() - stored_before
 
@@ -374,13 +386,19 @@ class PlantCore:
         self._elapsed = 0.0
         dead = self.inverter.dead_time
         if dead > 0.0 and legs != self._legs:
+            # The dead time covers k inner steps (k > 1 when it is longer than the step): it is
+            # integrated in k equal pieces of at most h, then the rest of the k-th step, then
+            # the n - k full steps: the integrated time is exactly n h = base_tick.
+            k = min(n, max(1, math.ceil(dead / h - 1e-9)))
             self._legs = self.inverter.dead_time_legs(self._legs, legs)
-            self._integrate(dead)
+            piece = dead / k
+            for _ in range(k):
+                self._integrate(piece)
             if self._legs != self._effective_legs():  # a trip inside the dead time wins
                 legs = self._effective_legs()
             self._legs = legs
-            self._integrate(h - dead)
-            n -= 1
+            self._integrate(k * h - dead)
+            n -= k
         else:
             self._legs = legs
         for _ in range(n):
