@@ -20,7 +20,7 @@ from mcap.reader import make_reader
 
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import isolated_env
+from drive_common.harness import isolated_env, processes_with_env
 
 pytestmark = pytest.mark.ros
 
@@ -100,20 +100,6 @@ def test_crashed_node_is_reported(tmp_path):
     assert 'dtc_controller exited' in result.stderr and 'missing_table.csv' in result.stderr
 
 
-def _processes_with_marker(marker: str) -> list[int]:
-    """PIDs whose environment carries marker (inherited by every node the runner starts)."""
-    found = []
-    for proc in Path('/proc').iterdir():
-        if not proc.name.isdigit() or int(proc.name) == os.getpid():
-            continue
-        try:
-            if marker.encode() in (proc / 'environ').read_bytes():
-                found.append(int(proc.name))
-        except OSError:
-            continue
-    return found
-
-
 def test_ctrl_c_stops_every_node(tmp_path):
     out = tmp_path / 'interrupted'
     marker = f'DTC_TEST_MARKER=ctrl_c_{os.getpid()}_{time.monotonic_ns()}'
@@ -136,7 +122,7 @@ def test_ctrl_c_stops_every_node(tmp_path):
             process.kill()
     assert process.returncode == 130, stderr
     assert 'interrupted' in stderr
-    assert _processes_with_marker(marker) == [], 'orphan node processes left behind'
+    assert processes_with_env(marker) == [], 'orphan node processes left behind'
     # The recorder was stopped cleanly: the bag is finalized and readable.
     assert (out / 'bag' / 'metadata.yaml').exists()
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import importlib
 import json
-import math
 from pathlib import Path
 from typing import Any, Callable
 
@@ -76,23 +75,11 @@ def check_rows(scenario: Scenario, values: dict[str, Any]) -> list[dict[str, Any
     return rows
 
 
-def _json_safe(value):
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
-
-
 def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dict[str, Any]:
     """Analyse a recorded run: report.json, figures/*.png; returns the summary."""
     from drive_logger.analysis.data import load_columns
     from drive_logger.analysis.figures import draw_all
-    from drive_logger.analysis_cli import summarize
+    from drive_logger.analysis_cli import json_safe, summarize
 
     out_dir = Path(out_dir)
     if columns is None:
@@ -113,6 +100,6 @@ def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dic
                      **{k: v for k, v in values.items()},
                      'checks_passed': f'{sum(r["pass"] for r in rows)}/{len(rows)}'},
     }
-    summary = _json_safe(summary)
+    summary = json_safe(summary)
     (out_dir / 'report.json').write_text(json.dumps(summary, indent=2))
     return summary

@@ -179,6 +179,23 @@ class NodeProcess:
         self.stop()
 
 
+def processes_with_env(marker: str) -> list[int]:
+    """PIDs (other than this one) whose environment holds marker, e.g. 'KEY=value'.
+
+    Tests put a unique variable in a runner's environment; every node it starts
+    inherits it, so leftovers are found even after they were re-parented.
+    """
+    found = []
+    for proc in Path('/proc').iterdir():
+        if proc.name.isdigit() and int(proc.name) != os.getpid():
+            try:
+                if marker.encode() in (proc / 'environ').read_bytes():
+                    found.append(int(proc.name))
+            except OSError:
+                continue
+    return found
+
+
 def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
                what: str = 'condition') -> Any:
     """Poll predicate until it returns a truthy value; raise HarnessTimeout after timeout s."""

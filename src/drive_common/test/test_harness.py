@@ -11,8 +11,8 @@ from rclpy.parameter import Parameter
 
 from drive_common import topics
 from drive_common.fixed_responder import FixedResponder
-from drive_common.harness import (NodeProcess, isolated_env, reserve_domain, ros_arguments,
-                                  wait_for_subscribers, wait_until)
+from drive_common.harness import (NodeProcess, isolated_env, processes_with_env, reserve_domain,
+                                  ros_arguments, wait_for_subscribers, wait_until)
 
 
 def test_reserved_domains_are_exclusive_across_processes():
@@ -65,27 +65,15 @@ def test_node_in_process_with_injected_context_and_parameter_overrides(ros_sessi
     assert replies[0].step == 5 and [float(s) for s in replies[0].switch_on] == pattern
 
 
-def _marked_processes(marker: str) -> list[int]:
-    found = []
-    for proc in Path('/proc').iterdir():
-        if proc.name.isdigit() and int(proc.name) != os.getpid():
-            try:
-                if marker.encode() in (proc / 'environ').read_bytes():
-                    found.append(int(proc.name))
-            except OSError:
-                pass
-    return found
-
-
 @pytest.mark.ros
 def test_node_process_stops_and_leaves_nothing(ros_domain, tmp_path):
     marker = f'DTC_HARNESS_PROBE=stop_{os.getpid()}_{time.monotonic_ns()}'
     env = dict(isolated_env(ros_domain), DTC_HARNESS_PROBE=marker.split('=', 1)[1])
     process = NodeProcess('drive_common', 'message_echo', env=env, log_dir=tmp_path)
-    wait_until(lambda: _marked_processes(marker), 10.0, what='node started')
+    wait_until(lambda: processes_with_env(marker), 10.0, what='node started')
     assert process.alive()
     process.stop()
-    assert not process.alive() and _marked_processes(marker) == []
+    assert not process.alive() and processes_with_env(marker) == []
 
 
 @pytest.mark.ros
@@ -108,4 +96,4 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
                              str(test_file)], cwd=tmp_path, env=env, capture_output=True,
                             text=True, timeout=120)
     assert result.returncode == 1 and 'deliberate failure' in result.stdout, result.stdout
-    assert _marked_processes(marker) == []
+    assert processes_with_env(marker) == []

@@ -92,14 +92,16 @@ def summarize(cols, rated_torque=None, window=None, line_frequency=60.0) -> dict
     return out
 
 
-def _clean(value):
-    """JSON-safe: NaN/inf -> None."""
+def json_safe(value):
+    """JSON-safe copy: NaN/inf -> None, numpy scalars -> Python numbers."""
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
+        return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
     return value
 
 
@@ -121,8 +123,8 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     summary = summarize(cols, args.rated_torque, args.window, args.line_frequency)
     summary['figures'] = figures.draw_all(cols, out_dir)
-    (out_dir / 'summary.json').write_text(json.dumps(_clean(summary), indent=2))
-    print(json.dumps(_clean(summary), indent=2))
+    (out_dir / 'summary.json').write_text(json.dumps(json_safe(summary), indent=2))
+    print(json.dumps(json_safe(summary), indent=2))
     return 0
 
 
