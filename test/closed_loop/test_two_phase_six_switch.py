@@ -5,13 +5,11 @@ headless for a reduced duration and asserts the seed's behaviour with bounds
 derived from the circuit: L - M = 1.0875 mH, R = 0.315 ohm, k_T = 2 p K =
 0.2292 N m/A, V_dc = 40 sqrt(2) V.
 """
-import math
-
 import numpy as np
 import pytest
 
-from closed_loop_support import (K_FLAT, K_TORQUE, L_CIRCUIT, PEAK_CURRENT, POLE_PAIRS, R_PHASE, RATED_TORQUE,
-                                 VDC_SIX, check_scenario_file, metrics, run_reduced)
+from closed_loop_support import (K_FLAT, K_TORQUE, L_CIRCUIT, PEAK_CURRENT, POLE_PAIRS, R_PHASE, VDC_SIX,
+                                 check_scenario_file, metrics, run_reduced)
 
 
 @pytest.mark.parametrize('name, ref', [

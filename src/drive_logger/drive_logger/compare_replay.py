@@ -124,7 +124,6 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                        match_timeout: float = 15.0,
                        controller_node: str = '/dtc_controller') -> ComparisonReport:
     """Drive the (already started) controller with the bag's measurements; compare its commands."""
-    import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
     from rclpy.serialization import deserialize_message
