@@ -43,7 +43,9 @@ def main() -> None:
     args = ap.parse_args()
     cases = [('two_phase_six_switch', {}), ('two_phase_four_switch', {}),
              ('two_phase_six_switch', {'speed_loop.enabled': True, 'speed_reference': 30.0}),
-             ('two_phase_six_switch', {'flux_control.enabled': True})]
+             ('two_phase_six_switch', {'flux_control.enabled': True}),
+             ('three_phase_dtifc', {}), ('three_phase_pmsm', {}),
+             ('three_phase_four_switch', {'voltage_drop.compensation': 'proposed'})]
     for mode, extra in cases:
         us = bench(mode, args.samples, extra)
         label = mode + (' ' + ','.join(f'{k}={v}' for k, v in extra.items()) if extra else '')
