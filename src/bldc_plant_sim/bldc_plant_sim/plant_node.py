@@ -14,9 +14,10 @@ it answers a due sample, and the goal then ends unsuccessful with the
 reason. The node keeps serving its action, services and parameters.
 
 Threading: the lockstep publishers and subscriptions live on a private
-child node spun only by the stepping thread (no executor hand-off per
-sample); the action server, services and parameters are served by the
-node's own executor in other threads.
+child node that no executor spins; the stepping thread waits on the command
+subscriptions directly (:class:`drive_common.lockstep_io.DirectReceiver`,
+no executor hand-off per sample); the action server, services and
+parameters are served by the node's own executor in other threads.
 """
 from __future__ import annotations
 
@@ -28,7 +29,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
@@ -39,6 +39,7 @@ from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import time_msg, to_message
 from drive_common.lockstep_controller import run_node
+from drive_common.lockstep_io import DirectReceiver
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
 from dtc_msgs.action import Run
@@ -96,14 +97,13 @@ class PlantNode(Node):
         self._io = rclpy.create_node('plant_lockstep', context=self.context,
                                      namespace=self.get_namespace(),
                                      start_parameter_services=False)
-        self._io_executor = SingleThreadedExecutor(context=self.context)
-        self._io_executor.add_node(self._io)
         qos = topics.LOCKSTEP_QOS
         self._drive_pub = self._io.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
         self._pfc_pub = self._io.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
         self._gates_in, self._duty_in = _Inbox(), _Inbox()
-        self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos)
-        self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)
+        self._receiver = DirectReceiver(self.context, [
+            self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos),
+            self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)])
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
@@ -213,7 +213,7 @@ class PlantNode(Node):
                 break
             if time.monotonic() > deadline:
                 return 'no controller matched: ' + ', '.join(missing)
-            self._io_executor.spin_once(timeout_sec=0.01)
+            self._receiver.poll(0.01)
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples.
         outputs = [(self._drive_pub, self._io), (self._pfc_pub, self._io), (self._state_pub, self)]
@@ -222,7 +222,7 @@ class PlantNode(Node):
             if time.monotonic() > deadline:
                 self.get_logger().warning('some subscribers were not matched before the run')
                 break
-            self._io_executor.spin_once(timeout_sec=0.01)
+            self._receiver.poll(0.01)
         return None
 
     def _await(self, inbox: _Inbox, step: int, deadline: float | None):
@@ -231,9 +231,9 @@ class PlantNode(Node):
         while msg is None:
             remaining = 0.0 if deadline is None else deadline - time.monotonic()
             if remaining <= 0.0:
-                self._io_executor.spin_once(timeout_sec=0.0)
+                self._receiver.poll(0.0)
                 return inbox.take(step)
-            self._io_executor.spin_once(timeout_sec=min(remaining, 0.05))
+            self._receiver.poll(min(remaining, 0.05))
             msg = inbox.take(step)
         return msg
 
@@ -366,7 +366,6 @@ class PlantNode(Node):
         return response
 
     def destroy_node(self) -> None:
-        self._io_executor.shutdown(timeout_sec=1.0)
         self._io.destroy_node()
         super().destroy_node()
 

@@ -3,23 +3,27 @@
 ``raw_responder`` answers each DriveMeasurement with a GateCommand of the
 same step and nothing else; :func:`measure_round_trips` publishes
 measurements one at a time and waits for each reply the way the plant node
-does (a private single-threaded executor spun by the stepping thread).
+does (a wait set on the reply subscription, no executor per message);
+the responder receives the same way.
 The plant's lockstep rate divided by this figure is the overhead ratio the
 benchmarks report.
 """
 from __future__ import annotations
 
+import threading
 import time
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from drive_common import topics
 from drive_common.lockstep_controller import run_node
+from drive_common.lockstep_io import DirectReceiver
 
 
 class RawResponder(Node):
+    """Answers each measurement with a fixed command: rclpy publish/take and nothing else."""
+
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, GateCommand
         super().__init__('raw_responder', **kwargs)
@@ -31,26 +35,37 @@ class RawResponder(Node):
             self._reply.header.stamp = msg.header.stamp
             pub.publish(self._reply)
 
-        self.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, answer,
-                                 topics.LOCKSTEP_QOS)
+        # Same receive path as the lockstep nodes: a wait set, no executor per message.
+        self._io = rclpy.create_node('raw_responder_io', context=self.context,
+                                     start_parameter_services=False)
+        receiver = DirectReceiver(self.context, [self._io.create_subscription(
+            DriveMeasurement, topics.DRIVE_MEASUREMENT, answer, topics.LOCKSTEP_QOS)])
+
+        def loop() -> None:
+            while rclpy.ok(context=self.context):
+                try:
+                    receiver.poll(0.1)
+                except Exception:  # noqa: BLE001 - context shut down under the wait
+                    return
+
+        threading.Thread(target=loop, daemon=True).start()
 
 
 def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> float:
     """Round trips per wall second against a running raw_responder."""
     from dtc_msgs.msg import DriveMeasurement, GateCommand
     node = rclpy.create_node('ceiling_probe', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
     replies: dict[int, object] = {}
     pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
-    node.create_subscription(GateCommand, topics.GATE_COMMAND,
-                             lambda m: replies.__setitem__(m.step, m), topics.LOCKSTEP_QOS)
+    receiver = DirectReceiver(context, [node.create_subscription(
+        GateCommand, topics.GATE_COMMAND, lambda m: replies.__setitem__(m.step, m),
+        topics.LOCKSTEP_QOS)])
     try:
         deadline = time.monotonic() + timeout
         while (pub.get_subscription_count() < 1 or node.count_publishers(topics.GATE_COMMAND) < 1):
             if time.monotonic() > deadline:
                 raise TimeoutError('raw_responder not matched')
-            executor.spin_once(timeout_sec=0.01)
+            receiver.poll(0.01)
         msg = DriveMeasurement()
         msg.phase_current = [1.0, -1.0, float('nan')]
         for warm in range(2):
@@ -59,11 +74,10 @@ def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> 
                 msg.step = k + warm * samples
                 pub.publish(msg)
                 while replies.pop(msg.step, None) is None:
-                    executor.spin_once(timeout_sec=1.0)
+                    receiver.poll(1.0)
             elapsed = time.perf_counter() - start
         return samples / elapsed
     finally:
-        executor.shutdown()
         node.destroy_node()
 
 

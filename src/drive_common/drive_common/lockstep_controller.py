@@ -16,6 +16,7 @@ from typing import Any, Callable
 from rclpy.node import Node
 
 from drive_common.conversions import from_message, to_message
+from drive_common.lockstep_io import DirectReceiver
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
@@ -61,8 +62,36 @@ class LockstepControllerNode(Node):
                                                   LOCKSTEP_QOS)
         self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
                                                   STREAM_QOS) if channels.status_type else None)
-        self.create_subscription(channels.measurement_type, channels.measurement_topic,
-                                 self._on_measurement, LOCKSTEP_QOS)
+        # The measurement subscription lives on a private node that no executor
+        # spins: a thread waits on it directly (lockstep_io) and answers each
+        # sample; parameters and services stay on this node's executor.
+        import rclpy
+        self._io = rclpy.create_node(f'{node_name}_lockstep', context=self.context,
+                                     namespace=self.get_namespace(),
+                                     start_parameter_services=False)
+        self._receiver = DirectReceiver(self.context, [self._io.create_subscription(
+            channels.measurement_type, channels.measurement_topic, self._on_measurement,
+            LOCKSTEP_QOS)])
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._answer_samples, daemon=True,
+                                        name=f'{node_name}_lockstep')
+        self._thread.start()
+
+    def _answer_samples(self) -> None:
+        import rclpy
+        while not self._stop.is_set() and rclpy.ok(context=self.context):
+            try:
+                self._receiver.poll(0.1)
+            except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
+                if self._stop.is_set() or not rclpy.ok(context=self.context):
+                    return
+                raise exc
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self._io.destroy_node()
+        super().destroy_node()
 
     def _on_parameters(self, snapshot: dict[str, Any]) -> None:
         """Validate a change against the core now; apply it at the next sample."""
