@@ -52,7 +52,7 @@ AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
 
 
 class _Inbox:
-    """Latest command per step from one controller (filled by the stepping thread's spin)."""
+    """Latest command per step from one controller (filled by the stepping thread's receiver)."""
 
     def __init__(self) -> None:
         self.commands: dict[int, Any] = {}
