@@ -16,8 +16,10 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 class DirectReceiver:
     """Wait on subscriptions of an un-spun node and dispatch what arrives."""
 
-    def __init__(self, context, subscriptions) -> None:
+    def __init__(self, context, subscriptions, with_info: bool = False) -> None:
+        """with_info: call ``callback(msg, message_info)`` (timestamps), else ``callback(msg)``."""
         self._subscriptions = list(subscriptions)
+        self._with_info = with_info
         self._wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0, context.handle)
 
     def poll(self, timeout: float) -> int:
@@ -37,6 +39,9 @@ class DirectReceiver:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)
                 if taken is None:
                     break
-                sub.callback(taken[0])
+                if self._with_info:
+                    sub.callback(taken[0], taken[1])
+                else:
+                    sub.callback(taken[0])
                 dispatched += 1
         return dispatched

@@ -37,12 +37,12 @@ import threading
 import time
 
 import rclpy
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from drive_common.lockstep_io import DirectReceiver
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import BagWriteError, BagWriter, check_output_directory
 from drive_logger.message_definitions import DefinitionNotFoundError, normalize_type_name, type_definition
@@ -219,36 +219,21 @@ class TakeLoop:
 
     The rclpy executor dispatches one callback per wait; at the graph's rates
     that costs more than the recording itself, so the recorder waits on its
-    subscriptions directly and drains each one completely.
+    subscriptions directly (drive_common.lockstep_io) and drains each one.
     """
 
     def __init__(self, node: RecorderNode) -> None:
         self.node = node
-
-    def _entries(self):
-        return [(t.subscription, t.callback) for t in self.node.topics.values() if t.subscription]
+        self._receiver = None
+        self._subscriptions: list = []
 
     def spin_once(self, timeout_sec: float) -> int:
         """Wait up to timeout_sec, then take everything queued; return how many were taken."""
-        entries = self._entries()
-        wait_set = _rclpy.WaitSet(len(entries), 0, 0, 0, 0, 0, self.node.context.handle)
-        for sub, _ in entries:
-            wait_set.add_subscription(sub.handle)
-        wait_set.wait(int(timeout_sec * 1e9))
-        ready = wait_set.get_ready_entities('subscription')
-        taken = 0
-        for sub, callback in entries:
-            if sub.handle.pointer not in ready:
-                continue
-            take = sub.handle.take_message
-            msg_type = sub.msg_type
-            while True:
-                item = take(msg_type, True)
-                if item is None:
-                    break
-                callback(item[0], item[1])
-                taken += 1
-        return taken
+        subscriptions = [t.subscription for t in self.node.topics.values() if t.subscription]
+        if subscriptions != self._subscriptions:      # topics discovered since the last wait
+            self._subscriptions = subscriptions
+            self._receiver = DirectReceiver(self.node.context, subscriptions, with_info=True)
+        return self._receiver.poll(timeout_sec)
 
 
 def run(node: RecorderNode, stop: threading.Event) -> None:
