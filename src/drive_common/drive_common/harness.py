@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping, Sequence
 
 DOMAIN_RANGE = range(1, 101)
+DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
 _LOCK_DIR = Path(tempfile.gettempdir()) / 'dtc_drive_ros_domains'
 
 
@@ -34,13 +35,29 @@ class HarnessTimeout(TimeoutError):
 
 
 @contextmanager
-def reserve_domain() -> Iterator[int]:
-    """Reserve a ROS_DOMAIN_ID unused by any other holder on this machine."""
+def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
+    """Reserve a ROS_DOMAIN_ID unused by any other holder on this machine.
+
+    Ids released less than ``cooldown`` s ago are taken only when nothing
+    else is free: the participants of nodes that were just killed linger in
+    DDS discovery until their lease runs out, and a new test in the same
+    domain could match them.
+    """
     _LOCK_DIR.mkdir(parents=True, exist_ok=True)
     ids = list(DOMAIN_RANGE)
     random.SystemRandom().shuffle(ids)
+    now = time.time()
+
+    def recently_used(domain_id: int) -> bool:
+        try:
+            return now - (_LOCK_DIR / f'{domain_id}.lock').stat().st_mtime < cooldown
+        except OSError:
+            return False
+
+    ids.sort(key=recently_used)          # rested ids first, in random order
     for domain_id in ids:
-        fd = os.open(_LOCK_DIR / f'{domain_id}.lock', os.O_CREAT | os.O_RDWR, 0o666)
+        path = _LOCK_DIR / f'{domain_id}.lock'
+        fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -49,6 +66,7 @@ def reserve_domain() -> Iterator[int]:
         try:
             yield domain_id
         finally:
+            os.utime(path)               # released now: rests for `cooldown`
             fcntl.flock(fd, fcntl.LOCK_UN)
             os.close(fd)
         return

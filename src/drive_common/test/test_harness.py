@@ -97,3 +97,10 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
                             text=True, timeout=120)
     assert result.returncode == 1 and 'deliberate failure' in result.stdout, result.stdout
     assert processes_with_env(marker) == []
+
+
+def test_a_released_domain_rests_before_reuse():
+    with reserve_domain() as first:
+        pass
+    with reserve_domain() as second:
+        assert second != first        # lingering participants of `first` cannot be matched
