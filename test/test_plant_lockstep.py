@@ -27,7 +27,7 @@ pytestmark = pytest.mark.ros
 
 PATTERN = (True, False, False, True, False, False)   # a+ b-: vector V_ab
 PLANT = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'motor.initial_speed': 20.0,
-         'load.torque': 0.2, 'command_timeout': 2.0}
+         'load.torque': 0.2, 'command_timeout': 10.0}
 
 
 def _future_result(future, timeout: float, what: str):
@@ -121,7 +121,7 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
                                                                              ros_session):
     # The load machine holds 20 rad/s: line back-EMF 4.6 V peak < V_dc, so with every
     # switch off the diodes stop conducting once the currents have died out.
-    responder, _ = _start_graph(start_node, {'command_timeout': 0.5, 'startup_timeout': 2.0,
+    responder, _ = _start_graph(start_node, {'command_timeout': 4.0, 'startup_timeout': 2.0,
                                              'load.mode': 'dynamometer', 'load.speed': 20.0})
     client = PlantClient(ros_session)
     handle = _future_result(client.action.send_goal_async(Run.Goal(target_time=0.2)), 30.0,

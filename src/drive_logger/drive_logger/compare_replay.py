@@ -119,7 +119,7 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
 
 
 def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_topic: str = '/drive/measurement',
-                       command_topic: str = '/drive/gate_command', timeout: float = 5.0,
+                       command_topic: str = '/drive/gate_command', timeout: float = 30.0,
                        max_steps: int | None = None, salvage: bool = False, context=None,
                        match_timeout: float = 15.0,
                        controller_node: str = '/dtc_controller') -> ComparisonReport:
@@ -224,7 +224,8 @@ def main(argv=None) -> int:
     ap.add_argument('-r', '--remap', action='append', default=[], help='from:=to remapping for the controller')
     ap.add_argument('--measurement-topic', default='/drive/measurement')
     ap.add_argument('--command-topic', default='/drive/gate_command')
-    ap.add_argument('--timeout', type=float, default=5.0, help='s to wait for each reply')
+    ap.add_argument('--timeout', type=float, default=30.0,
+                    help='s to wait for each reply (reliable delivery may need a retransmission)')
     ap.add_argument('--max-steps', type=int)
     ap.add_argument('--controller-node', default='/dtc_controller',
                     help="whose recorded /parameter_events to re-apply (the replayed node's name)")

@@ -84,7 +84,7 @@ def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
         for k in range(STEPS):
             pub.publish(measurement_factory(k))
             with arrived:
-                assert arrived.wait_for(lambda: k in replies, timeout=5.0), f'no reply for step {k}'
+                assert arrived.wait_for(lambda: k in replies, timeout=30.0), f'no reply for step {k}'
         time.sleep(0.3)
     finally:
         recorder.stop()    # first: the responder stays up to deliver what is still in flight
