@@ -37,7 +37,7 @@ from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
-from drive_common.conversions import time_msg, to_message
+from drive_common.conversions import ReusedMessage, time_msg
 from drive_common.lockstep_controller import run_node
 from drive_common.lockstep_io import DirectReceiver
 from drive_common.parameters import ParameterError
@@ -106,6 +106,10 @@ class PlantNode(Node):
             self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)])
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
+        self._drive_msg = ReusedMessage(DriveMeasurement)
+        self._pfc_msg = ReusedMessage(PfcMeasurement)
+        self._state_msg = ReusedMessage(PlantState)
+        self._state_lock = threading.Lock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
 
         self._run_group = MutuallyExclusiveCallbackGroup()
@@ -307,10 +311,9 @@ class PlantNode(Node):
         k = self.core.step
         due_dtc, due_pfc = self.schedule.due(k)
         if due_dtc:
-            self._drive_pub.publish(to_message(DriveMeasurement, self.core.drive_sample(),
-                                               self.core.time))
+            self._drive_pub.publish(self._drive_msg.fill(self.core.drive_sample(), self.core.time))
         if due_pfc:
-            self._pfc_pub.publish(to_message(PfcMeasurement, self.core.pfc_sample(), self.core.time))
+            self._pfc_pub.publish(self._pfc_msg.fill(self.core.pfc_sample(), self.core.time))
         # Ground truth at t_k goes out while the controllers compute their answers.
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
@@ -332,13 +335,11 @@ class PlantNode(Node):
             self._publish_state()
 
     def _publish_state(self) -> None:
-        t = time_msg(self.core.time)
-        state = to_message(PlantState, self.core.state())
-        state.header.stamp = t
-        self._state_pub.publish(state)
+        with self._state_lock:   # the reset service publishes from an executor thread
+            self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))
         clock_ticks = self.schedule.clock_ticks
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
-            self._clock_pub.publish(Clock(clock=t))
+            self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
 
     def _fault(self, which: str, reason: str) -> None:
         """Safe state with a diagnostic; the fault is reported in the goal's result."""

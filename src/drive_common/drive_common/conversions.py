@@ -13,10 +13,15 @@ from typing import Any
 from builtin_interfaces.msg import Time
 
 
+def _sec_nanosec(seconds: float) -> tuple[int, int]:
+    """(sec, nanosec) of a sim time in seconds, rounded to the nanosecond."""
+    return divmod(int(round(seconds * 1e9)), 1_000_000_000)
+
+
 def time_msg(seconds: float) -> Time:
     """builtin_interfaces/Time of a sim time in seconds (rounded to the nanosecond)."""
-    ns = int(round(seconds * 1e9))
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    sec, nanosec = _sec_nanosec(seconds)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def seconds(stamp: Time) -> float:
@@ -28,34 +33,78 @@ def _message_fields(msg_type: type) -> tuple[str, ...]:
     return tuple(name for name in msg_type.get_fields_and_field_types() if name != 'header')
 
 
+def _plain(value):
+    """A value the generated message setters accept: tuples become lists, numpy scalars Python."""
+    kind = type(value)
+    if kind is float or kind is int or kind is bool:
+        return value
+    if kind is tuple:
+        return list(value)
+    if kind.__module__ == 'numpy' and not hasattr(value, '__len__'):
+        return value.item()   # numpy scalar -> Python (the C converter wants bool, float)
+    return value
+
+
+def _fill(msg, names: tuple[str, ...], data: Any) -> None:
+    for name in names:
+        setattr(msg, name, _plain(getattr(data, name)))
+
+
 def to_message(msg_type: type, data: Any, time: float | None = None):
-    """A msg_type filled from data's attributes of the same names; stamp = time (s)."""
+    """A new msg_type filled from data's attributes of the same names; stamp = time (s)."""
     msg = msg_type()
-    for name in _message_fields(msg_type):
-        value = getattr(data, name)
-        if isinstance(value, tuple):
-            value = list(value)
-        elif type(value).__module__ == 'numpy' and not hasattr(value, '__len__'):
-            value = value.item()   # numpy scalar -> Python (the C converter wants bool, float)
-        setattr(msg, name, value)
+    _fill(msg, _message_fields(msg_type), data)
     if time is not None and hasattr(msg, 'header'):
         msg.header.stamp = time_msg(time)
     return msg
+
+
+class ReusedMessage:
+    """One message instance, refilled from a core sample before every publish.
+
+    rclpy's ``publish`` copies the message into the middleware before it
+    returns, so a publisher on the lockstep hot path can refill the same
+    instance each sample instead of constructing a new one (the generated
+    ``__init__`` costs as much as copying the fields). Do not keep the
+    returned message: the next ``fill`` overwrites it.
+    """
+
+    def __init__(self, msg_type: type) -> None:
+        self.msg = msg_type()
+        self._names = _message_fields(msg_type)
+
+    def fill(self, data: Any, time: float | None = None, stamp: Time | None = None):
+        """The message with data's fields; header stamp = time (s) or the given stamp."""
+        msg = self.msg
+        _fill(msg, self._names, data)
+        if stamp is not None:
+            msg.header.stamp = stamp
+        elif time is not None:
+            header_stamp = msg.header.stamp
+            header_stamp.sec, header_stamp.nanosec = _sec_nanosec(time)
+        return msg
+
+
+@lru_cache(maxsize=None)
+def _sample_fields(data_type: type) -> tuple[str, ...]:
+    return tuple(field.name for field in dataclass_fields(data_type))
 
 
 def from_message(msg, data_type: type):
     """An instance of the dataclass data_type from msg's fields of the same names.
 
     A dataclass field ``time`` is taken from the header stamp; sequences
-    become tuples of plain Python values.
+    (numpy arrays for fixed-size numeric arrays) become tuples of plain
+    Python values.
     """
     values = {}
-    for field in dataclass_fields(data_type):
-        if field.name == 'time':
+    for name in _sample_fields(data_type):
+        if name == 'time':
             values['time'] = seconds(msg.header.stamp)
             continue
-        value = getattr(msg, field.name)
-        if not isinstance(value, (str, bytes, int, float, bool)):
-            value = tuple(v.item() if hasattr(v, 'item') else v for v in value)
-        values[field.name] = value
+        value = getattr(msg, name)
+        kind = type(value)
+        if not (kind is float or kind is int or kind is bool or kind is str or kind is bytes):
+            value = tuple(value.tolist() if hasattr(value, 'tolist') else value)
+        values[name] = value
     return data_type(**values)

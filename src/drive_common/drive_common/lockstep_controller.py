@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 from rclpy.node import Node
 
-from drive_common.conversions import from_message, to_message
+from drive_common.conversions import ReusedMessage, from_message
 from drive_common.lockstep_io import DirectReceiver
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
@@ -62,6 +62,8 @@ class LockstepControllerNode(Node):
                                                   LOCKSTEP_QOS)
         self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
                                                   STREAM_QOS) if channels.status_type else None)
+        self._command_msg = ReusedMessage(channels.command_type)
+        self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
         # The measurement subscription lives on a private node that no executor
         # spins: a thread waits on it directly (lockstep_io) and answers each
         # sample; parameters and services stay on this node's executor.
@@ -111,13 +113,9 @@ class LockstepControllerNode(Node):
         sample = from_message(msg, self._channels.sample_type)
         command, status = self.core.update(sample)
         stamp = msg.header.stamp
-        command_msg = to_message(self._channels.command_type, command)
-        command_msg.header.stamp = stamp
-        self._command_pub.publish(command_msg)
+        self._command_pub.publish(self._command_msg.fill(command, stamp=stamp))
         if self._status_pub is not None:
-            status_msg = to_message(self._channels.status_type, status)
-            status_msg.header.stamp = stamp
-            self._status_pub.publish(status_msg)
+            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
         self.samples_answered += 1
 
 
