@@ -19,6 +19,10 @@ Parameters (all read-only, read at start):
   (0 = KEEP_ALL); reliable unless a known publisher offers only best effort.
 - ``drain_timeout`` (s, 2.0): at stop, keep taking queued messages until the
   topics are quiet for 0.1 s or this time has passed.
+- ``batch_period`` (s, 0.005): after a wake-up that took messages, rest this
+  long before waiting again, so the next wake-up takes a batch. Waking once
+  per message costs the lockstep nodes CPU on a small machine; the queues
+  (``qos_depth``) hold many times a batch.
 
 The recorder takes messages in its own wait loop (the rclpy executor's
 per-callback cost is several times the recording cost), so it serves no
@@ -37,8 +41,9 @@ import threading
 import time
 
 import rclpy
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.node import Node
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
@@ -87,10 +92,14 @@ class RecorderNode(Node):
         self.declare_parameter('qos_depth', 1000, ro)
         self.declare_parameter('type_discovery_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
         self.declare_parameter('drain_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
+        self.declare_parameter('batch_period', 0.005, ParameterDescriptor(
+            read_only=True, description='s, rest after a wake-up that took messages',
+            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.1)]))
         p = {name: self.get_parameter(name).value for name in (
             'topics', 'all_topics', 'output', 'compression', 'chunk_size', 'qos_depth',
-            'type_discovery_timeout', 'drain_timeout')}
+            'type_discovery_timeout', 'drain_timeout', 'batch_period')}
         self.drain_timeout = float(p['drain_timeout'])
+        self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
         self._lock = threading.Lock()
@@ -242,7 +251,8 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
     next_discovery = time.monotonic()
     try:
         while not stop.is_set():
-            loop.spin_once(0.1)
+            if loop.spin_once(0.1) and node.batch_period > 0.0:
+                stop.wait(node.batch_period)
             if node.all_topics and time.monotonic() >= next_discovery:
                 node.discover()
                 next_discovery = time.monotonic() + 0.5
@@ -260,7 +270,7 @@ def main(args=None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     try:
         node = RecorderNode()
-    except RecorderConfigError as exc:
+    except (RecorderConfigError, InvalidParameterValueException) as exc:
         print(f'[recorder] error: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         return 2

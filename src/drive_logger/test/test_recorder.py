@@ -173,3 +173,11 @@ def test_unknown_topic_type_is_refused_before_writing(start_node, tmp_path):
     assert recorder.process.wait(timeout=20) == 2
     assert 'unknown type' in recorder.output() and '/not_in_graph' in recorder.output()
     assert not bag.exists()
+
+
+def test_out_of_range_batch_period_is_refused_before_writing(start_node, tmp_path):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, batch_period=0.5)
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'batch_period out of range' in recorder.output()
+    assert not bag.exists()
