@@ -6,13 +6,17 @@ Measured in the same run and the same private DDS domain:
    processes, driven by the scenario runner), samples per wall second of
    the Run goals (start-up and analysis excluded), median of --repeats runs.
 Prints both and their ratio (goal >= 0.6), and the same run without the
-recorder, so the recording overhead on the wall time shows (goal < 10 %).
+recorder, so the recording overhead on the wall time shows (goal < 10 %);
+then each process's CPU time per sample during the Run goals (from
+/proc/<pid>/stat), which bounds the rate: the graph cannot run faster than
+its total CPU per sample divided by the machine's cores.
 
     source scripts/env.sh && python benchmarks/bench_scenario_ros.py [--duration 0.1]
 """
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 from pathlib import Path
 
@@ -24,6 +28,25 @@ from drive_common.ceiling import measure_round_trips
 from drive_common.harness import NodeProcess, isolated_env, reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (all its threads), s."""
+    fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+class CpuMeasuringRunner(GraphRunner):
+    """Notes each node process's CPU time between graph-up and the end of the Run goals."""
+
+    def _wait_ready(self, *args):
+        super()._wait_ready(*args)
+        self.cpu_start = {k: cpu_seconds(p.pid) for k, p in self.processes.items()}
+
+    def _drive(self, node, executor, bag_dir):
+        result = super()._drive(node, executor, bag_dir)
+        self.cpu_used = {k: cpu_seconds(p.pid) - self.cpu_start[k] for k, p in self.processes.items()}
+        return result
 
 
 def main() -> None:
@@ -45,9 +68,13 @@ def main() -> None:
         finally:
             rclpy.try_shutdown(context=context)
         def median_run(record: bool):
-            runs = [GraphRunner(scenario, Path(tmp) / f'run{record}{i}', domain_id=domain,
-                                record=record, progress=lambda m: None).run()
-                    for i in range(args.repeats)]
+            runs = []
+            for i in range(args.repeats):
+                runner = CpuMeasuringRunner(scenario, Path(tmp) / f'run{record}{i}', domain_id=domain,
+                                            record=record, progress=lambda m: None)
+                result = runner.run()
+                result.cpu_used = runner.cpu_used
+                runs.append(result)
             return sorted(runs, key=lambda r: r.wall_time)[len(runs) // 2]
 
         bare = median_run(False)
@@ -64,6 +91,12 @@ def main() -> None:
           f'{100 * (result.wall_time / bare.wall_time - 1):+.1f} % (goal < 10 %)')
     print(f'bag size                         : {bag_mb:.1f} MB '
           f'({bag_mb / max(result.final_time, 1e-9):.0f} MB per sim second)')
+    cores = os.cpu_count() or 1
+    for label, run in (('recorded', result), ('no recorder', bare)):
+        per_sample = {k: 1e6 * v / run.final_step for k, v in run.cpu_used.items()}
+        total = sum(per_sample.values())
+        print(f'CPU per sample, {label:11s}     : ' + ', '.join(f'{k} {v:.0f} us' for k, v in per_sample.items())
+              + f'; total {total:.0f} us -> at most {cores / total * 1e6:.0f} samples/s on {cores} cores')
 
 
 if __name__ == '__main__':
