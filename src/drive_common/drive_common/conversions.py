@@ -45,20 +45,6 @@ def _plain(value):
     return value
 
 
-def _fill(msg, names: tuple[str, ...], data: Any) -> None:
-    for name in names:
-        setattr(msg, name, _plain(getattr(data, name)))
-
-
-def to_message(msg_type: type, data: Any, time: float | None = None):
-    """A new msg_type filled from data's attributes of the same names; stamp = time (s)."""
-    msg = msg_type()
-    _fill(msg, _message_fields(msg_type), data)
-    if time is not None and hasattr(msg, 'header'):
-        msg.header.stamp = time_msg(time)
-    return msg
-
-
 class ReusedMessage:
     """One message instance, refilled from a core sample before every publish.
 
@@ -76,7 +62,8 @@ class ReusedMessage:
     def fill(self, data: Any, time: float | None = None, stamp: Time | None = None):
         """The message with data's fields; header stamp = time (s) or the given stamp."""
         msg = self.msg
-        _fill(msg, self._names, data)
+        for name in self._names:
+            setattr(msg, name, _plain(getattr(data, name)))
         if stamp is not None:
             msg.header.stamp = stamp
         elif time is not None:
