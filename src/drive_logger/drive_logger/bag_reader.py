@@ -10,6 +10,8 @@ truncated file: every complete chunk).
 """
 from __future__ import annotations
 
+import functools
+
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -117,9 +119,9 @@ class BagReader:
         self._factory = DecoderFactory()
 
     # ----------------------------------------------------------------- topics
-    @property
+    @functools.cached_property
     def topics(self) -> dict[str, TopicInfo]:
-        """Topic name -> TopicInfo, from metadata.yaml (or the MCAP channels)."""
+        """Topic name -> TopicInfo, from metadata.yaml (or the MCAP channels; read once)."""
         if self.metadata is not None:
             out = {}
             for entry in self.metadata.get('topics_with_message_count', []):

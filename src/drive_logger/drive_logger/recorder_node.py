@@ -41,7 +41,7 @@ import threading
 import time
 
 import rclpy
-from rclpy.exceptions import InvalidParameterValueException
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
@@ -49,7 +49,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from drive_common.lockstep_io import DirectReceiver
 from drive_logger import graph_topics, ros_types
-from drive_logger.bag_writer import BagWriteError, BagWriter, check_output_directory
+from drive_logger.bag_writer import BagWriteError, BagWriter
 from drive_logger.message_definitions import DefinitionNotFoundError, normalize_type_name, type_definition
 
 
@@ -103,16 +103,11 @@ class RecorderNode(Node):
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
         self._lock = threading.Lock()
-        self.messages_received = 0
 
         # 1. Resolve every topic and its type before touching the disk.
         wanted = self._resolve_topics(p['topics'] or [], float(p['type_discovery_timeout']))
         output = p['output'] or str(graph_topics.default_output_dir())
-        try:
-            check_output_directory(output)
-        except BagWriteError as exc:
-            raise RecorderConfigError(str(exc)) from exc
-        # 2. Create the bag, then the subscriptions (ready once they exist).
+        # 2. Create the bag (BagWriter refuses an existing or unwritable directory first), then the subscriptions (ready once they exist).
         try:
             self.writer = BagWriter(output, compression=p['compression'], chunk_size=int(p['chunk_size']))
         except BagWriteError as exc:
@@ -207,7 +202,6 @@ class RecorderNode(Node):
                 if record is None:
                     record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
                 writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
-                self.messages_received += 1
         return on_message
 
     def finalize(self) -> None:
@@ -270,7 +264,7 @@ def main(args=None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     try:
         node = RecorderNode()
-    except (RecorderConfigError, InvalidParameterValueException) as exc:
+    except (RecorderConfigError, ParameterException) as exc:
         print(f'[recorder] error: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         return 2

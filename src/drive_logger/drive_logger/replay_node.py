@@ -26,6 +26,7 @@ import time
 
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
@@ -162,7 +163,7 @@ def main(args=None) -> int:
     rclpy.init(args=args)
     try:
         node = ReplayNode()
-    except (BagReadError, ValueError, ros_types.UnknownTypeError) as exc:
+    except (BagReadError, ValueError, ros_types.UnknownTypeError, ParameterException) as exc:
         print(f'[replay] error: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         return 2

@@ -181,3 +181,11 @@ def test_out_of_range_batch_period_is_refused_before_writing(start_node, tmp_pat
     assert recorder.process.wait(timeout=20) == 2
     assert 'batch_period out of range' in recorder.output()
     assert not bag.exists()
+
+
+def test_wrongly_typed_parameter_is_refused_before_writing(start_node, tmp_path):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, drain_timeout='soon')
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'drain_timeout' in recorder.output() and 'Traceback' not in recorder.output()
+    assert not bag.exists()

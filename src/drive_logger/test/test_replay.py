@@ -60,6 +60,12 @@ def test_damaged_bag_replay_is_a_clear_error(start_node, tmp_path):
     assert 'no metadata.yaml' in replay.output() and 'truncated' in replay.output()
 
 
+def test_wrongly_typed_replay_parameter_is_a_clear_error(start_node, tmp_path):
+    replay = start_node('drive_logger', 'replay', parameters={'bag': str(tmp_path), 'rate': 'fast'})
+    assert replay.process.wait(timeout=20) == 2
+    assert 'rate' in replay.output() and 'Traceback' not in replay.output()
+
+
 def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
     """A stand-in plant drives the responder step by step while the recorder records."""
     recorder = start_node('drive_logger', 'recorder', parameters={
