@@ -77,11 +77,6 @@ def trapezoid_harmonics(orders) -> list[float]:
     return [b(int(n)) / b(1) for n in orders]
 
 
-def trapezoid_fundamental() -> float:
-    """Fundamental amplitude of the unit trapezoid: 12/pi^2 = 1.2158."""
-    return 4.0 * math.sin(math.pi / 6.0) / (math.pi * math.pi / 6.0)
-
-
 MIN_TABLE_ROWS = 12
 """Fewest data rows a back-EMF table may have: one per 30 electrical degrees, the corner
 spacing of the 120-degree trapezoid (fewer rows cannot describe a six-step waveform)."""
@@ -256,21 +251,24 @@ class BackEmfShape:
         self.lut_hall = [int(h) for h in hall] + [int(hall[0])]
         self.lut_scale = n / TWO_PI
 
-    def lookup(self, theta: float) -> tuple[float, float, float]:
-        """(k_a, k_b, k_c) at theta [rad] by linear interpolation of the table (scalar)."""
+    def _interpolate(self, lut, theta: float) -> tuple[float, float, float]:
+        """The three phase columns of lut at theta [rad], linearly interpolated (scalar).
+
+        PlantCore._segment inlines the same interpolation on its hot path.
+        """
         x = (theta * self.lut_scale) % self.points
         i = int(x)
         f = x - i
-        a, b, c = self.lut_k
+        a, b, c = lut
         return (a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i]), c[i] + f * (c[i + 1] - c[i]))
+
+    def lookup(self, theta: float) -> tuple[float, float, float]:
+        """(k_a, k_b, k_c) at theta [rad] by linear interpolation of the table (scalar)."""
+        return self._interpolate(self.lut_k, theta)
 
     def pm_flux(self, theta: float) -> tuple[float, float, float]:
         """PM flux linkages (psi_ra, psi_rb, psi_rc) [Wb] at theta [rad]."""
-        x = (theta * self.lut_scale) % self.points
-        i = int(x)
-        f = x - i
-        a, b, c = self.lut_psi
-        return (a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i]), c[i] + f * (c[i + 1] - c[i]))
+        return self._interpolate(self.lut_psi, theta)
 
     def hall_code(self, theta: float) -> int:
         """Hall code H_a | H_b << 1 | H_c << 2 at theta [rad]."""

@@ -15,7 +15,7 @@ that tick, comparable sample for sample with a recorded ROS run.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from typing import Any, Callable
 
 import numpy as np
@@ -103,8 +103,7 @@ class CoSimulation:
         k = plant.step
         if self.on_tick is not None:
             self.on_tick(self)
-        dtc_due = sched.dtc_ticks and k % sched.dtc_ticks == 0
-        pfc_due = sched.pfc_ticks and k % sched.pfc_ticks == 0
+        dtc_due, pfc_due = sched.due(k)
         dtc_status = pfc_status = gate = duty = None
         if dtc_due:
             gate, dtc_status = self.dtc.update(plant.drive_sample())
@@ -141,7 +140,3 @@ class CoSimulation:
 def run_headless(params: dict, dtc=None, pfc=None, duration: float = 0.01, **kwargs) -> Trajectory:
     """Build a PlantCore from params and run it with the given controllers for duration [s]."""
     return CoSimulation(PlantCore(params), dtc, pfc, **kwargs).run(duration)
-
-
-def state_dict(state: PlantStateSample) -> dict:
-    return asdict(state)

@@ -239,8 +239,7 @@ class PlantCore:
         self._h = self.base_tick / self._substeps
         m = self.motor
         self._R = m.resistance
-        self._Ls = m.inductance
-        self._tau = m.inductance / m.resistance
+        self._tau = m.time_constant
         self._a_h = math.exp(-self._h / self._tau)
 
     def step_of(self, time: float) -> int:

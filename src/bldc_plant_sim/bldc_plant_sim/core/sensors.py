@@ -71,6 +71,6 @@ class Sensors:
             vdc += self.v_noise * self._randn()
             vm += self.v_noise * self._randn()
         w = omega_m + self.w_noise * self._randn() if self.w_noise > 0.0 else omega_m
-        count = math.floor(theta_m * self.counts_per_rev / TWO_PI)
+        count = self.encoder_count(theta_m)
         angle = (self.pole_pairs * count * TWO_PI / self.counts_per_rev + self.encoder_offset) % TWO_PI
         return DriveSample(step, time, (ia, ib, ic), vdc, vm, count - theta_m0_count, angle, hall, w)
