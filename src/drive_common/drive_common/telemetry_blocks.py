@@ -23,7 +23,6 @@ from __future__ import annotations
 import array
 from dataclasses import dataclass
 from functools import lru_cache
-from itertools import chain
 from operator import attrgetter
 from typing import Any, Iterator
 
@@ -123,10 +122,10 @@ class BlockPacker:
     (see :data:`BLOCK_PARTS`): anything with the per-sample message's field
     names as attributes (the core sample dataclasses the nodes fill their
     messages from, or the messages themselves), all of the same ``step``.
-    stamp_ns is the samples' header stamp in ns. It returns the finished
-    block or None. The values are only referenced until the block is built,
-    so records must not be mutated afterwards (the cores make new ones each
-    sample). A returned block is a new message the caller may keep.
+    stamp_ns is the samples' header stamp in ns. The values are copied at
+    once (a value out of its field's range raises here, and the sample is
+    not taken); it returns the finished block or None. A returned block is
+    a new message the caller may keep.
     """
 
     def __init__(self, block_type: type, size: int) -> None:
@@ -138,7 +137,11 @@ class BlockPacker:
             raise TypeError(f'{block_type.__name__}: per-block fields must come from the first part')
         self._block_getter = (_tuple_getter([c.source for c in self.layout.per_block])
                               if self.layout.per_block else None)
-        self._rows: list[Any] = [None] * self.size
+        # One preallocated record per sample, each block field a column of it; the
+        # spare last row takes a sample that opens a new block while the old is built.
+        self._buffer = np.zeros(self.size + 1, dtype=[
+            (c.name, _ELEMENT[c.element][1], (c.width,) if c.width > 1 else ())
+            for c in self.layout.columns])
         self._count = 0
         self._first_step = self._first_ns = self._last_step = self._last_ns = 0
         self._stride = self._period_ns = 0
@@ -156,21 +159,23 @@ class BlockPacker:
                 raise ValueError(f'{self.layout.block_type.__name__}: one sample mixes steps '
                                  f'{step} and {record.step}')
         block_values = self._block_getter(records[0]) if self._block_getter else None
+        getters = self._getters
+        row = (getters[0](records[0]) if len(getters) == 1
+               else sum([get(r) for get, r in zip(getters, records)], ()))
         done = None
         n = self._count
         if n and not self._continues(step, stamp_ns, block_values):
+            self._buffer[self.size] = row      # a bad value raises before the old block goes
             done = self._build()
+            self._buffer[0] = self._buffer[self.size]
             n = 0
+        else:
+            self._buffer[n] = row
         if n == 0:
             self._first_step, self._first_ns = step, stamp_ns
             self._block_values = block_values
         elif n == 1:
             self._stride, self._period_ns = step - self._last_step, stamp_ns - self._last_ns
-        getters = self._getters
-        if len(getters) == 1:
-            self._rows[n] = getters[0](records[0])
-        else:
-            self._rows[n] = tuple([get(r) for get, r in zip(getters, records)])
         self._last_step, self._last_ns = step, stamp_ns
         self._count = n + 1
         if self._count == self.size:
@@ -193,7 +198,6 @@ class BlockPacker:
 
     def _build(self):
         n, lay = self._count, self.layout
-        rows = self._rows[:n]
         self._count = 0
         block = lay.block_type()
         block.header.stamp.sec, block.header.stamp.nanosec = divmod(self._first_ns, 1_000_000_000)
@@ -202,24 +206,18 @@ class BlockPacker:
         if n > 1:
             block.step_stride = self._stride
             block.sample_period = self._period_ns * 1e-9
-        if lay.per_block:
-            for column, value in zip(lay.per_block, self._block_values):
-                setattr(block, column.name, value)
-        if len(lay.parts) == 1:
-            part_columns = [zip(*rows)]
-        else:
-            part_columns = [zip(*part_rows) for part_rows in zip(*rows)]
-        columns = iter(lay.columns)
-        for values_by_field in part_columns:
-            for values in values_by_field:
-                column = next(columns)
-                if column.width > 1:
-                    values = chain.from_iterable(values)
-                typecode = _ELEMENT[column.element][0]
-                if typecode is None:
-                    setattr(block, column.name, [bool(v) for v in values])
-                else:
-                    setattr(block, column.name, array.array(typecode, values))
+        for column, value in zip(lay.per_block, self._block_values or ()):
+            setattr(block, column.name, value)
+        samples = self._buffer[:n]
+        for column in lay.columns:
+            values = samples[column.name]
+            typecode = _ELEMENT[column.element][0]
+            if typecode is None:
+                setattr(block, column.name, values.ravel().tolist())
+            else:
+                data = array.array(typecode)
+                data.frombytes(values.tobytes())   # C order: sample-major
+                setattr(block, column.name, data)
         return block
 
 

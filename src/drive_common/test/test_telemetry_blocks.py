@@ -13,7 +13,7 @@ from drive_common.samples import DriveSample, GateSample
 from drive_common.telemetry import MAX_BLOCK_SIZE, Decimator, nanoseconds
 from drive_common.telemetry_blocks import (BLOCK_PARTS, BlockPacker, block_columns, expand,
                                            layout, stamp_ns)
-from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
+from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateBlock
 
 BLOCK_TYPES = (PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
 BLOCK_HEADER = {'header': 'std_msgs/Header', 'first_step': 'uint64', 'step_stride': 'uint64',
@@ -190,3 +190,23 @@ def test_decimator_keeps_the_first_sample_at_or_after_each_grid_time():
         [True, False, True, True, True]
     with pytest.raises(ValueError, match='live period'):
         Decimator(-1e-3)
+
+
+
+def test_a_value_out_of_range_is_refused_and_loses_no_sample():
+    samples = _samples(PlantStateBlock, [0, 10, 20, 40])
+    packer = BlockPacker(PlantStateBlock, 40)
+    blocks = [packer.append(stamp_ns(m[0].header.stamp), *m) for m in samples[:3]]
+    fields = [f for f in PlantState.get_fields_and_field_types() if f != 'header']
+    bad = SimpleNamespace(**{f: getattr(samples[3][0], f) for f in fields})
+    bad.protection = 300                      # uint8
+    for step in (30, 40):   # continuing the open block, and breaking it (a skipped step)
+        bad.step = step
+        with pytest.raises(OverflowError):
+            packer.append(nanoseconds(step * TICK), bad)
+        assert packer.pending == 3
+    blocks.append(packer.append(stamp_ns(samples[3][0].header.stamp), *samples[3]))
+    blocks.append(packer.flush())
+    blocks = [b for b in blocks if b is not None]
+    assert [b.count for b in blocks] == [3, 1]
+    _assert_same_bytes(samples, _roundtrip(PlantStateBlock, blocks))
