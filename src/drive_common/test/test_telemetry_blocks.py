@@ -13,7 +13,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from drive_common.conversions import seconds
 from drive_common.samples import DriveSample, GateSample
-from drive_common.telemetry import MAX_BLOCK_SIZE, Decimator, nanoseconds
+from drive_common.parameters import ParameterError, schema
+from drive_common.telemetry import MAX_BLOCK_SIZE, TELEMETRY_PARAMETERS, Decimator, nanoseconds
 from drive_common.telemetry_blocks import (BLOCK_PARTS, BlockPacker, block_columns, expand,
                                            layout, stamp_ns)
 from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateBlock
@@ -241,3 +242,19 @@ def test_a_value_out_of_range_is_refused_and_loses_no_sample():
     blocks = [b for b in blocks if b is not None]
     assert [b.count for b in blocks] == [3, 1]
     _assert_same_bytes(samples, _roundtrip(PlantStateBlock, blocks))
+
+
+@pytest.mark.parametrize('value, reason', [(0, 'below the minimum'), (-5, 'below the minimum'),
+                                           (MAX_BLOCK_SIZE + 1, 'above the maximum'),
+                                           (40.0, 'expected an integer')])
+def test_the_block_size_parameter_refuses_bad_values_and_keeps_the_old(value, reason):
+    telemetry = schema(TELEMETRY_PARAMETERS)
+    current = telemetry.defaults()
+    with pytest.raises(ParameterError, match=f'telemetry.block_size: .*{reason}'):
+        telemetry.validate_changes(current, {'telemetry.block_size': value})
+    assert current['telemetry.block_size'] == 40
+    assert telemetry.validate_changes(current, {'telemetry.block_size': 80})['telemetry.block_size'] == 80
+    with pytest.raises(ParameterError, match='telemetry.block_size: can only change while'):
+        telemetry.validate_changes(current, {'telemetry.block_size': 80}, running=True)
+    with pytest.raises(ParameterError, match='telemetry.live_period'):
+        telemetry.validate_changes(current, {'telemetry.live_period': -1e-3})
