@@ -11,7 +11,7 @@ the subscriber matched (pacing sleeps, middleware threads); the one
 subscriber is a separate process taking the messages raw in its own wait
 loop (as the recorder does), and its CPU per sample is shown too
 (/proc, 10 ms resolution, same baseline). Also prints the bare BlockPacker.append cost
-(no ROS, both packers, best CPU time of 5) and the serialized block sizes.
+(no ROS, per packer, best CPU time of 5) and the serialized block sizes.
 
     source scripts/env.sh && python benchmarks/bench_blocks.py [--samples 4000] [--sizes 10 20 40 80 160]
 """
@@ -106,16 +106,17 @@ def main() -> int:
 
     plant, dtc = core_samples(args.samples)
 
-    # Bare packing cost, no ROS: what the lockstep thread pays per sample.
+    # Bare packing cost, no ROS: what the plant's and the controller's lockstep thread pay per sample.
     append_us = {}
     for size in args.sizes:
-        def pack(packers):
-            for k in range(args.samples):
-                packers[0].append(k * SAMPLE_PERIOD_NS, plant[k])
-                packers[1].append(k * SAMPLE_PERIOD_NS, *dtc[k])
-        _, cpu, _ = best_of(5, lambda: (BlockPacker(PlantStateBlock, size),
-                                        BlockPacker(DtcStatusBlock, size)), pack)
-        append_us[size] = cpu / args.samples * 1e6
+        costs = []
+        for block_type, records in ((PlantStateBlock, [(p,) for p in plant]), (DtcStatusBlock, dtc)):
+            def pack(packer, records=records):
+                for k in range(args.samples):
+                    packer.append(k * SAMPLE_PERIOD_NS, *records[k])
+            _, cpu, _ = best_of(5, lambda: BlockPacker(block_type, size), pack)
+            costs.append(cpu / args.samples * 1e6)
+        append_us[size] = costs
 
     rows = []
     with reserve_domain() as domain:
@@ -175,15 +176,16 @@ def main() -> int:
             rclpy.try_shutdown(context=context)
 
     print(f'{args.samples} samples paced one per {PACE_S * 1e6:.0f} us, one raw subscriber; '
-          f'CPU per sample above the idle matched graph (pacing, middleware threads)')
-    print(f'{"path":36s} {"publisher":>10s} {"subscriber":>11s} {"append only":>12s} '
+          f'CPU per sample above the idle matched graph (pacing, middleware threads); '
+          f'subscriber resolution {1e6 / (os.sysconf("SC_CLK_TCK") * args.samples):.1f} us')
+    print(f'{"path":36s} {"publisher":>10s} {"subscriber":>11s} {"append state/status":>20s} '
           f'{"PlantStateBlock":>16s} {"DtcStatusBlock":>15s} {"bytes/sample":>13s}')
     for name, (publisher, subscriber), extra in rows:
         line = f'{name:36s} {publisher:8.1f}us {subscriber:9.1f}us'
         if extra is not None:
             size, sizes = extra
             plant_b, dtc_b = sizes.get('PlantStateBlock', 0), sizes.get('DtcStatusBlock', 0)
-            line += (f' {append_us[size]:10.1f}us {plant_b:14d} B {dtc_b:13d} B '
+            line += (f' {append_us[size][0]:9.1f} /{append_us[size][1]:5.1f} us {plant_b:14d} B {dtc_b:13d} B '
                      f'{(plant_b + dtc_b) / size:11.0f} B')
         print(line)
     per_sample_bytes = len(serialize_message(ReusedMessage(PlantState).fill(plant[0], 0.0))) + \
