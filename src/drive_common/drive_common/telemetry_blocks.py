@@ -302,3 +302,31 @@ def expand(block) -> Iterator[tuple]:
         for (part, source), values in zip(targets, per_sample):
             setattr(msgs[part], source, values[i])
         yield msgs
+
+
+def step_gaps(blocks) -> list[str]:
+    """Where consecutive blocks of one topic skip or repeat steps; empty when continuous.
+
+    blocks: the block messages in recorded order (anything with first_step,
+    step_stride and count). A block continues the previous one when it
+    starts one stride after the previous block's last step (the stride of
+    the block itself, or the last one known for a one-sample block, so a
+    period change seen only through a one-sample block reads as a skip).
+    """
+    problems: list[str] = []
+    last_step, stride = None, 0
+    for block in blocks:
+        if block.count < 1:
+            problems.append(f'empty block at step {block.first_step}')
+            continue
+        stride = block.step_stride if block.count > 1 else stride
+        first = block.first_step
+        if last_step is not None:
+            if first <= last_step:
+                problems.append(f'steps repeated: a block starts at step {first}, '
+                                f'the previous one ended at step {last_step}')
+            elif stride and first != last_step + stride:
+                problems.append(f'steps skipped: step {last_step} is followed by step {first} '
+                                f'(stride {stride})')
+        last_step = first + (block.count - 1) * block.step_stride
+    return problems

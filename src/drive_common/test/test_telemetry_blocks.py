@@ -16,7 +16,7 @@ from drive_common.samples import DriveSample, GateSample
 from drive_common.parameters import ParameterError, schema
 from drive_common.telemetry import MAX_BLOCK_SIZE, TELEMETRY_PARAMETERS, Decimator, nanoseconds
 from drive_common.telemetry_blocks import (BLOCK_PARTS, BlockPacker, block_columns, expand,
-                                           layout, stamp_ns)
+                                           layout, stamp_ns, step_gaps)
 from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateBlock
 
 BLOCK_TYPES = (PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
@@ -258,3 +258,19 @@ def test_the_block_size_parameter_refuses_bad_values_and_keeps_the_old(value, re
         telemetry.validate_changes(current, {'telemetry.block_size': 80}, running=True)
     with pytest.raises(ParameterError, match='telemetry.live_period'):
         telemetry.validate_changes(current, {'telemetry.live_period': -1e-3})
+
+
+def test_step_gaps_reports_skipped_and_repeated_steps():
+    def blocks(*spans):   # (first_step, stride, count)
+        return [SimpleNamespace(first_step=f, step_stride=s, count=c) for f, s, c in spans]
+
+    assert step_gaps(blocks((0, 40, 40), (1600, 40, 40), (3200, 0, 1), (3240, 40, 2))) == []
+    assert step_gaps(blocks((0, 40, 40), (1640, 40, 40))) == [
+        'steps skipped: step 1560 is followed by step 1640 (stride 40)']
+    assert step_gaps(blocks((0, 40, 40), (1560, 40, 40))) == [
+        'steps repeated: a block starts at step 1560, the previous one ended at step 1560']
+    assert step_gaps(blocks((0, 40, 2), (120, 80, 3))) == []       # a period change at step 40
+    packed = _pack(PlantStateBlock, _samples(PlantStateBlock, [0, 4, 8, 12, 20, 24, 24, 28]), 40)
+    assert step_gaps(packed) == [
+        'steps skipped: step 12 is followed by step 20 (stride 4)',
+        'steps repeated: a block starts at step 24, the previous one ended at step 24']
