@@ -124,7 +124,9 @@ class BlockPacker:
     messages from, or the messages themselves), all of the same ``step``.
     stamp_ns is the samples' header stamp in ns. The values are copied at
     once (a value out of its field's range raises here, and the sample is
-    not taken); it returns the finished block or None. A returned block is
+    not taken; but numpy truncates a float given for an integer field where
+    the per-sample message would refuse it); it returns the finished block
+    or None. A returned block is
     a new message the caller may keep.
     """
 
