@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 SRC = Path(__file__).resolve().parents[1] / 'src'
-PURE_SHARED = ['drive_common.parameters', 'drive_common.samples']
+PURE_SHARED = ['drive_common.parameters', 'drive_common.samples', 'drive_common.telemetry']
 
 
 def core_modules() -> list[str]:

@@ -6,6 +6,7 @@ values in every field (NaN included where a float may be NaN), to a
 would; the echo comes back from the other process and must equal what was
 sent, field for field (NaN == NaN by bit pattern).
 """
+import array
 import math
 import random
 import struct
@@ -57,7 +58,7 @@ def _same(a, b) -> bool:
     if hasattr(a, 'get_fields_and_field_types'):
         return type(a) is type(b) and all(
             _same(getattr(a, f), getattr(b, f)) for f in a.get_fields_and_field_types())
-    if isinstance(a, (list, tuple, np.ndarray)):
+    if isinstance(a, (list, tuple, np.ndarray, array.array)):   # array.array: sequence<double> etc.
         return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
     if isinstance(a, float) or isinstance(b, float):
         fa, fb = float(a), float(b)

@@ -1,0 +1,76 @@
+"""Telemetry rates without rclpy: block-size limits, the telemetry parameters, live-topic decimation.
+
+Full-rate telemetry travels in sample blocks (:mod:`drive_common.telemetry_blocks`,
+dtc_msgs/*Block); the per-sample topics people and live tools watch are
+decimated in sim time by :class:`Decimator`. Both rates are node parameters
+(:data:`TELEMETRY_PARAMETERS`), pure so the headless runner and scenario
+files validate them with the same rules as the nodes
+(docs/architecture.md "Telemetry: blocks and live topics").
+"""
+from __future__ import annotations
+
+from drive_common.parameters import ParameterSpec
+
+DEFAULT_BLOCK_SIZE = 40
+"""Samples per block: 1 ms of samples at a 25 us sample period (benchmarks/bench_blocks.py)."""
+
+MAX_BLOCK_SIZE = 10_000
+"""Largest block: ~3 MB of PlantState samples, well inside one DDS sample and a bag chunk."""
+
+DEFAULT_LIVE_PERIOD = 1e-3
+"""s of sim time between the samples of a decimated live per-sample topic (1 kHz)."""
+
+TELEMETRY_PARAMETERS = (
+    ParameterSpec('telemetry.block_size', DEFAULT_BLOCK_SIZE,
+                  'samples per telemetry block message (full-rate topics for bags and analysis)',
+                  min_value=1, max_value=MAX_BLOCK_SIZE, runtime=False),
+    ParameterSpec('telemetry.live_period', DEFAULT_LIVE_PERIOD,
+                  'sim time between samples on the per-sample live topics; 0 = every sample',
+                  unit='s', min_value=0.0),
+)
+"""Parameters of every node that publishes telemetry (add them to the node's schema)."""
+
+
+def check_block_size(size) -> int:
+    """size as an int if 1 <= size <= MAX_BLOCK_SIZE, else ValueError with the reason."""
+    if isinstance(size, bool) or not isinstance(size, int):
+        raise ValueError(f'block size must be an integer, got {size!r}')
+    if not 1 <= size <= MAX_BLOCK_SIZE:
+        raise ValueError(f'block size must be in [1, {MAX_BLOCK_SIZE}] samples, got {size}')
+    return size
+
+
+def nanoseconds(seconds: float) -> int:
+    """Sim time in integer ns, rounded as the header stamps are (conversions.time_msg)."""
+    return int(round(seconds * 1e9))
+
+
+class Decimator:
+    """Which samples a decimated live topic publishes: the first at or after each grid time.
+
+    The grid is j * period in sim time (j = 0, 1, ...), so the live topic
+    shows every M-th sample when the sample period divides the period
+    (M = period / sample period: 40 at 1 ms and 25 us), picks the same
+    samples in every run (determinism), and never needs the plant's tick.
+    period 0 keeps every sample. Sim time going backwards (a new run)
+    restarts the grid.
+    """
+
+    def __init__(self, period: float) -> None:
+        if not period >= 0.0:   # also refuses NaN
+            raise ValueError(f'live period must be >= 0 s, got {period!r}')
+        self.period_ns = nanoseconds(period)
+        self._next_ns = 0
+        self._last_ns = -1
+
+    def keep(self, stamp_ns: int) -> bool:
+        """True if the sample stamped stamp_ns (sim time, ns) goes out on the live topic."""
+        if stamp_ns < self._last_ns:
+            self._next_ns = 0
+        self._last_ns = stamp_ns
+        if stamp_ns < self._next_ns:
+            return False
+        period = self.period_ns
+        if period:
+            self._next_ns = (stamp_ns // period + 1) * period
+        return True

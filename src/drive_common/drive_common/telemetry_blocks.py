@@ -1,0 +1,334 @@
+"""Sample blocks: N consecutive per-sample messages as one typed message of arrays.
+
+A block type (dtc_msgs/PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
+holds, for `count` samples, one array per field of its per-sample messages
+(its *parts*, :data:`BLOCK_PARTS`): the status fields under their own names,
+the measurement and command fields prefixed ``measurement_`` / ``command_``.
+Fixed-size per-sample arrays (``float64[3] phase_current``, ``bool[6]
+switch_on``) become flat sequences of count * width elements, sample-major;
+string fields (DtcStatus.mode) are one value per block. Sample i has
+``step = first_step + i * step_stride`` and header stamp ``header.stamp +
+i * round(sample_period * 1e9)`` ns, exactly what its per-sample message
+carries (docs/architecture.md "Telemetry: blocks and live topics").
+
+:class:`BlockPacker` collects one sample at a time and hands back a filled
+block every N samples (``flush`` for the partial block at the end of a run);
+a sample that breaks the block's regular step/stamp pattern or changes a
+per-block string closes the block early, so a block always expands to
+exactly the messages that went in. :func:`expand` and :func:`block_columns`
+are the inverse, per sample (bit-exact, NaN payloads kept) or per column.
+"""
+from __future__ import annotations
+
+import array
+from dataclasses import dataclass
+from functools import lru_cache
+from operator import attrgetter
+from typing import Any, Iterator
+
+import numpy as np
+from dtc_msgs.msg import (DriveMeasurement, DtcStatus, DtcStatusBlock, DutyCommand, GateCommand,
+                          PfcMeasurement, PfcStatus, PfcStatusBlock, PlantState, PlantStateBlock)
+
+from drive_common.telemetry import check_block_size
+
+BLOCK_PARTS: dict[type, tuple[tuple[str, type], ...]] = {
+    PlantStateBlock: (('', PlantState),),
+    DtcStatusBlock: (('', DtcStatus), ('measurement_', DriveMeasurement),
+                     ('command_', GateCommand)),
+    PfcStatusBlock: (('', PfcStatus), ('measurement_', PfcMeasurement),
+                     ('command_', DutyCommand)),
+}
+"""(field prefix, per-sample message type) of each block type, in record order."""
+
+# rosidl element type -> (array.array typecode, numpy dtype); bool sequences are lists.
+_ELEMENT = {
+    'double': ('d', np.float64),
+    'int8': ('b', np.int8),
+    'uint8': ('B', np.uint8),
+    'int64': ('q', np.int64),
+    'uint64': ('Q', np.uint64),
+    'boolean': (None, np.bool_),
+}
+_HEADER_FIELDS = ('header', 'step')
+
+
+@dataclass(frozen=True)
+class Column:
+    """One block array: per-sample field `source` of part `part`."""
+
+    name: str          # block field
+    part: int          # index into the block's parts
+    source: str        # field of the per-sample message
+    element: str       # rosidl element type ('double', 'boolean', ...)
+    width: int         # elements per sample (1 for scalars)
+
+
+@dataclass(frozen=True)
+class BlockLayout:
+    """How a block type's fields map to its per-sample messages."""
+
+    block_type: type
+    parts: tuple[tuple[str, type], ...]
+    columns: tuple[Column, ...]
+    per_block: tuple[Column, ...]    # string fields: one value per block
+
+
+def _split_type(rosidl_type: str) -> tuple[str, int]:
+    """('double', 3) for 'double[3]', ('uint8', 1) for 'uint8'."""
+    if rosidl_type.endswith(']'):
+        element, width = rosidl_type[:-1].split('[')
+        return element, int(width)
+    return rosidl_type, 1
+
+
+@lru_cache(maxsize=None)
+def layout(block_type: type) -> BlockLayout:
+    """The layout of a block type, derived from its per-sample messages' fields."""
+    parts = BLOCK_PARTS[block_type]
+    columns, per_block = [], []
+    for index, (prefix, msg_type) in enumerate(parts):
+        for source, rosidl_type in msg_type.get_fields_and_field_types().items():
+            if source in _HEADER_FIELDS:
+                continue
+            element, width = _split_type(rosidl_type)
+            column = Column(prefix + source, index, source, element, width)
+            if element == 'string':
+                per_block.append(column)
+            elif element in _ELEMENT:
+                columns.append(column)
+            else:
+                raise TypeError(f'{msg_type.__name__}.{source}: {rosidl_type} has no block layout')
+    return BlockLayout(block_type, parts, tuple(columns), tuple(per_block))
+
+
+def _tuple_getter(names: list[str]):
+    """record -> tuple of its attributes `names` (attrgetter returns a bare value for one name)."""
+    if len(names) == 1:
+        get = attrgetter(names[0])
+        return lambda record: (get(record),)
+    return attrgetter(*names)
+
+
+def stamp_ns(stamp) -> int:
+    """A builtin_interfaces/Time as integer ns."""
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+class BlockPacker:
+    """Collects samples of one block type; a filled block every `size` samples.
+
+    ``append(stamp_ns, *records)`` takes one record per part of the block
+    (see :data:`BLOCK_PARTS`): anything with the per-sample message's field
+    names as attributes (the core sample dataclasses the nodes fill their
+    messages from, or the messages themselves), all of the same ``step``.
+    stamp_ns is the samples' header stamp in ns. The values are copied at
+    once (a value out of its field's range raises here, and the sample is
+    not taken; but numpy truncates a float given for an integer field where
+    the per-sample message would refuse it); it returns the finished block
+    or None. A returned block is
+    a new message the caller may keep.
+    """
+
+    def __init__(self, block_type: type, size: int) -> None:
+        self.layout = layout(block_type)
+        self.size = check_block_size(size)
+        self._getters = tuple(_tuple_getter([c.source for c in self.layout.columns if c.part == p])
+                              for p in range(len(self.layout.parts)))
+        if any(c.part for c in self.layout.per_block):
+            raise TypeError(f'{block_type.__name__}: per-block fields must come from the first part')
+        self._block_getter = (_tuple_getter([c.source for c in self.layout.per_block])
+                              if self.layout.per_block else None)
+        # One preallocated record per sample, each block field a column of it; the
+        # spare last row takes a sample that opens a new block while the old is built.
+        self._buffer = np.zeros(self.size + 1, dtype=[
+            (c.name, _ELEMENT[c.element][1], (c.width,) if c.width > 1 else ())
+            for c in self.layout.columns])
+        self._count = 0
+        self._first_step = self._first_ns = self._last_step = self._last_ns = 0
+        self._stride = self._period_ns = 0
+        self._block_values: Any = None
+
+    @property
+    def pending(self) -> int:
+        """Samples collected for the next block."""
+        return self._count
+
+    def append(self, stamp_ns: int, *records) -> Any:
+        step = records[0].step
+        for record in records[1:]:
+            if record.step != step:
+                raise ValueError(f'{self.layout.block_type.__name__}: one sample mixes steps '
+                                 f'{step} and {record.step}')
+        block_values = self._block_getter(records[0]) if self._block_getter else None
+        getters = self._getters
+        row = (getters[0](records[0]) if len(getters) == 1
+               else sum([get(r) for get, r in zip(getters, records)], ()))
+        done = None
+        n = self._count
+        if n and not self._continues(step, stamp_ns, block_values):
+            self._buffer[self.size] = row      # a bad value raises before the old block goes
+            done = self._build()
+            self._buffer[0] = self._buffer[self.size]
+            n = 0
+        else:
+            self._buffer[n] = row
+        if n == 0:
+            self._first_step, self._first_ns = step, stamp_ns
+            self._block_values = block_values
+        elif n == 1:
+            self._stride, self._period_ns = step - self._last_step, stamp_ns - self._last_ns
+        self._last_step, self._last_ns = step, stamp_ns
+        self._count = n + 1
+        if self._count == self.size:
+            # size 1 with a break: the closed block went out on the previous append.
+            return self._build()
+        return done
+
+    def _continues(self, step: int, stamp_ns: int, block_values) -> bool:
+        """Whether the sample extends the open block's regular pattern."""
+        if block_values != self._block_values:
+            return False
+        if self._count == 1:
+            return step > self._last_step and stamp_ns > self._last_ns
+        return (step - self._last_step == self._stride
+                and stamp_ns - self._last_ns == self._period_ns)
+
+    def flush(self) -> Any:
+        """The partial block of the samples collected so far, or None if there are none."""
+        return self._build() if self._count else None
+
+    def _build(self):
+        n, lay = self._count, self.layout
+        self._count = 0
+        block = lay.block_type()
+        block.header.stamp.sec, block.header.stamp.nanosec = divmod(self._first_ns, 1_000_000_000)
+        block.first_step = self._first_step
+        block.count = n
+        if n > 1:
+            block.step_stride = self._stride
+            block.sample_period = self._period_ns * 1e-9
+        for column, value in zip(lay.per_block, self._block_values or ()):
+            setattr(block, column.name, value)
+        samples = self._buffer[:n]
+        for column in lay.columns:
+            values = samples[column.name]
+            typecode = _ELEMENT[column.element][0]
+            if typecode is None:
+                setattr(block, column.name, values.ravel().tolist())
+            else:
+                data = array.array(typecode)
+                data.frombytes(values.tobytes())   # C order: sample-major
+                setattr(block, column.name, data)
+        return block
+
+
+def _check_lengths(block, lay: BlockLayout) -> None:
+    count = block.count
+    for column in lay.columns:
+        if len(getattr(block, column.name)) != count * column.width:
+            raise ValueError(f'{type(block).__name__}.{column.name}: '
+                             f'{len(getattr(block, column.name))} elements for count {count} '
+                             f'x width {column.width}')
+
+
+def _stamps_ns(block) -> tuple[int, int]:
+    """(first stamp, stamp stride) of a block in ns."""
+    return stamp_ns(block.header.stamp), int(round(block.sample_period * 1e9))
+
+
+def block_columns(block) -> dict[str, np.ndarray]:
+    """Every field of a block as an array of count rows (width > 1: shape (count, width)).
+
+    Adds ``step`` (uint64) and ``time`` (s, float64, computed from the
+    stamp as conversions.seconds does for a per-sample message); a
+    per-block string is repeated per row. Raises ValueError for a block
+    whose arrays do not match its count.
+    """
+    lay = layout(type(block))
+    _check_lengths(block, lay)
+    count = block.count
+    first_ns, period_ns = _stamps_ns(block)
+    index = np.arange(count, dtype=np.int64)
+    ns = first_ns + index * period_ns
+    columns = {
+        'step': np.uint64(block.first_step) + np.uint64(block.step_stride) * index.astype(np.uint64),
+        'time': (ns // 1_000_000_000).astype(np.float64) + (ns % 1_000_000_000).astype(np.float64) * 1e-9,
+    }
+    for column in lay.columns:
+        data = getattr(block, column.name)
+        dtype = _ELEMENT[column.element][1]
+        values = (np.frombuffer(data, dtype=dtype) if isinstance(data, array.array)
+                  else np.asarray(data, dtype=dtype))
+        columns[column.name] = values.reshape(count, column.width) if column.width > 1 else values
+    for column in lay.per_block:
+        columns[column.name] = np.full(count, getattr(block, column.name))
+    return columns
+
+
+def expand(block) -> Iterator[tuple]:
+    """The per-sample messages of a block, one tuple per sample in BLOCK_PARTS order.
+
+    Each message equals, byte for byte once serialized, the one its node
+    would have published for that sample: same step, header stamp and
+    frame_id, every field value (NaN payloads included).
+    """
+    lay = layout(type(block))
+    _check_lengths(block, lay)
+    count = block.count
+    first_ns, period_ns = _stamps_ns(block)
+    per_sample = []
+    for column in lay.columns:
+        data = getattr(block, column.name)
+        if column.width == 1:
+            per_sample.append(list(data))
+        elif column.element == 'boolean':
+            w = column.width
+            per_sample.append([list(data[i * w:(i + 1) * w]) for i in range(count)])
+        else:
+            values = np.array(data, dtype=_ELEMENT[column.element][1]).reshape(count, column.width)
+            per_sample.append(list(values))
+    constants = [(c.part, c.source, getattr(block, c.name)) for c in lay.per_block]
+    targets = [(c.part, c.source) for c in lay.columns]
+    frame_id = block.header.frame_id
+    for i in range(count):
+        msgs = tuple(msg_type() for _, msg_type in lay.parts)
+        sec, nanosec = divmod(first_ns + i * period_ns, 1_000_000_000)
+        step = block.first_step + i * block.step_stride
+        for msg in msgs:
+            msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+            msg.header.frame_id = frame_id
+            msg.step = step
+        for part, source, value in constants:
+            setattr(msgs[part], source, value)
+        for (part, source), values in zip(targets, per_sample):
+            setattr(msgs[part], source, values[i])
+        yield msgs
+
+
+def step_gaps(blocks) -> list[str]:
+    """Where consecutive blocks of one topic skip or repeat steps; empty when continuous.
+
+    blocks: the block messages in recorded order (anything with first_step,
+    step_stride and count). A block continues the previous one when it
+    starts one stride after the previous block's last step (the stride of
+    the block itself, or the last one known for a one-sample block, so a
+    period change seen only through a one-sample block reads as a skip).
+    """
+    problems: list[str] = []
+    last_step, stride = None, 0
+    for block in blocks:
+        if block.count < 1:
+            problems.append(f'empty block at step {block.first_step}')
+            continue
+        stride = block.step_stride if block.count > 1 else stride
+        first = block.first_step
+        if last_step is not None:
+            if first <= last_step:
+                problems.append(f'steps repeated: a block starts at step {first}, '
+                                f'the previous one ended at step {last_step}')
+            elif stride and first != last_step + stride:
+                problems.append(f'steps skipped: step {last_step} is followed by step {first} '
+                                f'(stride {stride})')
+        last_step = first + (block.count - 1) * block.step_stride
+    return problems
