@@ -6,7 +6,8 @@ magic, lacks its footer (truncated, e.g. the recorder was killed) or has a
 corrupt record is a :class:`BagReadError` whose message names the file and the
 problem. With ``salvage=True`` the intact part is read instead: records are
 streamed from the start of the file up to the first damaged one (for a
-truncated file: every complete chunk).
+truncated file: every complete chunk; :func:`intact_records`, which
+``drive_logger.bag_reindex`` uses too).
 """
 from __future__ import annotations
 
@@ -19,7 +20,9 @@ from typing import Any, Iterable, Iterator
 
 import yaml
 from mcap.exceptions import McapError
-from mcap.reader import NonSeekingReader, make_reader
+from mcap.reader import make_reader
+from mcap.records import Channel, Message, Schema
+from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
 from drive_logger import qos_yaml
@@ -73,6 +76,38 @@ def check_mcap_file(path: Path) -> str | None:
     return None
 
 
+def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
+    """MCAP records of stream from its start up to the first damaged one.
+
+    Chunks are yielded record by record only once the whole chunk was read and
+    its CRC checked, so a file cut inside a chunk yields every complete chunk
+    before it and nothing of the cut one. What ended the intact part (a cut, a
+    bad CRC, a corrupt record) is appended to problems, naming the file.
+    """
+    try:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            yield record
+    except Exception as exc:  # noqa: BLE001 - the intact part ends at the first damaged record
+        problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({type(exc).__name__}: {exc})')
+
+
+def intact_messages(stream, problems: list[str], name: str):
+    """(schema, channel, message) of every intact message, in file order (see :func:`intact_records`)."""
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    for record in intact_records(stream, problems, name):
+        if isinstance(record, Schema):
+            schemas[record.id] = record
+        elif isinstance(record, Channel):
+            channels[record.id] = record
+        elif isinstance(record, Message):
+            channel = channels.get(record.channel_id)
+            if channel is None:
+                problems.append(f'{name!r}: message on unknown channel {record.channel_id}; intact part ends here')
+                return
+            yield schemas.get(channel.schema_id), channel, record
+
+
 class BagReader:
     """A rosbag2 bag directory (or a single .mcap file), read without ROS.
 
@@ -118,6 +153,13 @@ class BagReader:
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
 
+    @property
+    def log_time_source(self) -> str:
+        """Clock of the log times: 'sim' or 'wall' (metadata.yaml's custom_data; bags
+        written before sim-time recording, or without metadata, count as 'wall')."""
+        custom = (self.metadata or {}).get('custom_data') or {}
+        return custom.get('log_time', 'wall')
+
     # ----------------------------------------------------------------- topics
     @functools.cached_property
     def topics(self) -> dict[str, TopicInfo]:
@@ -162,18 +204,15 @@ class BagReader:
                     self._damaged.add(file)
                     stream.seek(0)
             seen_channels = set()
-            try:
-                for schema, channel, message in NonSeekingReader(stream, validate_crcs=True).iter_messages(log_time_order=False):
-                    if only_channels:
-                        if channel.id not in seen_channels:
-                            seen_channels.add(channel.id)
-                            yield schema, channel, None
-                        continue
-                    if topics is None or channel.topic in topics:
-                        yield schema, channel, message
-            except Exception as exc:  # noqa: BLE001 - salvage stops at the first damaged record
-                if not only_channels:
-                    self.problems.append(f'{str(file)!r}: intact part ends here ({type(exc).__name__}: {exc})')
+            problems = [] if only_channels else self.problems
+            for schema, channel, message in intact_messages(stream, problems, str(file)):
+                if only_channels:
+                    if channel.id not in seen_channels:
+                        seen_channels.add(channel.id)
+                        yield schema, channel, None
+                    continue
+                if topics is None or channel.topic in topics:
+                    yield schema, channel, message
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
         """Every message (of the given topics), file by file, in log-time order."""
