@@ -137,11 +137,14 @@ HEADER_FIELD_TYPES = frozenset({'std_msgs/Header', 'std_msgs/msg/Header', 'Heade
 CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
 
 
+_CONSTANT = re.compile(r'^\S+\s+[A-Za-z]\w*\s*=')
+
+
 def first_field_is_header(definition_text: str) -> bool:
-    """True if the first field of a .msg / ros2msg text is a std_msgs/Header."""
+    """True if the first field (constants skipped) of a .msg / ros2msg text is a std_msgs/Header."""
     for line in definition_text.splitlines():
         line = line.split('#', 1)[0].strip()
-        if line:
+        if line and not _CONSTANT.match(line):
             return line.split()[0] in HEADER_FIELD_TYPES
     return False
 

@@ -225,3 +225,19 @@ def test_writer_refuses_the_directory_of_a_killed_recorder_naming_reindex(tmp_pa
     writer._stream.flush()
     with pytest.raises(BagWriteError, match='never finalized.*drive_logger reindex'):
         BagWriter(tmp_path / 'bag')
+
+
+def test_which_types_carry_their_sample_sim_time():
+    from drive_logger.message_definitions import carries_sim_stamp, cdr_stamp_ns
+    from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
+    # every drive-graph type, also those whose .msg starts with constants (GateCommand, PlantState)
+    assert all(carries_sim_stamp(t) for t in GRAPH_TOPIC_TYPES.values())
+    # stamped by the publishing node's (wall) clock: not sim time
+    assert not carries_sim_stamp('rcl_interfaces/msg/ParameterEvent')
+    assert not carries_sim_stamp('rcl_interfaces/msg/Log')
+    from dtc_msgs.msg import GateCommand
+    from rosgraph_msgs.msg import Clock
+    gate = GateCommand(step=7)
+    gate.header.stamp.sec, gate.header.stamp.nanosec = 2, 5
+    assert cdr_stamp_ns(serialize_message(gate)) == 2_000_000_005
+    assert cdr_stamp_ns(serialize_message(Clock(clock=gate.header.stamp))) == 2_000_000_005
