@@ -139,9 +139,11 @@ def test_sigkilled_recorder_bag_is_reindexed_to_what_it_had_flushed(reference_ba
         for connection, timestamp, raw in reader.messages():
             got.setdefault(connection.topic, []).append((timestamp, bytes(raw)))
     assert {t: sorted(v) for t, v in got.items()} == {t: sorted(v) for t, v in reindexed.items()}
+    # the mcap ROS 2 reader (make_reader + mcap_ros2's DecoderFactory; its old reader module is deprecated)
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
     with open(bag / 'bag_0.mcap', 'rb') as f:
-        steps = [d.step for _, _, _, d in make_reader(f, decoder_factories=[DecoderFactory()])
-                 .iter_decoded_messages(topics=['/drive/measurement'])]
-    assert steps == list(range(measured))
+        decoded = [(m.log_time, d.step) for _, _, m, d in make_reader(f, decoder_factories=[DecoderFactory()])
+                   .iter_decoded_messages(topics=['/drive/measurement'])]
+    assert [step for _, step in decoded] == list(range(measured))
+    assert [t for t, _ in decoded] == [t for t, _ in reindexed['/drive/measurement']]
