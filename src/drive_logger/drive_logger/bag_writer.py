@@ -19,6 +19,7 @@ raw subscription.
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -134,6 +135,9 @@ class BagWriter:
         self.end_ns = 0
         self.message_count = 0
         self.closed = False
+        self._syncer: threading.Thread | None = None
+        self._sync_wanted = threading.Event()
+        self._stop_syncing = False
 
     def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None) -> TopicRecord:
         """Register a topic (channel, and its type's schema once); return its record."""
@@ -188,13 +192,32 @@ class BagWriter:
             'ros_distro': self.ros_distro,
         }
 
-    def flush(self) -> None:
+    def flush(self, sync_in_background: bool = False) -> None:
         """Close the current chunk (with its message indexes), write it and fsync the file.
 
-        After a crash everything written before the last flush is salvageable.
+        After a crash everything written before the last flush is salvageable
+        (a killed process: at once; a power cut: once the fsync is done).
+        With ``sync_in_background`` the fsync runs on a helper thread, so a
+        slow disk does not stall the caller (the recorder's take loop, whose
+        publishers' queues are short).
         """
-        if not self.closed:
-            self._writer.flush()
+        if self.closed:
+            return
+        self._writer.flush()
+        if not sync_in_background:
+            os.fsync(self._stream.fileno())
+            return
+        if self._syncer is None:
+            self._syncer = threading.Thread(target=self._sync_loop, name='bag fsync', daemon=True)
+            self._syncer.start()
+        self._sync_wanted.set()
+
+    def _sync_loop(self) -> None:
+        while True:
+            self._sync_wanted.wait()
+            self._sync_wanted.clear()
+            if self._stop_syncing:
+                return
             os.fsync(self._stream.fileno())
 
     def finish_data(self) -> None:
@@ -202,6 +225,10 @@ class BagWriter:
         if self.closed:
             return
         self.closed = True
+        if self._syncer is not None:
+            self._stop_syncing = True
+            self._sync_wanted.set()
+            self._syncer.join()
         serialized = yaml.safe_dump(self.metadata(), default_flow_style=False, sort_keys=False)
         self._writer.add_metadata('rosbag2', {'serialized_metadata': serialized, 'ROS_DISTRO': self.ros_distro})
         self._writer.finish()

@@ -250,7 +250,7 @@ class RecorderNode(Node):
     def flush(self) -> None:
         """Close the current chunk and fsync (a crash keeps everything up to here)."""
         with self._lock:
-            self.writer.flush()
+            self.writer.flush(sync_in_background=True)
 
     def finalize(self) -> None:
         """Register silent topics (count 0) and close the bag."""
