@@ -21,11 +21,12 @@ from typing import Any, Iterable, Iterator
 import yaml
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap.records import Channel, Message, Schema
+from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
 from drive_logger import qos_yaml
+from drive_logger.bag_writer import LOG_TIME_RECORD
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 SALVAGE_HINT = (' (to use the intact part: --salvage for analyze and compare_replay, '
@@ -89,6 +90,19 @@ def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
             yield record
     except Exception as exc:  # noqa: BLE001 - the intact part ends at the first damaged record
         problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({type(exc).__name__}: {exc})')
+
+
+def log_time_record(records: Iterator[Any]) -> tuple[dict[str, str], list]:
+    """The ``drive_logger`` record that follows the MCAP header ({} if there is none before the
+    first schema, channel or message), and the records read to find it."""
+    head = []
+    for record in records:
+        head.append(record)
+        if isinstance(record, Metadata) and record.name == LOG_TIME_RECORD:
+            return record.metadata, head
+        if isinstance(record, (Schema, Channel, Message)):
+            break
+    return {}, head
 
 
 def intact_messages(stream, problems: list[str], name: str):
@@ -155,10 +169,12 @@ class BagReader:
 
     @property
     def log_time_source(self) -> str:
-        """Clock of the log times: 'sim' or 'wall' (metadata.yaml's custom_data; bags
-        written before sim-time recording, or without metadata, count as 'wall')."""
-        custom = (self.metadata or {}).get('custom_data') or {}
-        return custom.get('log_time', 'wall')
+        """Clock of the log times: 'sim' or 'wall' (metadata.yaml's custom_data, else the
+        data file's drive_logger record; bags from before sim-time recording count as 'wall')."""
+        if self.metadata is not None:
+            return (self.metadata.get('custom_data') or {}).get('log_time', 'wall')
+        with open(self.files[0], 'rb') as stream:    # not finalized: the record after the header
+            return log_time_record(intact_records(stream, [], str(self.files[0])))[0].get('log_time', 'wall')
 
     # ----------------------------------------------------------------- topics
     @functools.cached_property

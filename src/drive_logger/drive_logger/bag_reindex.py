@@ -29,11 +29,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, Message, Schema
 
 from drive_logger import qos_yaml
-from drive_logger.bag_reader import check_mcap_file, intact_records
-from drive_logger.bag_writer import LOG_TIME_RECORD, LOG_TIME_SOURCES, BagWriteError, BagWriter
+from drive_logger.bag_reader import check_mcap_file, intact_records, log_time_record
+from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter
 from drive_logger.message_definitions import TypeDefinition
 
 USAGE = 'usage: ros2 run drive_logger reindex <bag directory>'
@@ -111,13 +111,7 @@ def _salvage_into(data: Path, tmp: Path, bag: Path) -> tuple[BagWriter, list[str
             raise ReindexError(f'data file {str(data)!r} is not an MCAP file (bad magic)')
         stream.seek(0)
         records = intact_records(stream, problems, str(data))
-        # The drive_logger record (which clock the log times are on) follows the header.
-        head = []
-        for record in records:
-            head.append(record)
-            if isinstance(record, (Schema, Channel, Message)):
-                break
-        stamp = next((r.metadata for r in head if isinstance(r, Metadata) and r.name == LOG_TIME_RECORD), {})
+        stamp, head = log_time_record(records)     # which clock the log times are on
         log_time = stamp.get('log_time', 'wall')   # bags from before sim-time recording: wall
         writer = BagWriter(bag, log_time=log_time if log_time in LOG_TIME_SOURCES else 'wall',
                            ros_distro=stamp.get('ROS_DISTRO'), data_file=tmp, file_name=data.name)

@@ -182,6 +182,7 @@ def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path,
     (bag / 'bag_0.mcap').write_bytes(cut)
     with pytest.raises(BagReadError, match='no MCAP footer'):
         BagReader(bag)
+    assert BagReader(bag, salvage=True).log_time_source == 'sim'   # from the record after the header
 
     summary = reindex(bag)
     assert summary.rewritten and summary.message_count == 200
