@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 import yaml
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.reader import make_reader
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
@@ -89,7 +89,9 @@ def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
         for record in StreamReader(stream, validate_crcs=True).records:
             yield record
     except Exception as exc:  # noqa: BLE001 - the intact part ends at the first damaged record
-        problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({type(exc).__name__}: {exc})')
+        why = ('the file ends inside a record (truncated)' if isinstance(exc, EndOfFile)
+               else f'{type(exc).__name__}: {exc}')
+        problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({why})')
 
 
 def log_time_record(records: Iterator[Any]) -> tuple[dict[str, str], list]:
