@@ -28,7 +28,7 @@ import yaml
 from mcap.writer import CompressionType, Writer
 
 from drive_logger import qos_yaml
-from drive_logger.message_definitions import TypeDefinition
+from drive_logger.message_definitions import TypeDefinition, cdr_stamp_ns
 
 METADATA_VERSION = 9
 LOG_TIME_SOURCES = ('sim', 'wall')
@@ -254,3 +254,34 @@ class BagWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class SimTimeLog:
+    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; DESIGN.md §8, issue 13).
+
+    A message that carries its sample's sim time (:func:`message_definitions.carries_sim_stamp`)
+    is written at once, logged and published at that stamp. Any other message waits for the end
+    of the caller's wake-up (:meth:`end_of_wakeup`) and is logged at the latest sim time taken by
+    then, so a message taken in the same wake-up as later samples is not logged too early.
+    """
+
+    def __init__(self, writer: BagWriter) -> None:
+        self.writer = writer
+        self.now_ns = 0                 # latest sim stamp taken
+        self._waiting: list[tuple[TopicRecord, bytes]] = []
+
+    def write(self, topic: TopicRecord, data: bytes, stamped: bool) -> None:
+        if stamped:
+            stamp = cdr_stamp_ns(data)
+            if stamp > self.now_ns:
+                self.now_ns = stamp
+            self.writer.write(topic, data, stamp, stamp)
+        else:
+            self._waiting.append((topic, data))
+
+    def end_of_wakeup(self) -> None:
+        """Write the waiting messages at the sim time reached."""
+        if self._waiting and not self.writer.closed:
+            for topic, data in self._waiting:
+                self.writer.write(topic, data, self.now_ns, self.now_ns)
+        self._waiting.clear()

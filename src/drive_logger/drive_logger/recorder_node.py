@@ -61,9 +61,9 @@ from rclpy.signals import SignalHandlerOptions
 
 from drive_common.lockstep_io import DirectReceiver
 from drive_logger import graph_topics, ros_types
-from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter
-from drive_logger.message_definitions import (DefinitionNotFoundError, carries_sim_stamp, cdr_stamp_ns,
-                                              normalize_type_name, type_definition)
+from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
+from drive_logger.message_definitions import (DefinitionNotFoundError, carries_sim_stamp, normalize_type_name,
+                                              type_definition)
 
 
 class RecorderConfigError(RuntimeError):
@@ -119,10 +119,7 @@ class RecorderNode(Node):
             'type_discovery_timeout', 'drain_timeout', 'batch_period', 'log_time', 'flush_period')}
         if p['log_time'] not in LOG_TIME_SOURCES:
             raise RecorderConfigError(f"parameter log_time: {p['log_time']!r} is not one of {list(LOG_TIME_SOURCES)}")
-        self.sim_log_time = p['log_time'] == 'sim'
         self.flush_period = float(p['flush_period'])
-        self.sim_now_ns = 0          # latest sim stamp taken ('sim' log times)
-        self._unstamped: list = []   # (record, data) waiting for the end of the wake-up
         self.drain_timeout = float(p['drain_timeout'])
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
@@ -138,6 +135,7 @@ class RecorderNode(Node):
                                     log_time=p['log_time'])
         except BagWriteError as exc:
             raise RecorderConfigError(str(exc)) from exc
+        self.sim_log = SimTimeLog(self.writer) if p['log_time'] == 'sim' else None
         self.topics: dict[str, _Topic] = {}
         for name, (type_name, definition) in wanted.items():
             self._subscribe(name, type_name, definition)
@@ -219,7 +217,7 @@ class RecorderNode(Node):
 
     def _callback_for(self, topic: _Topic):
         writer = self.writer
-        sim = self.sim_log_time
+        sim_log = self.sim_log
 
         def on_message(data: bytes, info: dict) -> None:
             with self._lock:
@@ -228,24 +226,17 @@ class RecorderNode(Node):
                 record = topic.record
                 if record is None:
                     record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
-                if not sim:
-                    writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
-                elif topic.stamped:
-                    stamp = cdr_stamp_ns(data)
-                    if stamp > self.sim_now_ns:
-                        self.sim_now_ns = stamp
-                    writer.write(record, data, stamp, stamp)
+                if sim_log is not None:
+                    sim_log.write(record, data, topic.stamped)
                 else:
-                    self._unstamped.append((record, data))
+                    writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
         return on_message
 
     def end_of_wakeup(self) -> None:
         """Log the unstamped messages of this wake-up at the sim time reached by it."""
-        with self._lock:
-            if self._unstamped and not self.writer.closed:
-                for record, data in self._unstamped:
-                    self.writer.write(record, data, self.sim_now_ns, self.sim_now_ns)
-            self._unstamped.clear()
+        if self.sim_log is not None:
+            with self._lock:
+                self.sim_log.end_of_wakeup()
 
     def flush(self) -> None:
         """Close the current chunk and fsync (a crash keeps everything up to here)."""

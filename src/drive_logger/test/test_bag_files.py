@@ -242,3 +242,24 @@ def test_which_types_carry_their_sample_sim_time():
     gate.header.stamp.sec, gate.header.stamp.nanosec = 2, 5
     assert cdr_stamp_ns(serialize_message(gate)) == 2_000_000_005
     assert cdr_stamp_ns(serialize_message(Clock(clock=gate.header.stamp))) == 2_000_000_005
+
+
+def test_unstamped_messages_wait_for_the_sim_time_their_wake_up_reached(tmp_path, measurement_factory):
+    from drive_logger.bag_writer import SimTimeLog
+    from rcl_interfaces.msg import ParameterEvent
+    writer = BagWriter(tmp_path / 'bag')
+    meas = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'))
+    events = writer.add_topic('/parameter_events', type_definition('rcl_interfaces/msg/ParameterEvent'))
+    log = SimTimeLog(writer)
+    event = ParameterEvent(node='/dtc_controller')
+    event.stamp.sec = 1_795_000_000                          # a node's wall clock: not used
+    log.write(meas, serialize_message(measurement_factory(3)), stamped=True)
+    log.write(events, serialize_message(event), stamped=False)   # taken before sample 4 in this wake-up
+    log.write(meas, serialize_message(measurement_factory(4)), stamped=True)
+    log.end_of_wakeup()
+    log.write(events, serialize_message(event), stamped=False)
+    log.end_of_wakeup()
+    writer.close()
+    times = [(m.topic, m.log_time, m.publish_time) for m in BagReader(tmp_path / 'bag').messages()]
+    assert sorted(times) == sorted([('/drive/measurement', 75_000, 75_000), ('/drive/measurement', 100_000, 100_000),
+                                    ('/parameter_events', 100_000, 100_000), ('/parameter_events', 100_000, 100_000)])
