@@ -24,6 +24,7 @@ setup(
             'replay = drive_logger.replay_node:main',
             'analyze = drive_logger.analysis_cli:main',
             'compare_replay = drive_logger.compare_replay:main',
+            'reindex = drive_logger.bag_reindex:main',
         ],
     },
 )

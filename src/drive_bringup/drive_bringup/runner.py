@@ -188,7 +188,7 @@ class GraphRunner:
         from drive_logger.graph_topics import known_type
         from drive_logger.ros_types import message_class
         streamed = {_absolute_topic(n) for n in (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND,
-                                                 topics.PLANT_STATE, topics.DTC_STATUS)}
+                                                 topics.PLANT_STATE, topics.DTC_STATUS, topics.CLOCK)}
         if 'pfc_controller' in self.scenario.nodes:
             streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
                                                       topics.PFC_STATUS)}

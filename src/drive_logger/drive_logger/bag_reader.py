@@ -6,7 +6,8 @@ magic, lacks its footer (truncated, e.g. the recorder was killed) or has a
 corrupt record is a :class:`BagReadError` whose message names the file and the
 problem. With ``salvage=True`` the intact part is read instead: records are
 streamed from the start of the file up to the first damaged one (for a
-truncated file: every complete chunk).
+truncated file: every complete chunk; :func:`intact_records`, which
+``drive_logger.bag_reindex`` uses too).
 """
 from __future__ import annotations
 
@@ -18,11 +19,14 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 import yaml
-from mcap.exceptions import McapError
-from mcap.reader import NonSeekingReader, make_reader
+from mcap.exceptions import EndOfFile, McapError
+from mcap.reader import make_reader
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
 from drive_logger import qos_yaml
+from drive_logger.bag_writer import LOG_TIME_RECORD
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 SALVAGE_HINT = (' (to use the intact part: --salvage for analyze and compare_replay, '
@@ -73,6 +77,53 @@ def check_mcap_file(path: Path) -> str | None:
     return None
 
 
+def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
+    """MCAP records of stream from its start up to the first damaged one.
+
+    Chunks are yielded record by record only once the whole chunk was read and
+    its CRC checked, so a file cut inside a chunk yields every complete chunk
+    before it and nothing of the cut one. What ended the intact part (a cut, a
+    bad CRC, a corrupt record) is appended to problems, naming the file.
+    """
+    try:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            yield record
+    except Exception as exc:  # noqa: BLE001 - the intact part ends at the first damaged record
+        why = ('the file ends inside a record (truncated)' if isinstance(exc, EndOfFile)
+               else f'{type(exc).__name__}: {exc}')
+        problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({why})')
+
+
+def log_time_record(records: Iterator[Any]) -> tuple[dict[str, str], list]:
+    """The ``drive_logger`` record that follows the MCAP header ({} if there is none before the
+    first schema, channel or message), and the records read to find it."""
+    head = []
+    for record in records:
+        head.append(record)
+        if isinstance(record, Metadata) and record.name == LOG_TIME_RECORD:
+            return record.metadata, head
+        if isinstance(record, (Schema, Channel, Message)):
+            break
+    return {}, head
+
+
+def intact_messages(stream, problems: list[str], name: str):
+    """(schema, channel, message) of every intact message, in file order (see :func:`intact_records`)."""
+    schemas: dict[int, Schema] = {}
+    channels: dict[int, Channel] = {}
+    for record in intact_records(stream, problems, name):
+        if isinstance(record, Schema):
+            schemas[record.id] = record
+        elif isinstance(record, Channel):
+            channels[record.id] = record
+        elif isinstance(record, Message):
+            channel = channels.get(record.channel_id)
+            if channel is None:
+                problems.append(f'{name!r}: message on unknown channel {record.channel_id}; intact part ends here')
+                return
+            yield schemas.get(channel.schema_id), channel, record
+
+
 class BagReader:
     """A rosbag2 bag directory (or a single .mcap file), read without ROS.
 
@@ -118,6 +169,15 @@ class BagReader:
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
 
+    @property
+    def log_time_source(self) -> str:
+        """Clock of the log times: 'sim' or 'wall' (metadata.yaml's custom_data, else the
+        data file's drive_logger record; bags from before sim-time recording count as 'wall')."""
+        if self.metadata is not None:
+            return (self.metadata.get('custom_data') or {}).get('log_time', 'wall')
+        with open(self.files[0], 'rb') as stream:    # not finalized: the record after the header
+            return log_time_record(intact_records(stream, [], str(self.files[0])))[0].get('log_time', 'wall')
+
     # ----------------------------------------------------------------- topics
     @functools.cached_property
     def topics(self) -> dict[str, TopicInfo]:
@@ -162,18 +222,15 @@ class BagReader:
                     self._damaged.add(file)
                     stream.seek(0)
             seen_channels = set()
-            try:
-                for schema, channel, message in NonSeekingReader(stream, validate_crcs=True).iter_messages(log_time_order=False):
-                    if only_channels:
-                        if channel.id not in seen_channels:
-                            seen_channels.add(channel.id)
-                            yield schema, channel, None
-                        continue
-                    if topics is None or channel.topic in topics:
-                        yield schema, channel, message
-            except Exception as exc:  # noqa: BLE001 - salvage stops at the first damaged record
-                if not only_channels:
-                    self.problems.append(f'{str(file)!r}: intact part ends here ({type(exc).__name__}: {exc})')
+            problems = [] if only_channels else self.problems
+            for schema, channel, message in intact_messages(stream, problems, str(file)):
+                if only_channels:
+                    if channel.id not in seen_channels:
+                        seen_channels.add(channel.id)
+                        yield schema, channel, None
+                    continue
+                if topics is None or channel.topic in topics:
+                    yield schema, channel, message
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
         """Every message (of the given topics), file by file, in log-time order."""

@@ -4,10 +4,14 @@ Layout (DESIGN.md §8): a new directory ``<dir>`` holding ``<dir>_0.mcap`` and,
 once closed, ``metadata.yaml``. The MCAP file has profile ``ros2``, one
 ``ros2msg`` schema per type, one ``cdr`` channel per topic whose metadata holds
 ``offered_qos_profiles`` (the same YAML as metadata.yaml) and
-``topic_type_hash``, messages with log_time = receive time and publish_time =
-send time (ns since the epoch), and a ``rosbag2`` metadata record holding the
-serialized metadata. Messages are appended to chunks of ``chunk_size`` bytes
-that are compressed and streamed to disk, so memory stays bounded.
+``topic_type_hash``, messages with the log and publish times the caller gives
+(ns; sim time or wall time, see :data:`LOG_TIME_SOURCES`), a ``drive_logger``
+metadata record written first (which clock the times are on) and a
+``rosbag2`` metadata record holding the serialized metadata at the end.
+Messages are appended to chunks of ``chunk_size`` bytes that are compressed
+and streamed to disk, so memory stays bounded; :meth:`BagWriter.flush` closes
+the current chunk and fsyncs, so a crash loses only what came after it
+(``drive_logger.bag_reindex`` turns such a file into a complete bag).
 
 No rclpy here: message data are the exact CDR bytes the caller took from a
 raw subscription.
@@ -15,6 +19,7 @@ raw subscription.
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,9 +28,14 @@ import yaml
 from mcap.writer import CompressionType, Writer
 
 from drive_logger import qos_yaml
-from drive_logger.message_definitions import TypeDefinition
+from drive_logger.message_definitions import TypeDefinition, cdr_stamp_ns
 
 METADATA_VERSION = 9
+LOG_TIME_SOURCES = ('sim', 'wall')
+"""Clock of the log times: 'sim' (the sample's sim time, as ``ros2 bag record
+--use-sim-time``) or 'wall' (receive time, ns since the epoch)."""
+LOG_TIME_RECORD = 'drive_logger'
+"""Name of the MCAP metadata record, written first, that says which clock the log times are on."""
 COMPRESSION = {'none': CompressionType.NONE, 'lz4': CompressionType.LZ4, 'zstd': CompressionType.ZSTD}
 
 
@@ -59,6 +69,10 @@ class TopicRecord:
 def check_output_directory(path: str | os.PathLike) -> Path:
     """Raise BagWriteError unless path does not exist and its parent can be written."""
     path = Path(path)
+    if path.is_dir() and any(path.glob('*.mcap')) and not (path / 'metadata.yaml').exists():
+        raise BagWriteError(
+            f'output directory {str(path)!r} holds a bag that was never finalized (recorder killed?): '
+            f'recover it with `ros2 run drive_logger reindex {path}` or choose another output')
     if path.exists():
         raise BagWriteError(f'output directory {str(path)!r} already exists: refusing to overwrite a bag')
     parent = path.absolute().parent
@@ -77,35 +91,53 @@ class BagWriter:
     :param compression: MCAP chunk compression: 'lz4' (default), 'zstd' (needs the
         ``zstandard`` module) or 'none'.
     :param chunk_size: uncompressed chunk size in bytes before it is flushed to disk.
+    :param log_time: clock of the log times the caller gives, one of :data:`LOG_TIME_SOURCES`
+        (stored in the bag: a ``drive_logger`` MCAP metadata record and metadata.yaml's
+        ``custom_data``).
+    :param data_file: write the MCAP data here instead of ``<dir>/<dir>_0.mcap``, into an
+        existing directory (for :mod:`drive_logger.bag_reindex`); metadata.yaml still names
+        ``file_name``.
+    :param file_name: the data file's name in metadata.yaml (default ``<dir>_0.mcap``).
     """
 
     def __init__(self, path: str | os.PathLike, compression: str = 'lz4',
-                 chunk_size: int = 1 << 20, ros_distro: str | None = None) -> None:
+                 chunk_size: int = 1 << 20, ros_distro: str | None = None, log_time: str = 'sim',
+                 data_file: str | os.PathLike | None = None, file_name: str | None = None) -> None:
         if compression not in COMPRESSION:
             raise BagWriteError(f'unknown compression {compression!r}; use one of {sorted(COMPRESSION)}')
-        self.path = check_output_directory(path)
+        if log_time not in LOG_TIME_SOURCES:
+            raise BagWriteError(f'unknown log time source {log_time!r}; use one of {list(LOG_TIME_SOURCES)}')
+        self.path = Path(path) if data_file is not None else check_output_directory(path)
         self.ros_distro = ros_distro or os.environ.get('ROS_DISTRO', 'jazzy')
         self.compression = compression
-        self.file_name = f'{self.path.name}_0.mcap'
-        try:
-            self.path.mkdir(parents=True)
-        except OSError as exc:
-            raise BagWriteError(f'cannot create output directory {str(self.path)!r}: {exc}') from exc
-        self._stream = open(self.path / self.file_name, 'wb')
+        self.log_time = log_time
+        self.file_name = file_name or f'{self.path.name}_0.mcap'
+        self.data_file = Path(data_file) if data_file is not None else self.path / self.file_name
+        if data_file is None:
+            try:
+                self.path.mkdir(parents=True)
+            except OSError as exc:
+                raise BagWriteError(f'cannot create output directory {str(self.path)!r}: {exc}') from exc
+        self._stream = open(self.data_file, 'wb')
         try:
             self._writer = Writer(self._stream, chunk_size=chunk_size, compression=COMPRESSION[compression])
         except Exception as exc:  # e.g. mcap's UnsupportedCompressionError
             self._stream.close()
-            (self.path / self.file_name).unlink()
-            self.path.rmdir()
+            self.data_file.unlink()
+            if data_file is None:
+                self.path.rmdir()
             raise BagWriteError(f'compression {compression!r} unavailable: {exc}') from exc
         self._writer.start(profile='ros2', library='drive_logger (mcap-python)')
+        self._writer.add_metadata(LOG_TIME_RECORD, {'log_time': log_time, 'ROS_DISTRO': self.ros_distro})
         self._schemas: dict[str, int] = {}
         self.topics: dict[str, TopicRecord] = {}
         self.start_ns: int | None = None
         self.end_ns = 0
         self.message_count = 0
         self.closed = False
+        self._syncer: threading.Thread | None = None
+        self._sync_wanted = threading.Event()
+        self._stop_syncing = False
 
     def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None) -> TopicRecord:
         """Register a topic (channel, and its type's schema once); return its record."""
@@ -156,29 +188,100 @@ class BagWriter:
                 'duration': {'nanoseconds': duration},
                 'message_count': self.message_count,
             }],
-            'custom_data': None,
+            'custom_data': {'log_time': self.log_time},
             'ros_distro': self.ros_distro,
         }
 
-    def close(self) -> None:
-        """Finish the MCAP file (summary, indexes, metadata record) and write metadata.yaml."""
+    def flush(self, sync_in_background: bool = False) -> None:
+        """Close the current chunk (with its message indexes), write it and fsync the file.
+
+        After a crash everything written before the last flush is salvageable
+        (a killed process: at once; a power cut: once the fsync is done).
+        With ``sync_in_background`` the fsync runs on a helper thread, so a
+        slow disk does not stall the caller (the recorder's take loop, whose
+        publishers' queues are short).
+        """
+        if self.closed:
+            return
+        self._writer.flush()
+        if not sync_in_background:
+            os.fsync(self._stream.fileno())
+            return
+        if self._syncer is None:
+            self._syncer = threading.Thread(target=self._sync_loop, name='bag fsync', daemon=True)
+            self._syncer.start()
+        self._sync_wanted.set()
+
+    def _sync_loop(self) -> None:
+        while True:
+            self._sync_wanted.wait()
+            self._sync_wanted.clear()
+            if self._stop_syncing:
+                return
+            os.fsync(self._stream.fileno())
+
+    def finish_data(self) -> None:
+        """Finish the MCAP file (summary, indexes, rosbag2 metadata record) and fsync it."""
         if self.closed:
             return
         self.closed = True
-        info = self.metadata()
-        serialized = yaml.safe_dump(info, default_flow_style=False, sort_keys=False)
+        if self._syncer is not None:
+            self._stop_syncing = True
+            self._sync_wanted.set()
+            self._syncer.join()
+        serialized = yaml.safe_dump(self.metadata(), default_flow_style=False, sort_keys=False)
         self._writer.add_metadata('rosbag2', {'serialized_metadata': serialized, 'ROS_DISTRO': self.ros_distro})
         self._writer.finish()
         self._stream.flush()
         os.fsync(self._stream.fileno())
         self._stream.close()
+
+    def write_metadata_yaml(self) -> None:
+        """Write metadata.yaml atomically (temporary file, then rename)."""
         tmp = self.path / 'metadata.yaml.tmp'
-        tmp.write_text(yaml.safe_dump({'rosbag2_bagfile_information': info},
+        tmp.write_text(yaml.safe_dump({'rosbag2_bagfile_information': self.metadata()},
                                       default_flow_style=False, sort_keys=False))
         tmp.replace(self.path / 'metadata.yaml')
+
+    def close(self) -> None:
+        """Finish the MCAP file and write metadata.yaml."""
+        if not self.closed:
+            self.finish_data()
+            self.write_metadata_yaml()
 
     def __enter__(self) -> 'BagWriter':
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class SimTimeLog:
+    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; DESIGN.md §8, issue 13).
+
+    A message that carries its sample's sim time (:func:`message_definitions.carries_sim_stamp`)
+    is written at once, logged and published at that stamp. Any other message waits for the end
+    of the caller's wake-up (:meth:`end_of_wakeup`) and is logged at the latest sim time taken by
+    then, so a message taken in the same wake-up as later samples is not logged too early.
+    """
+
+    def __init__(self, writer: BagWriter) -> None:
+        self.writer = writer
+        self.now_ns = 0                 # latest sim stamp taken
+        self._waiting: list[tuple[TopicRecord, bytes]] = []
+
+    def write(self, topic: TopicRecord, data: bytes, stamped: bool) -> None:
+        if stamped:
+            stamp = cdr_stamp_ns(data)
+            if stamp > self.now_ns:
+                self.now_ns = stamp
+            self.writer.write(topic, data, stamp, stamp)
+        else:
+            self._waiting.append((topic, data))
+
+    def end_of_wakeup(self) -> None:
+        """Write the waiting messages at the sim time reached."""
+        if self._waiting and not self.writer.closed:
+            for topic, data in self._waiting:
+                self.writer.write(topic, data, self.now_ns, self.now_ns)
+        self._waiting.clear()

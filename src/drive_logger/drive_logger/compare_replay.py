@@ -18,6 +18,7 @@ step; exit code 0 if every recorded step is reproduced exactly, 1 otherwise.
 from __future__ import annotations
 
 import argparse
+import bisect
 import json
 import os
 import subprocess
@@ -113,7 +114,12 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
         else:
             event = deserialize_message(msg.data, ParameterEvent)
             if event.node == controller_node and event.changed_parameters:
-                changes.setdefault(len(measurements), []).extend(
+                # Sim log times: a change made while the graph held time at T is logged at T; the
+                # plant measured sample T before it held, so the change acts from the next sample
+                # (after every measurement stamped <= T, whatever the tie order); wall: arrival order.
+                index = (bisect.bisect_right([stamp for _, stamp, _ in measurements], msg.log_time)
+                         if reader.log_time_source == 'sim' else len(measurements))
+                changes.setdefault(index, []).extend(
                     (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters)
     return meas_cls, measurements, cmd_cls, commands, changes
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import struct
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -130,3 +131,40 @@ def type_definition(type_name: str) -> TypeDefinition:
     """Schema text and hash of type_name; DefinitionNotFoundError if not installed."""
     full = normalize_type_name(type_name)
     return TypeDefinition(full, full_definition(full), type_hash(full))
+
+
+HEADER_FIELD_TYPES = frozenset({'std_msgs/Header', 'std_msgs/msg/Header', 'Header'})
+CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
+
+
+_CONSTANT = re.compile(r'^\S+\s+[A-Za-z]\w*\s*=')
+
+
+def first_field_is_header(definition_text: str) -> bool:
+    """True if the first field (constants skipped) of a .msg / ros2msg text is a std_msgs/Header."""
+    for line in definition_text.splitlines():
+        line = line.split('#', 1)[0].strip()
+        if line and not _CONSTANT.match(line):
+            return line.split()[0] in HEADER_FIELD_TYPES
+    return False
+
+
+@lru_cache(maxsize=None)
+def carries_sim_stamp(type_name: str) -> bool:
+    """True if a message of type_name carries the sim time of its sample in its first bytes.
+
+    The drive graph's messages start with a std_msgs/Header stamped with the
+    sim time t_k of their sample; rosgraph_msgs/Clock starts with the sim time
+    itself. Both put a builtin_interfaces/Time (int32 sec, uint32 nanosec)
+    right after the CDR encapsulation header. Other types that start with a
+    Time (rcl_interfaces ParameterEvent, Log) are stamped by the publishing
+    node's clock, the wall clock in this graph, so they do not count.
+    """
+    full = normalize_type_name(type_name)
+    return full == CLOCK_TYPE or first_field_is_header(message_text(full))
+
+
+def cdr_stamp_ns(data: bytes) -> int:
+    """The leading builtin_interfaces/Time of a CDR message, in ns (see :func:`carries_sim_stamp`)."""
+    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
+    return sec * 1_000_000_000 + nanosec

@@ -23,6 +23,17 @@ Parameters (all read-only, read at start):
   long before waiting again, so the next wake-up takes a batch. Waking once
   per message costs the lockstep nodes CPU on a small machine; the queues
   (``qos_depth``) hold many times a batch.
+- ``log_time`` ('sim' | 'wall', 'sim'): the clock of the bag's log times.
+  'sim' (as ``ros2 bag record --use-sim-time``): a message that carries the
+  sim time of its sample (a std_msgs/Header first, or rosgraph_msgs/Clock) is
+  logged at that stamp, log and publish time alike, so two recordings of one
+  scenario hold the same times; any other message (/parameter_events, whose
+  stamp is its node's wall clock) is logged at the latest sim time the
+  recorder has taken, set once the wake-up that took it is done. 'wall': log
+  time = receive time, publish time = send time (ns since the epoch).
+- ``flush_period`` (s, 0.5): at least this often (wall time) the current
+  chunk is closed and the file fsynced, so a killed recorder loses at most
+  that much; ``ros2 run drive_logger reindex <bag>`` completes its bag.
 
 The recorder takes messages in its own wait loop (the rclpy executor's
 per-callback cost is several times the recording cost), so it serves no
@@ -31,7 +42,8 @@ parameter services: its parameters are fixed at start.
 Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
 finalized (MCAP summary + metadata.yaml) and the process exits 0. A bad
 output directory or an unknown/uninstalled topic type is an error at start
-(exit code 2, nothing written).
+(exit code 2, nothing written); an output directory that holds the bag of a
+killed recorder is refused with the reindex command that recovers it.
 """
 from __future__ import annotations
 
@@ -49,8 +61,9 @@ from rclpy.signals import SignalHandlerOptions
 
 from drive_common.lockstep_io import DirectReceiver
 from drive_logger import graph_topics, ros_types
-from drive_logger.bag_writer import BagWriteError, BagWriter
-from drive_logger.message_definitions import DefinitionNotFoundError, normalize_type_name, type_definition
+from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
+from drive_logger.message_definitions import (DefinitionNotFoundError, carries_sim_stamp, normalize_type_name,
+                                              type_definition)
 
 
 class RecorderConfigError(RuntimeError):
@@ -68,10 +81,11 @@ def message_class(type_name: str):
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
-    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback')
+    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamped')
 
     def __init__(self, name, type_name, definition, qos):
         self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
+        self.stamped = definition is not None and carries_sim_stamp(type_name)
         self.subscription = None
         self.record = None
         self.callback = None
@@ -95,9 +109,17 @@ class RecorderNode(Node):
         self.declare_parameter('batch_period', 0.005, ParameterDescriptor(
             read_only=True, description='s, rest after a wake-up that took messages',
             floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.1)]))
+        self.declare_parameter('log_time', 'sim', ParameterDescriptor(
+            read_only=True, description="clock of the bag's log times: 'sim' (sample stamps) or 'wall'"))
+        self.declare_parameter('flush_period', 0.5, ParameterDescriptor(
+            read_only=True, description='s (wall), close the chunk and fsync at least this often',
+            floating_point_range=[FloatingPointRange(from_value=0.01, to_value=60.0)]))
         p = {name: self.get_parameter(name).value for name in (
             'topics', 'all_topics', 'output', 'compression', 'chunk_size', 'qos_depth',
-            'type_discovery_timeout', 'drain_timeout', 'batch_period')}
+            'type_discovery_timeout', 'drain_timeout', 'batch_period', 'log_time', 'flush_period')}
+        if p['log_time'] not in LOG_TIME_SOURCES:
+            raise RecorderConfigError(f"parameter log_time: {p['log_time']!r} is not one of {list(LOG_TIME_SOURCES)}")
+        self.flush_period = float(p['flush_period'])
         self.drain_timeout = float(p['drain_timeout'])
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
@@ -109,9 +131,11 @@ class RecorderNode(Node):
         output = p['output'] or str(graph_topics.default_output_dir())
         # 2. Create the bag (BagWriter refuses an existing or unwritable directory first), then the subscriptions (ready once they exist).
         try:
-            self.writer = BagWriter(output, compression=p['compression'], chunk_size=int(p['chunk_size']))
+            self.writer = BagWriter(output, compression=p['compression'], chunk_size=int(p['chunk_size']),
+                                    log_time=p['log_time'])
         except BagWriteError as exc:
             raise RecorderConfigError(str(exc)) from exc
+        self.sim_log = SimTimeLog(self.writer) if p['log_time'] == 'sim' else None
         self.topics: dict[str, _Topic] = {}
         for name, (type_name, definition) in wanted.items():
             self._subscribe(name, type_name, definition)
@@ -193,6 +217,7 @@ class RecorderNode(Node):
 
     def _callback_for(self, topic: _Topic):
         writer = self.writer
+        sim_log = self.sim_log
 
         def on_message(data: bytes, info: dict) -> None:
             with self._lock:
@@ -201,11 +226,26 @@ class RecorderNode(Node):
                 record = topic.record
                 if record is None:
                     record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
-                writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
+                if sim_log is not None:
+                    sim_log.write(record, data, topic.stamped)
+                else:
+                    writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
         return on_message
+
+    def end_of_wakeup(self) -> None:
+        """Log the unstamped messages of this wake-up at the sim time reached by it."""
+        if self.sim_log is not None:
+            with self._lock:
+                self.sim_log.end_of_wakeup()
+
+    def flush(self) -> None:
+        """Close the current chunk and fsync (a crash keeps everything up to here)."""
+        with self._lock:
+            self.writer.flush(sync_in_background=True)
 
     def finalize(self) -> None:
         """Register silent topics (count 0) and close the bag."""
+        self.end_of_wakeup()
         with self._lock:
             if self.writer.closed:
                 return
@@ -243,15 +283,26 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
     """Record until stop is set, then take what is still queued and finalize the bag."""
     loop = TakeLoop(node)
     next_discovery = time.monotonic()
+    next_flush = time.monotonic() + node.flush_period
+
+    def spin_once() -> int:
+        nonlocal next_flush
+        taken = loop.spin_once(min(0.1, node.flush_period))
+        node.end_of_wakeup()
+        if time.monotonic() >= next_flush:
+            node.flush()
+            next_flush = time.monotonic() + node.flush_period
+        return taken
+
     try:
         while not stop.is_set():
-            if loop.spin_once(0.1) and node.batch_period > 0.0:
+            if spin_once() and node.batch_period > 0.0:
                 stop.wait(node.batch_period)
             if node.all_topics and time.monotonic() >= next_discovery:
                 node.discover()
                 next_discovery = time.monotonic() + 0.5
         deadline = time.monotonic() + node.drain_timeout
-        while time.monotonic() < deadline and loop.spin_once(0.1):
+        while time.monotonic() < deadline and spin_once():
             pass
     finally:
         node.finalize()

@@ -32,30 +32,16 @@ from rclpy.node import Node
 
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
-from drive_logger.message_definitions import message_text
+from drive_logger.message_definitions import cdr_stamp_ns as header_stamp_ns  # noqa: F401 (compare_replay)
+from drive_logger.message_definitions import first_field_is_header as has_header, message_text
 
 CLOCK_TOPIC = '/clock'
-
-
-def header_stamp_ns(data: bytes) -> int:
-    """Sim time (ns) of a CDR message whose first field is std_msgs/Header (stamp after the 4-byte encapsulation)."""
-    sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
-    return sec * 1_000_000_000 + nanosec
 
 
 def clock_cdr(stamp_ns: int) -> bytes:
     """CDR bytes of rosgraph_msgs/Clock at stamp_ns."""
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     return b'\x00\x01\x00\x00' + struct.pack('<iI', sec, nanosec)
-
-
-def has_header(definition_text: str) -> bool:
-    """True if the first field of a ros2msg definition is a std_msgs/Header."""
-    for line in definition_text.splitlines():
-        line = line.split('#', 1)[0].strip()
-        if line:
-            return line.split()[0] in ('std_msgs/Header', 'std_msgs/msg/Header', 'Header')
-    return False
 
 
 def parse_remaps(items) -> dict[str, str]:

@@ -38,7 +38,7 @@ def test_type_hash_comes_from_installed_json():
 
 
 def test_core_modules_do_not_import_rclpy():
-    code = ('import sys\nimport drive_logger.bag_writer, drive_logger.bag_reader, drive_logger.qos_yaml\n'
+    code = ('import sys\nimport drive_logger.bag_writer, drive_logger.bag_reader, drive_logger.bag_reindex, drive_logger.qos_yaml\n'
             'import drive_logger.message_definitions, drive_logger.analysis.metrics\n'
             'assert "rclpy" not in sys.modules, "rclpy imported"\n')
     subprocess.run([sys.executable, '-c', code], check=True)
@@ -116,3 +116,150 @@ def test_corrupt_chunk_is_a_clear_error(tmp_path, measurement_factory):
         list(BagReader(tmp_path / 'bag').messages())
     salvaged = [m for m in BagReader(tmp_path / 'bag', salvage=True).messages()]
     assert 0 < len(salvaged) < 500
+
+
+def _stamped_bag(path, measurement_factory, flushed, unflushed, chunk_size=1 << 20):
+    """A sim-time bag: `flushed` messages flushed to disk, then `unflushed` more left in the open chunk
+    (the state a SIGKILL leaves). Returns (writer, published CDR bytes, size of the file at the flush)."""
+    from drive_logger.message_definitions import cdr_stamp_ns
+    writer = BagWriter(path, chunk_size=chunk_size)
+    topic = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'),
+                             [qos_yaml.profile()])
+    sent = []
+    for k in range(flushed + unflushed):
+        data = serialize_message(measurement_factory(k))
+        writer.write(topic, data, cdr_stamp_ns(data), cdr_stamp_ns(data))
+        sent.append(data)
+        if k + 1 == flushed // 2 or k + 1 == flushed:
+            writer.flush()
+            size = writer.data_file.stat().st_size
+    return writer, sent, size
+
+
+def test_sim_time_bag_metadata_and_summary_agree(tmp_path, measurement_factory):
+    writer, sent, _ = _stamped_bag(tmp_path / 'bag', measurement_factory, 100, 20)
+    writer.close()
+    meta = yaml.safe_load((tmp_path / 'bag' / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['custom_data'] == {'log_time': 'sim'}
+    assert meta['starting_time']['nanoseconds_since_epoch'] == 0                 # sample 0 at t = 0
+    assert meta['duration']['nanoseconds'] == 119 * 25_000                       # 119 samples of 25 us
+    assert meta['files'][0]['duration'] == meta['duration']
+    from mcap.reader import make_reader
+    with open(tmp_path / 'bag' / 'bag_0.mcap', 'rb') as f:
+        stats = make_reader(f).get_summary().statistics
+    assert (stats.message_start_time, stats.message_end_time, stats.message_count) == (0, 119 * 25_000, 120)
+    assert BagReader(tmp_path / 'bag').log_time_source == 'sim'
+
+
+def _read_all_three_ways(bag):
+    """(topic, log_time, data) per reader: rosbags.rosbag2.Reader, the mcap ROS 2 reader, BagReader."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from rosbags.rosbag2 import Reader
+    with Reader(bag) as reader:
+        by_rosbags = [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()]
+    (data_file,) = bag.glob('*.mcap')
+    with open(data_file, 'rb') as f:
+        decoded = [(c.topic, m.log_time, m.data, d) for _, c, m, d in
+                   make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages()]
+    assert all(d.step is not None for *_, d in decoded)
+    by_mcap = [(t, lt, bytes(data)) for t, lt, data, _ in decoded]
+    by_ours = [(m.topic, m.log_time, m.data) for m in BagReader(bag).messages()]
+    return by_rosbags, by_mcap, by_ours
+
+
+def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path, measurement_factory):
+    import shutil
+    from drive_logger.bag_reindex import main, reindex
+    from drive_logger.message_definitions import cdr_stamp_ns
+    writer, sent, flushed_size = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
+    # The killed recorder's directory: the file as it was on disk, plus half of a chunk being written.
+    writer.flush()
+    data = (tmp_path / 'live' / 'live_0.mcap').read_bytes()
+    bag = tmp_path / 'bag'
+    bag.mkdir()
+    cut = data[:flushed_size + (len(data) - flushed_size) // 2]
+    (bag / 'bag_0.mcap').write_bytes(cut)
+    with pytest.raises(BagReadError, match='no MCAP footer'):
+        BagReader(bag)
+    assert BagReader(bag, salvage=True).log_time_source == 'sim'   # from the record after the header
+
+    summary = reindex(bag)
+    assert summary.rewritten and summary.message_count == 200
+    assert summary.topics == {'/drive/measurement': 200}
+    assert summary.kept_aside == bag / 'bag_0.mcap.orig' and summary.kept_aside.read_bytes() == cut
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['message_count'] == 200 == meta['topics_with_message_count'][0]['message_count']
+    assert meta['relative_file_paths'] == ['bag_0.mcap'] and meta['custom_data'] == {'log_time': 'sim'}
+    assert meta['duration']['nanoseconds'] == 199 * 25_000
+    expected = [('/drive/measurement', cdr_stamp_ns(d), d) for d in sent[:200]]   # nothing invented
+    for got in _read_all_three_ways(bag):
+        assert got == expected
+    # metadata.yaml's QoS equals the channel's, so rosbags keeps the topic; the rest survives unchanged
+    assert BagReader(bag).topics['/drive/measurement'].qos_profiles == [qos_yaml.profile()]
+
+    again = reindex(bag)     # complete now: left alone
+    assert not again.rewritten and again.message_count == 200
+    shutil.copy(bag / 'bag_0.mcap.orig', bag / 'bag_0.mcap')
+    (bag / 'metadata.yaml').unlink()
+    assert main([str(bag)]) == 0
+    assert (bag / 'bag_0.mcap.orig.1').read_bytes() == cut
+    assert [m.data for m in BagReader(bag).messages()] == sent[:200]
+
+
+def test_reindex_of_a_malformed_bag_is_a_one_line_error(tmp_path, capsys):
+    from drive_logger.bag_reindex import main
+    assert main([str(tmp_path / 'nope')]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and 'nope' in err and 'does not exist' in err
+    (tmp_path / 'bad').mkdir()
+    (tmp_path / 'bad' / 'bad_0.mcap').write_bytes(b'not an mcap file at all')
+    assert main([str(tmp_path / 'bad')]) == 2
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and 'bad_0.mcap' in err and 'not an MCAP file' in err and 'Traceback' not in err
+    assert sorted(p.name for p in (tmp_path / 'bad').iterdir()) == ['bad_0.mcap']    # untouched
+    assert main([]) == 2 and 'usage' in capsys.readouterr().err
+
+
+def test_writer_refuses_the_directory_of_a_killed_recorder_naming_reindex(tmp_path, measurement_factory):
+    writer, _, _ = _stamped_bag(tmp_path / 'bag', measurement_factory, 10, 0)
+    writer._stream.flush()
+    with pytest.raises(BagWriteError, match='never finalized.*drive_logger reindex'):
+        BagWriter(tmp_path / 'bag')
+
+
+def test_which_types_carry_their_sample_sim_time():
+    from drive_logger.message_definitions import carries_sim_stamp, cdr_stamp_ns
+    from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
+    # every drive-graph type, also those whose .msg starts with constants (GateCommand, PlantState)
+    assert all(carries_sim_stamp(t) for t in GRAPH_TOPIC_TYPES.values())
+    # stamped by the publishing node's (wall) clock: not sim time
+    assert not carries_sim_stamp('rcl_interfaces/msg/ParameterEvent')
+    assert not carries_sim_stamp('rcl_interfaces/msg/Log')
+    from dtc_msgs.msg import GateCommand
+    from rosgraph_msgs.msg import Clock
+    gate = GateCommand(step=7)
+    gate.header.stamp.sec, gate.header.stamp.nanosec = 2, 5
+    assert cdr_stamp_ns(serialize_message(gate)) == 2_000_000_005
+    assert cdr_stamp_ns(serialize_message(Clock(clock=gate.header.stamp))) == 2_000_000_005
+
+
+def test_unstamped_messages_wait_for_the_sim_time_their_wake_up_reached(tmp_path, measurement_factory):
+    from drive_logger.bag_writer import SimTimeLog
+    from rcl_interfaces.msg import ParameterEvent
+    writer = BagWriter(tmp_path / 'bag')
+    meas = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'))
+    events = writer.add_topic('/parameter_events', type_definition('rcl_interfaces/msg/ParameterEvent'))
+    log = SimTimeLog(writer)
+    event = ParameterEvent(node='/dtc_controller')
+    event.stamp.sec = 1_795_000_000                          # a node's wall clock: not used
+    log.write(meas, serialize_message(measurement_factory(3)), stamped=True)
+    log.write(events, serialize_message(event), stamped=False)   # taken before sample 4 in this wake-up
+    log.write(meas, serialize_message(measurement_factory(4)), stamped=True)
+    log.end_of_wakeup()
+    log.write(events, serialize_message(event), stamped=False)
+    log.end_of_wakeup()
+    writer.close()
+    times = [(m.topic, m.log_time, m.publish_time) for m in BagReader(tmp_path / 'bag').messages()]
+    assert sorted(times) == sorted([('/drive/measurement', 75_000, 75_000), ('/drive/measurement', 100_000, 100_000),
+                                    ('/parameter_events', 100_000, 100_000), ('/parameter_events', 100_000, 100_000)])

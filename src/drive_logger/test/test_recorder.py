@@ -151,7 +151,48 @@ def test_sigterm_finalizes_too(ros_session, start_node, tmp_path, measurement_fa
     time.sleep(0.5)
     assert _stop(recorder, signal.SIGTERM) == 0
     from drive_logger.bag_reader import BagReader
-    assert [m.log_time > 0 for m in BagReader(bag).messages()] == [True] * 100
+    # sim-time log times (the default): each message at its header stamp, sample k at k * 25 us
+    assert [(m.log_time, m.publish_time) for m in BagReader(bag).messages()] == [(k * 25_000,) * 2 for k in range(100)]
+
+
+def test_wall_log_times_and_flushed_messages_survive_sigkill(ros_session, start_node, tmp_path, measurement_factory):
+    from drive_common.harness import wait_until
+    from drive_logger.bag_reader import BagReader, intact_messages
+    from drive_logger.bag_reindex import reindex
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['drive/measurement'], log_time='wall', flush_period=0.2)
+    node = ros_session.node('publisher')
+    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_for_recorder(node, ['drive/measurement'], timeout=20.0)
+    before = time.time_ns()
+    for k in range(100):
+        pub.publish(measurement_factory(k))
+
+    def flushed() -> int:
+        with open(bag / 'bag_0.mcap', 'rb') as stream:
+            return sum(1 for _ in intact_messages(stream, [], 'bag_0.mcap'))
+    wait_until(lambda: flushed() == 100, timeout=30.0)   # the recorder flushes on its own, no stop needed
+    after = time.time_ns()
+    assert _stop(recorder, signal.SIGKILL) == -signal.SIGKILL
+    assert not (bag / 'metadata.yaml').exists()
+    assert reindex(bag).message_count == 100
+    reader = BagReader(bag)
+    assert reader.log_time_source == 'wall'
+    messages = list(reader.messages())
+    assert [reader.decode(m).step for m in messages] == list(range(100))
+    assert all(before <= m.publish_time <= m.log_time <= after for m in messages)
+
+
+def test_unknown_log_time_and_restart_on_a_killed_bag_are_refused(start_node, tmp_path, measurement_factory):
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, log_time='gps')
+    assert recorder.process.wait(timeout=20) == 2
+    assert "log_time: 'gps'" in recorder.output() and not bag.exists()
+    bag.mkdir()
+    (bag / 'bag_0.mcap').write_bytes(b'\x89MCAP0\r\n')   # what a recorder killed at once leaves
+    recorder = _start_recorder(start_node, bag)
+    assert recorder.process.wait(timeout=20) == 2
+    assert 'never finalized' in recorder.output() and f'ros2 run drive_logger reindex {bag}' in recorder.output()
 
 
 def test_existing_output_directory_is_refused(start_node, tmp_path):
