@@ -50,8 +50,10 @@ def plot_study(study, table, out_dir: Path, dpi: int = 80) -> list[Path]:
                 image = ax.imshow(grid.values, origin='lower', aspect='auto', cmap='viridis')
                 ax.set_xticks(range(len(grid.columns)), [f'{v:.3g}' for v in grid.columns])
                 ax.set_yticks(range(len(grid.index)), [f'{v:.3g}' for v in grid.index])
+                middle = np.nanmean(grid.values)
                 for (i, j), value in np.ndenumerate(grid.values):
-                    ax.text(j, i, f'{value:.3g}', ha='center', va='center', fontsize=7, color='w')
+                    ax.text(j, i, f'{value:.3g}', ha='center', va='center', fontsize=7,
+                            color='k' if value > middle else 'w')
                 fig.colorbar(image, ax=ax, label=metric)
             else:
                 for label, group in data.groupby(y):

@@ -5,10 +5,6 @@ separate program; one test kills a worker once the study is under way and
 checks that every point is still in the results exactly once.
 """
 import json
-import os
-import shutil
-import signal
-import socket
 import subprocess
 import sys
 import textwrap
@@ -17,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from drive_bringup.dask_programs import DaskPrograms
 from drive_bringup.study import JOURNAL, load_study
 from drive_common.harness import wait_until
 
@@ -33,63 +30,10 @@ STUDY = '''
 '''
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-def dask_program() -> str:
-    path = shutil.which('dask', path=str(Path(sys.executable).parent) + os.pathsep + os.environ['PATH'])
-    if path is None:
-        pytest.fail('the dask command (from the pinned dask package) is not installed')
-    return path
-
-
-class Cluster:
-    """A scheduler and named workers, each its own process group (ended by pid)."""
-
-    def __init__(self, tmp_path: Path, workers: int = 2) -> None:
-        self.port = free_port()
-        self.address = f'tcp://127.0.0.1:{self.port}'
-        self.logs = tmp_path
-        self.procs = {}
-        self._start('scheduler', 'scheduler', '--host', '127.0.0.1', '--port', str(self.port),
-                    '--no-dashboard')
-        for i in range(workers):
-            self._start(f'worker{i}', 'worker', self.address, '--nworkers', '1', '--nthreads', '1',
-                        '--no-nanny', '--no-dashboard', '--name', f'worker{i}',
-                        '--local-directory', str(tmp_path / f'worker{i}'))
-        from distributed import Client
-        with Client(self.address, timeout='60s') as client:
-            wait_until(lambda: len(client.scheduler_info()['workers']) == workers, timeout=120.0)
-
-    def _start(self, name: str, *args: str) -> None:
-        log = open(self.logs / f'{name}.log', 'w')
-        self.procs[name] = subprocess.Popen([dask_program(), *args], stdout=log, stderr=subprocess.STDOUT,
-                                            start_new_session=True)
-
-    def kill(self, name: str) -> None:
-        os.killpg(self.procs[name].pid, signal.SIGKILL)
-        self.procs[name].wait()
-
-    def close(self) -> None:
-        for proc in self.procs.values():
-            if proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGTERM)
-        for proc in self.procs.values():
-            try:
-                proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait()
-
-
 @pytest.fixture
 def cluster(tmp_path):
-    c = Cluster(tmp_path)
-    yield c
-    c.close()
+    with DaskPrograms(tmp_path / 'cluster', workers=2) as programs:
+        yield programs
 
 
 def start_study(tmp_path, cluster, duration: float, values: list[float]):
@@ -116,7 +60,7 @@ def test_study_runs_on_a_separately_started_cluster(tmp_path, cluster):
     assert set(table['status']) == {'ok'}
     workers = set(table['worker'])
     assert all(w.split(':')[-1].isdigit() for w in workers)
-    assert {str(p.pid) for p in cluster.procs.values()} >= {w.split(':')[-1] for w in workers}
+    assert {str(cluster.pid(f'worker{i}')) for i in range(2)} >= {w.split(':')[-1] for w in workers}
 
 
 def test_killing_a_worker_mid_study_still_runs_every_point_once(tmp_path, cluster):
@@ -135,4 +79,4 @@ def test_killing_a_worker_mid_study_still_runs_every_point_once(tmp_path, cluste
     assert sorted(r['key'] for r in rows) == sorted(p.key for p in study.points)   # each once
     table = pd.read_parquet(out / 'results.parquet')
     assert len(table) == len(values) and set(table['status']) == {'ok'}
-    assert str(cluster.procs['worker1'].pid) in {w.split(':')[-1] for w in table['worker']}
+    assert str(cluster.pid('worker1')) in {w.split(':')[-1] for w in table['worker']}
