@@ -65,6 +65,7 @@ import yaml
 from drive_bringup.report import evaluate_metrics, metric_function   # the metric registry (one place)
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario, node_schema, resolve_package_path)
+from drive_bringup.scenario import _mapping, _number  # the same value checks as scenarios
 from drive_common.parameters import ParameterError
 
 TOP_KEYS = {'name', 'description', 'scenario', 'duration', 'set', 'parameters', 'sampling',
@@ -77,7 +78,7 @@ JOURNAL = 'points.jsonl'
 SOURCE_ROOT = str(Path(__file__).resolve().parents[2])
 
 
-class StudyError(ValueError):
+class StudyError(ScenarioError):
     """A study file is malformed; the message names file, key and reason."""
 
 
@@ -122,12 +123,6 @@ class Study:
 
 def _fail(path: Path, key: str, reason: str) -> StudyError:
     return StudyError(f'{path}: {key}: {reason}')
-
-
-def _number(value, path: Path, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise _fail(path, key, f'expected a finite number, got {value!r}')
-    return float(value)
 
 
 def _count(value, path: Path, key: str, minimum: int = 1) -> int:
@@ -309,17 +304,17 @@ def sample(axes: list[Axis], sampling: str, samples: int = 0, seed: int = 0) -> 
     return [{a.name: float(columns[j][i]) for j, a in enumerate(axes)} for i in range(samples)]
 
 
-def _mapping(raw, path: Path, key: str) -> dict:
-    if raw is None:
-        return {}
-    if not isinstance(raw, dict):
-        raise _fail(path, key, f'expected a mapping, got {type(raw).__name__}')
-    return raw
-
-
 def load_study(path: str | Path) -> Study:
     """Load and validate a study file and every point of it; raise StudyError naming what is wrong."""
-    path = Path(path)
+    try:
+        return _load_study(Path(path))
+    except StudyError:
+        raise
+    except ScenarioError as exc:        # from the value checks shared with scenarios
+        raise StudyError(str(exc)) from exc
+
+
+def _load_study(path: Path) -> Study:
     try:
         raw = yaml.safe_load(path.read_text())
     except OSError as exc:
