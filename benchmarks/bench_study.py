@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 from drive_bringup.dask_programs import DaskPrograms
-from drive_bringup.study import close_client, load_study, open_client, run_point, run_study
+from drive_bringup.study import dask_client, load_study, run_point, run_study
 from drive_bringup.study_cli import find_study
 
 
@@ -74,11 +74,8 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        client = open_client(workers=args.workers)
-        try:
+        with dask_client(workers=args.workers) as client:
             local = clustered(study, tmp / 'local', client, args.workers)
-        finally:
-            close_client(client)
         with DaskPrograms(tmp / 'programs', workers=args.workers) as programs:
             from distributed import Client
             with Client(programs.address) as client:

@@ -53,11 +53,12 @@ import re
 import socket
 import subprocess
 import time
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from itertools import product
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 import yaml
@@ -502,23 +503,18 @@ class StudyRun:
     files: list[Path] = field(default_factory=list)
 
 
-def open_client(scheduler: str | None = None, workers: int | None = None):
-    """A dask.distributed Client: on the cluster at ``scheduler``, else on a new LocalCluster."""
+@contextmanager
+def dask_client(scheduler: str | None = None, workers: int | None = None) -> Iterator:
+    """A dask.distributed Client: on the cluster at ``scheduler``, else on a new LocalCluster
+    of ``workers`` single-threaded worker processes (default: one per core), closed on exit."""
     from distributed import Client, LocalCluster
     if scheduler:
-        return Client(scheduler, timeout='30s')
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=None)
-    client = Client(cluster)
-    client._study_cluster = cluster                 # closed with the client (close_client)
-    return client
-
-
-def close_client(client) -> None:
-    cluster = getattr(client, '_study_cluster', None)
-    client.close()
-    if cluster is not None:
-        cluster.close()
+        with Client(scheduler, timeout='30s') as client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                      processes=True, dashboard_address=None) as cluster, Client(cluster) as client:
+        yield client
 
 
 def run_study(study: Study, out_dir: str | Path, *, scheduler: str | None = None,
@@ -541,33 +537,30 @@ def run_study(study: Study, out_dir: str | Path, *, scheduler: str | None = None
     todo = list({p.key: p for p in todo}.values())          # a point listed twice runs once
     revision = git_revision()
     if todo:
-        own = client is None
-        client = open_client(scheduler, workers) if own else client
-        try:
+        with ExitStack() as stack:
+            if client is None:
+                client = stack.enter_context(dask_client(scheduler, workers))
             futures = client.map(partial(run_point, timeout=study.timeout), todo, pure=False,
                                  key=[f'study-{study.name}-{p.key}-{time.time_ns()}' for p in todo])
             point_of = {f.key: p for f, p in zip(futures, todo)}
-            with open(out_dir / JOURNAL, 'a') as journal, \
-                    tqdm(total=len(todo), desc=study.name, unit='point', disable=not progress,
-                         dynamic_ncols=True) as bar:
-                for future in as_completed(futures):
-                    point = point_of[future.key]
-                    try:
-                        row = future.result()
-                    except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded, not raised
-                        row = {'key': point.key, 'repeat': point.repeat, **point.values,
-                               'status': 'error', 'reason': f'{type(exc).__name__}: {exc}',
-                               'wall_time_s': math.nan, 'worker': ''}
-                    row['git_revision'] = revision
-                    journal.write(json.dumps(row, default=_scalar) + '\n')
-                    journal.flush()
-                    os.fsync(journal.fileno())
-                    done[point.key] = row
-                    bar.update(1)
-                    future.release()
-        finally:
-            if own:
-                close_client(client)
+            journal = stack.enter_context(open(out_dir / JOURNAL, 'a'))
+            bar = stack.enter_context(tqdm(total=len(todo), desc=study.name, unit='point',
+                                           disable=not progress, dynamic_ncols=True))
+            for future in as_completed(futures):
+                point = point_of[future.key]
+                try:
+                    row = future.result()
+                except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded, not raised
+                    row = {'key': point.key, 'repeat': point.repeat, **point.values,
+                           'status': 'error', 'reason': f'{type(exc).__name__}: {exc}',
+                           'wall_time_s': math.nan, 'worker': ''}
+                row['git_revision'] = revision
+                journal.write(json.dumps(row, default=_scalar) + '\n')
+                journal.flush()
+                os.fsync(journal.fileno())
+                done[point.key] = row
+                bar.update(1)
+                future.release()
     table = results_table(study, done)
     files = write_results(study, table, out_dir, plots=plots)
     return StudyRun(table, out_dir, len(todo), len(study.points) - len(todo),
