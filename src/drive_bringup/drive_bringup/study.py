@@ -467,11 +467,11 @@ def run_point(point: Point, timeout: float = 600.0) -> dict[str, Any]:
 # ---- the study on Dask ----------------------------------------------------------------------
 
 def git_revision() -> str:
-    """The project's git revision (short hash, '-dirty' with uncommitted changes), or 'unknown'."""
+    """The project's git revision (short hash; '-dirty' with uncommitted changes to src/), or 'unknown'."""
     try:
         rev = subprocess.run(['git', 'rev-parse', '--short=12', 'HEAD'], cwd=SOURCE_ROOT,
                              capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(['git', 'status', '--porcelain', '--untracked-files=no'],
+        dirty = subprocess.run(['git', 'status', '--porcelain', '--untracked-files=no', '--', '.'],
                                cwd=SOURCE_ROOT, capture_output=True, text=True).stdout.strip()
         return rev + ('-dirty' if dirty else '')
     except (OSError, subprocess.CalledProcessError):
