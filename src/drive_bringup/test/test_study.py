@@ -166,3 +166,23 @@ def test_shipped_studies_validate():
     assert len(paths) >= 2
     for path in paths:
         assert load_study(path).points
+
+
+def test_cli_on_a_local_cluster_records_a_protection_trip_and_samples_randomly(tmp_path):
+    raw = yaml.safe_load(textwrap.dedent(BASE))
+    raw['parameters'] = [
+        {'name': 'peak_current_A', 'targets': ['plant.protection.peak_current'], 'min': 0.2, 'max': 40.0,
+         'log': True},
+        {'name': 'load_N_m', 'targets': ['plant.load.torque'], 'min': 0.0, 'max': 0.3}]
+    raw.update(sampling='random', samples=4, seed=7)
+    path = write(tmp_path, yaml.safe_dump(raw))
+    study = load_study(path)
+    out = tmp_path / 'out'
+    proc = subprocess.run([sys.executable, '-m', 'drive_bringup.study_cli', str(path), '--workers', '1',
+                           '--out', str(out), '--no-progress'], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    table = pd.read_parquet(out / 'results.parquet')
+    assert list(table['key']) == [p.key for p in study.points]
+    expected = ['protection_trip' if p.values['peak_current_A'] < 2.0 else 'ok' for p in study.points]
+    assert list(table['status']) == expected and set(expected) == {'ok', 'protection_trip'}
+    assert f'protection_trip {expected.count("protection_trip")}' in proc.stdout   # the summary
