@@ -12,6 +12,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/scenarios', glob('scenarios/*')),
+        ('share/' + package_name + '/studies', glob('studies/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
@@ -24,6 +25,7 @@ setup(
         'console_scripts': [
             'run_scenario = drive_bringup.runner_cli:main',
             'reproduce = drive_bringup.reproduce:main',
+            'study = drive_bringup.study_cli:main',
         ],
     },
 )

@@ -56,8 +56,11 @@ class HeadlessResult:
         return path
 
 
-def run_headless(scenario: Scenario, record_every: int | None = None) -> HeadlessResult:
-    """Run the scenario's cores for its duration, events at their exact times."""
+def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=None) -> HeadlessResult:
+    """Run the scenario's cores for its duration, events at their exact times.
+
+    on_tick: optional callable(cosim) before each tick (a study's per-point deadline raises from it).
+    """
     snapshots = {k: dict(v) for k, v in scenario.node_parameters.items()}
     plant_params = dict(snapshots['plant'])
     plant_params['pfc_enabled'] = 'pfc_controller' in snapshots
@@ -67,7 +70,7 @@ def run_headless(scenario: Scenario, record_every: int | None = None) -> Headles
         p = plant.params
         period = p['state_period'] if p['state_period'] > 0 else p['dtc_period']
         record_every = ticks_of(period, plant.base_tick, 'state_period')
-    cosim = CoSimulation(plant, dtc, pfc, record_every=record_every)
+    cosim = CoSimulation(plant, dtc, pfc, record_every=record_every, on_tick=on_tick)
     cores = {'plant': plant, 'dtc_controller': dtc, 'pfc_controller': pfc}
     for event in scenario.events:
         if event.time > plant.time:
