@@ -55,7 +55,7 @@ def _good_text(tab):
     (lambda t: t.replace('# points: 36', '# points: 37'), 'points: 37'),
     (lambda t: t.replace('# pole_pairs: 2\n', ''), 'pole_pairs'),
     (lambda t: t.rstrip('\n').rsplit('\n', 1)[0] + '\n', 'rows'),
-    (lambda t: t.replace(HEADER + '\n', HEADER + '\nfoo\n', 1), 'line'),
+    (lambda t: t.replace(HEADER + '\n', HEADER + '\nfoo\n', 1), 'cells'),
 ])
 def test_malformed_file_names_file_and_problem(tmp_path, mutate, problem):
     p = _write(tmp_path, mutate(_good_text(make_table(points=36))))

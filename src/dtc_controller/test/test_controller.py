@@ -206,3 +206,25 @@ def test_closed_loop_four_switch_tracks_torque_and_keeps_ic_small(rotation):
     assert len(signed) > 100
     assert abs(sum(signed) / len(signed)) < 0.1
     assert sum(i_c_split) / len(i_c_split) < 0.35  # vs. about 2.2 A in phases a and b
+
+
+def test_check_validates_a_change_without_rebuilding_or_rereading_the_table(tmp_path, monkeypatch):
+    from dtc_controller.core.backemf_table import BackEmfTable
+    path = tmp_path / 'table.csv'
+    make_table('trapezoid').write(path)
+    core = DtcCore({'backemf_table_path': str(path)})
+    mode, params = core.mode, dict(core.params)
+    loads = []
+    original = BackEmfTable.load
+    monkeypatch.setattr(BackEmfTable, 'load', classmethod(lambda cls, *a, **k: loads.append(a) or original(*a, **k)))
+    checked = core.check({'torque_reference': 0.5, 'mode': 'two_phase_four_switch'})
+    assert checked['torque_reference'] == 0.5 and checked['mode'] == 'two_phase_four_switch'
+    assert loads == []                                # same file and motor: the loaded table is reused
+    assert core.mode is mode and core.params == params   # nothing applied
+    with pytest.raises(ParameterError):
+        core.check({'torque_band': -1.0})
+    with pytest.raises(ValueError, match='needs a back-EMF table'):
+        core.check({'backemf_table_path': ''})        # a two-phase mode without a table
+    with pytest.raises(ValueError, match='pole_pairs'):
+        core.check({'motor.pole_pairs': 3})           # the table is re-read for the new motor
+    assert len(loads) == 1 and core.params == params

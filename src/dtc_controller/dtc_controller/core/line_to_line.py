@@ -22,8 +22,10 @@ from __future__ import annotations
 
 import math
 
+from drive_common.signals import INV_SQRT3
+
 from .backemf_table import BackEmfTable, periodic_list
-from .transforms import INV_SQRT3, alpha_beta_from_line_to_line
+from .transforms import alpha_beta_from_line_to_line
 
 _PI6 = math.pi / 6.0
 _TWO_THIRDS = 2.0 / 3.0

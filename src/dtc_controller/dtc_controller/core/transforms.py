@@ -1,55 +1,11 @@
-"""Reference-frame transforms (docs/architecture.md conventions), scalar and fast.
+"""The controller's own frame helpers: Clarke from line-to-line quantities,
+current reconstruction (docs/architecture.md conventions; plain floats, no numpy per sample).
 
-Clarke, amplitude-invariant (the dissertation's eq. (1.21) scaled by 2/3):
-``x_alpha = (2 x_a - x_b - x_c) / 3``, ``x_beta = (x_b - x_c) / sqrt(3)``.
-Park: ``x_d = x_alpha cos(theta) + x_beta sin(theta)``,
-``x_q = -x_alpha sin(theta) + x_beta cos(theta)``.
-All functions take and return plain floats (no numpy per sample).
+Clarke/Park themselves, the angle wrap and the constants live in :mod:`drive_common.signals`.
 """
 from __future__ import annotations
 
-import math
-
-TWO_PI = 2.0 * math.pi
-SQRT3 = math.sqrt(3.0)
-INV_SQRT3 = 1.0 / SQRT3
-PHASE_SHIFT = (0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0)
-"""rad: phase x quantities are functions of theta_e - PHASE_SHIFT[x] (a, b, c)."""
-
-
-def clarke(x_a: float, x_b: float, x_c: float) -> tuple[float, float]:
-    """(alpha, beta) of a three-phase set (amplitude-invariant; zero sequence dropped)."""
-    return (2.0 * x_a - x_b - x_c) / 3.0, (x_b - x_c) * INV_SQRT3
-
-
-def clarke_balanced(x_a: float, x_b: float) -> tuple[float, float]:
-    """(alpha, beta) from two phases of a zero-sum set (x_c = -x_a - x_b)."""
-    return x_a, (x_a + 2.0 * x_b) * INV_SQRT3
-
-
-def inverse_clarke(x_alpha: float, x_beta: float) -> tuple[float, float, float]:
-    """(a, b, c) of an alpha/beta pair with zero zero-sequence."""
-    h = 0.5 * SQRT3 * x_beta
-    return x_alpha, -0.5 * x_alpha + h, -0.5 * x_alpha - h
-
-
-def park(x_alpha: float, x_beta: float, theta: float) -> tuple[float, float]:
-    """(d, q) in the frame at electrical angle theta [rad]."""
-    c = math.cos(theta)
-    s = math.sin(theta)
-    return x_alpha * c + x_beta * s, -x_alpha * s + x_beta * c
-
-
-def inverse_park(x_d: float, x_q: float, theta: float) -> tuple[float, float]:
-    """(alpha, beta) of a d/q pair in the frame at theta [rad]."""
-    c = math.cos(theta)
-    s = math.sin(theta)
-    return x_d * c - x_q * s, x_d * s + x_q * c
-
-
-def line_to_line_constants(k_a: float, k_b: float, k_c: float) -> tuple[float, float]:
-    """(k_ba, k_ca) = (k_b - k_a, k_c - k_a): the dissertation's measured line-to-line pair."""
-    return k_b - k_a, k_c - k_a
+from drive_common.signals import INV_SQRT3
 
 
 def alpha_beta_from_line_to_line(x_ba: float, x_ca: float) -> tuple[float, float]:
@@ -61,16 +17,6 @@ def alpha_beta_from_line_to_line(x_ba: float, x_ca: float) -> tuple[float, float
     transformation (2.17), which uses another scaling.
     """
     return -(x_ba + x_ca) / 3.0, (x_ba - x_ca) * INV_SQRT3
-
-
-def wrap_angle(theta: float) -> float:
-    """theta wrapped to [0, 2 pi) rad."""
-    theta = math.fmod(theta, TWO_PI)
-    if theta < 0.0:
-        theta += TWO_PI
-    if theta >= TWO_PI:  # fmod of a tiny negative number
-        theta = 0.0
-    return theta
 
 
 def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, float, float]:

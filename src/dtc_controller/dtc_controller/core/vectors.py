@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
-from .transforms import INV_SQRT3
+from drive_common.signals import INV_SQRT3
 
 HIGH, LOW, OPEN, MIDPOINT = 'H', 'L', 'O', 'M'
 PHASES = ('a', 'b', 'c')
