@@ -15,8 +15,9 @@ import functools
 
 import pytest
 
+from drive_analysis.registry import lookup
 from drive_bringup.headless import run_headless
-from drive_bringup.report import evaluate_metrics, metric_function
+from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import Event, find_scenario, load_scenario
 
 PFC_SCENARIOS = ('pfc_without_pfc_fig_3_4', 'pfc_no_load_fig_3_5', 'pfc_load_fig_3_6',
@@ -56,9 +57,9 @@ def test_shipped_scenarios_are_complete(name):
         'ozturk_bldc_backemf.csv')
     assert ('pfc_controller' in sc.node_parameters) == (name != 'pfc_without_pfc_fig_3_4')
     for label, options in sc.metrics.items():
-        metric_function((options or {}).get('metric', label))
+        lookup((options or {}).get('metric', label))
     for check in sc.checks:
-        metric_function((sc.metrics.get(check.metric) or {}).get('metric', check.metric))
+        lookup((sc.metrics.get(check.metric) or {}).get('metric', check.metric))
 
 
 def test_without_pfc_the_rectifier_current_is_distorted():

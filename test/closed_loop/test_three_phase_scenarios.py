@@ -3,7 +3,7 @@
 Each test loads a scenario file from drive_bringup/scenarios, shortens it (the
 full-length runs are the reproduction command's job: run_scenario / report),
 runs it through run_headless and checks the behaviour with physics bounds
-using the metrics of drive_bringup.metrics_three_phase. The metric functions
+using the metrics of drive_analysis.metrics.three_phase and .ripple. The metric functions
 themselves are pinned first on synthetic signals with known answers.
 """
 from __future__ import annotations
@@ -16,9 +16,11 @@ import pytest
 
 pytest.importorskip('bldc_plant_sim.core.cosim')
 
-from drive_bringup import metrics_three_phase as m  # noqa: E402
+from drive_analysis.metrics import ripple  # noqa: E402
+from drive_analysis.metrics import three_phase as m  # noqa: E402
+from drive_analysis.registry import lookup  # noqa: E402
 from drive_bringup.headless import run_headless  # noqa: E402
-from drive_bringup.report import check_rows, evaluate_metrics, metric_function  # noqa: E402
+from drive_bringup.report import check_rows, evaluate_metrics  # noqa: E402
 from drive_bringup.scenario import Event, find_scenario, load_scenario, scenario_dir  # noqa: E402
 
 MINE = sorted(p.stem for pat in ('three_phase_*.yaml', 'fstp_*.yaml', 'sstp_*.yaml')
@@ -43,8 +45,8 @@ def test_shipped_scenarios_are_valid_and_name_known_metrics():
         sc = load_scenario(find_scenario(name))
         assert sc.name == name and sc.seed_reference and sc.description and sc.checks
         for metric in set(sc.metrics) | {c.metric for c in sc.checks}:
-            fn = metric_function((sc.metrics.get(metric) or {}).get('metric', metric))   # aliases
-            assert fn.__module__ == 'drive_bringup.metrics_three_phase', (name, metric)
+            fn = lookup((sc.metrics.get(metric) or {}).get('metric', metric))   # aliases
+            assert fn.__module__ in ('drive_analysis.metrics.three_phase', 'drive_analysis.metrics.ripple'), (name, metric)
 
 
 # ---------------------------------------------------------------------------- metrics on known signals
@@ -74,7 +76,7 @@ def test_metrics_on_synthetic_signals():
     assert m.current_imbalance(a) == pytest.approx(0.2 / 2.1, rel=1e-6)
     assert m.current_thd_percent(a) == pytest.approx(10.0, rel=1e-6)          # eq. (39): 5th at 10 %
     assert m.current_thd_percent(a, max_order=4) == pytest.approx(0.0, abs=1e-6)
-    assert m.torque_ripple_factor_percent(a) == pytest.approx(20.0, rel=1e-3)  # eq. (40): 0.06 / 0.3
+    assert ripple.torque_ripple_factor_median_period_percent(a) == pytest.approx(20.0, rel=1e-3)  # eq. (40): 0.06 / 0.3
     assert m.predicted_minus_actual_torque_pct(a) == pytest.approx(5.0, rel=1e-9)
     assert m.angle_error_rms_deg(a) == pytest.approx(3.0 / math.sqrt(2), rel=1e-3)
     assert m.angle_error_max_deg(a) == pytest.approx(3.0, rel=1e-3)
@@ -142,7 +144,7 @@ def fstp_runs():
                     'offset': m.predicted_minus_actual_torque_pct(a, **w),
                     'torque': m.true_torque_mean_N_m(a, **w),
                     'thd': m.current_thd_percent(a, **w),
-                    'trf': m.torque_ripple_factor_percent(a, **w),
+                    'trf': ripple.torque_ripple_factor_median_period_percent(a, **w),
                     'speed': m.mean_mechanical_speed_rad_s(a, **w)}
     return out
 

@@ -1,6 +1,6 @@
 """Signal maths shared by the cores and the analysis (pure Python / numpy, no ROS).
 
-Frames (docs/architecture.md "Frames and angles"): amplitude-invariant
+Frames (docs/architecture.md "Conventions"): amplitude-invariant
 Clarke ``x_alpha = (2 x_a - x_b - x_c) / 3``, ``x_beta = (x_b - x_c) / sqrt(3)``
 (000 eq. (1.21) scaled by 2/3); Park ``x_d = x_alpha cos(theta) + x_beta sin(theta)``,
 ``x_q = -x_alpha sin(theta) + x_beta cos(theta)``. The scalar functions take

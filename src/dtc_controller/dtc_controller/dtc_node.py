@@ -1,7 +1,7 @@
 """The ``dtc_controller`` node: a thin lockstep wrapper over DtcCore.
 
 Answers each ``drive/measurement`` with a ``drive/gate_command`` for the
-same step and publishes ``dtc/status`` (docs/architecture.md "Lockstep", "DTC modes").
+same step and publishes ``dtc/status`` (docs/architecture.md "Time and lockstep", "DTC modes").
 Parameters are declared once from :data:`dtc_controller.parameters.SCHEMA` and a
 change is validated by ``DtcCore.check`` (no throw-away core); references,
 bands and gains act at the next sample; a change of ``mode`` (or of any

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from drive_logger.analysis import metrics
+from drive_analysis import summary as metrics
 
 
 def test_thd_of_known_harmonics_eq39():
@@ -28,7 +28,7 @@ def test_fundamental_frequency_and_balance():
 
 def test_trf_eq40_and_ripple():
     torque = 0.3 + 0.015 * np.sin(np.linspace(0, 12 * np.pi, 6000, endpoint=False))
-    assert metrics.torque_ripple_factor_percent(torque, 0.3) == pytest.approx(0.03 / 0.3 * 100, rel=1e-3)
+    assert metrics.torque_ripple_factor_window_percent(torque, 0.3) == pytest.approx(0.03 / 0.3 * 100, rel=1e-3)
     r = metrics.ripple(torque)
     assert r['peak_to_peak'] == pytest.approx(0.03, rel=1e-3)
     assert r['rms_deviation'] == pytest.approx(0.015 / math.sqrt(2), rel=1e-2)

@@ -1,14 +1,16 @@
 """Metrics of the two-phase BLDC DTC results (000 ch. II and IV), pure numpy.
 
 Every metric takes the arrays dict of
-:meth:`drive_bringup.headless.HeadlessResult.arrays` -- plant ground truth
+the flat arrays dict (:mod:`drive_analysis.arrays`) -- plant ground truth
 as ``'plant/state.<field>'`` (one row per recorded plant tick, the last row
 is the final state) and controller internals as ``'dtc/status.<field>'``
 (one row per controller sample) -- plus keyword options, and returns a
 float (NaN when the window holds no data). Controller and plant rows are
 paired by their ``step`` (the status of step k and the plant state at t_k).
 Options ``t_start`` / ``t_end`` [s] restrict a metric to a time window
-(default: the whole run). ``RATED_TORQUE`` = 1.28352 N m (000 App. A).
+(default: the whole run); windows and pairing: :mod:`drive_analysis.arrays`.
+Rated torque: ``RATED_TORQUE_000`` (000 App. A). The torque ripple metrics
+are in :mod:`drive_analysis.metrics.ripple`.
 
 Definitions (the names are the ``metric:`` keys of the scenarios' checks):
 
@@ -24,15 +26,6 @@ Definitions (the names are the ``metric:`` keys of the scenarios' checks):
     ``dtc/status.torque_reference``. Hysteresis with a band far below the
     per-sample torque step (0.001 N m vs about 0.1 N m at 25 us) leaves a
     small offset of this mean.
-``high_frequency_torque_ripple_pct_rated``
-    Standard deviation of (T_true - its moving average over ``window``
-    [s], default 1 ms) in % of rated torque: the switching ripple.
-``low_frequency_torque_ripple_pct_rated``
-    Peak-to-peak of the moving average over ``window`` (default 1 ms,
-    many switching periods but well below a 60-degree commutation
-    interval) of T_true within the window, in % of rated torque: the
-    commutation-rate torque oscillation that eq. (2.16) with an encoder is
-    meant to suppress (000 Fig. 2.10).
 ``rise_time_s``
     Torque response to the largest step of T* inside the window: time from
     the step (first controller sample with the new reference) to the first
@@ -78,68 +71,19 @@ import math
 
 import numpy as np
 
-RATED_TORQUE = 1.28352          # N m, 000 Appendix A
+from drive_analysis.arrays import Arrays, field, mean_or_nan, paired, samples_in
+
+from . import RATED_TORQUE_000
+
 PROTECTION_MOTOR_OVER_CURRENT = 1
-
-Arrays = dict
-
-
-def _window(t: np.ndarray, t_start: float | None, t_end: float | None) -> np.ndarray:
-    lo = -math.inf if t_start is None else t_start
-    hi = math.inf if t_end is None else t_end
-    return (t >= lo - 1e-12) & (t <= hi + 1e-12)
-
-
-def paired(arrays: Arrays, t_start: float | None = None, t_end: float | None = None) -> dict:
-    """Plant rows at the controller samples: {'time', 'plant.<f>', 'dtc.<f>'} over the window."""
-    p_step = arrays['plant/state.step'].astype(np.int64)
-    d_step = arrays['dtc/status.step'].astype(np.int64)
-    index = {int(s): j for j, s in enumerate(p_step)}
-    rows_d = [j for j, s in enumerate(d_step) if int(s) in index]
-    rows_p = [index[int(d_step[j])] for j in rows_d]
-    t = arrays['plant/state.time'][rows_p]
-    keep = _window(t, t_start, t_end)
-    out = {'time': t[keep]}
-    for key, val in arrays.items():
-        if key.startswith('plant/state.'):
-            out['plant.' + key[len('plant/state.'):]] = val[rows_p][keep]
-        elif key.startswith('dtc/status.'):
-            out['dtc.' + key[len('dtc/status.'):]] = val[rows_d][keep]
-    return out
-
-
-def _plant(arrays: Arrays, name: str, t_start=None, t_end=None) -> np.ndarray:
-    keep = _window(arrays['plant/state.time'], t_start, t_end)
-    return arrays[f'plant/state.{name}'][keep]
-
-
-def _moving_average(x: np.ndarray, n: int) -> np.ndarray:
-    n = max(1, min(int(n), len(x)))
-    c = np.cumsum(np.concatenate(([0.0], x)))
-    return (c[n:] - c[:-n]) / n
-
-
-def _samples_in(time: np.ndarray, duration: float) -> int:
-    dt = float(np.median(np.diff(time))) if len(time) > 1 else 1.0
-    return max(1, int(round(duration / dt)))
 
 
 def _rms_pct_rated(err: np.ndarray, rated_torque: float) -> float:
     return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
 
 
-def _torque_and_moving_average(arrays: Arrays, t_start, t_end, window: float):
-    """(T_true, its moving average over ``window`` [s], samples per window), or None if too short."""
-    d = paired(arrays, t_start, t_end)
-    te = d['plant.electromagnetic_torque']
-    n = _samples_in(d['time'], window)
-    if len(te) <= n:
-        return None
-    return te, _moving_average(te, n), n
-
-
 def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
-                                          rated_torque: float = RATED_TORQUE) -> float:
+                                          rated_torque: float = RATED_TORQUE_000) -> float:
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
@@ -159,30 +103,11 @@ def mean_torque_error_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
 
 
 def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
-                                        rated_torque: float = RATED_TORQUE) -> float:
+                                        rated_torque: float = RATED_TORQUE_000) -> float:
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
     return _rms_pct_rated(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'], rated_torque)
-
-
-def high_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
-                                           rated_torque: float = RATED_TORQUE) -> float:
-    smoothed = _torque_and_moving_average(arrays, t_start, t_end, window)
-    if smoothed is None:
-        return math.nan
-    te, avg, n = smoothed
-    centred = te[n // 2: n // 2 + len(avg)]
-    return float(100.0 * np.std(centred - avg) / rated_torque)
-
-
-def low_frequency_torque_ripple_pct_rated(arrays: Arrays, t_start=None, t_end=None, window: float = 1e-3,
-                                          rated_torque: float = RATED_TORQUE) -> float:
-    smoothed = _torque_and_moving_average(arrays, t_start, t_end, window)
-    if smoothed is None:
-        return math.nan
-    avg = smoothed[1]
-    return float(100.0 * (avg.max() - avg.min()) / rated_torque)
 
 
 def rise_time_s(arrays: Arrays, t_start=None, t_end=None, fraction: float = 0.9,
@@ -199,7 +124,7 @@ def rise_time_s(arrays: Arrays, t_start=None, t_end=None, fraction: float = 0.9,
     level = before + fraction * (after - before)
     y = d[signal]
     if smoothing > 0.0:
-        n = _samples_in(d['time'], smoothing)
+        n = samples_in(d['time'], smoothing)
         c = np.cumsum(np.concatenate(([0.0], y)))
         lo = np.maximum(np.arange(len(y)) + 1 - n, 0)
         y = (c[1:] - c[lo]) / (np.arange(len(y)) + 1 - lo)
@@ -228,25 +153,24 @@ def phase_c_current_rms_other_sectors_A(arrays: Arrays, t_start=None, t_end=None
 
 
 def peak_phase_current_A(arrays: Arrays, t_start=None, t_end=None) -> float:
-    i = _plant(arrays, 'phase_current', t_start, t_end)
+    _, i = field(arrays, 'phase_current', t_start, t_end)
     return float(np.max(np.abs(i))) if i.size else math.nan
 
 
 def protection_tripped(arrays: Arrays, t_start=None, t_end=None) -> float:
-    prot = _plant(arrays, 'protection', t_start, t_end).astype(np.int64)
+    prot = field(arrays, 'protection', t_start, t_end)[1].astype(np.int64)
     return float(bool(np.any(prot & PROTECTION_MOTOR_OVER_CURRENT)))
 
 
 def trip_time_s(arrays: Arrays, t_start=None, t_end=None) -> float:
-    t = _plant(arrays, 'time', t_start, t_end)
-    prot = _plant(arrays, 'protection', t_start, t_end).astype(np.int64)
+    t, prot = field(arrays, 'protection', t_start, t_end)
+    prot = prot.astype(np.int64)
     hit = np.flatnonzero(prot & PROTECTION_MOTOR_OVER_CURRENT)
     return float(t[hit[0]]) if hit.size else math.nan
 
 
 def mean_speed_rad_s(arrays: Arrays, t_start=None, t_end=None) -> float:
-    w = _plant(arrays, 'mechanical_speed', t_start, t_end)
-    return float(np.mean(w)) if w.size else math.nan
+    return mean_or_nan(field(arrays, 'mechanical_speed', t_start, t_end)[1])
 
 
 def flux_dip_depth_Wb(arrays: Arrays, t_start=None, t_end=None) -> float:
@@ -262,32 +186,3 @@ def flux_dip_depth_ratio(arrays: Arrays, unloaded=(None, None), loaded=(None, No
     base = flux_dip_depth_Wb(arrays, *unloaded)
     return float(flux_dip_depth_Wb(arrays, *loaded) / base) if base > 0.0 else math.nan
 
-
-METRICS = {f.__name__: f for f in (
-    torque_estimation_rms_error_pct_rated, mean_torque_N_m, mean_torque_error_N_m,
-    torque_tracking_rms_error_pct_rated, high_frequency_torque_ripple_pct_rated,
-    low_frequency_torque_ripple_pct_rated, rise_time_s, phase_c_current_rms_sectors_2_5_A,
-    phase_c_current_rms_other_sectors_A, peak_phase_current_A, protection_tripped, trip_time_s,
-    mean_speed_rad_s, flux_dip_depth_Wb, flux_dip_depth_ratio)}
-"""Metric name -> function(arrays, **options) -> float."""
-
-
-def compute(arrays: Arrays, spec: dict | None = None, names=None) -> dict[str, float]:
-    """Evaluate metrics: ``spec`` is a scenario's ``metrics:`` mapping {name: {options}}.
-
-    A spec key may be ``<label>`` with option ``metric: <function name>`` to
-    evaluate one function with several option sets; ``names`` adds metrics
-    with default options. Unknown names raise KeyError.
-    """
-    out = {}
-    for label, options in (spec or {}).items():
-        options = dict(options or {})
-        fname = options.pop('metric', label)
-        for key in ('unloaded', 'loaded'):
-            if key in options:
-                options[key] = tuple(options[key])
-        out[label] = METRICS[fname](arrays, **options)
-    for name in names or ():
-        if name not in out:
-            out[name] = METRICS[name](arrays)
-    return out
