@@ -24,7 +24,7 @@ import numpy as np
 from drive_common.signals import TWO_PI, clarke, park
 
 __all__ = ['COLUMNS', 'HEADER', 'REQUIRED_COLUMNS', 'MIN_TABLE_ROWS', 'BackEmfTableError', 'TableFile',
-           'columns_from_phases', 'columns_from_line_to_line', 'read', 'write']
+           'columns_from_phases', 'columns_from_line_to_line', 'periodic_integral', 'periodic_list', 'read', 'write']
 
 COLUMNS = ('theta_e', 'k_a', 'k_b', 'k_c', 'k_ba', 'k_ca', 'k_alpha', 'k_beta', 'k_d', 'k_q')
 HEADER = ','.join(COLUMNS)
@@ -66,6 +66,23 @@ def columns_from_line_to_line(k_ba, k_ca) -> dict:
     cols = columns_from_phases(k_a, k_a + k_ba, k_a + k_ca)
     cols['k_ba'], cols['k_ca'] = k_ba, k_ca
     return cols
+
+
+def periodic_integral(k) -> np.ndarray:
+    """Zero-mean periodic integral over theta_e of samples on the grid 2 pi n / N, along the last axis.
+
+    Trapezoidal rule; the rotor flux psi_r [Wb] from k = d psi_r / d theta_e (000 eqs. (2.19), (E.1)).
+    """
+    k = np.asarray(k, dtype=float)
+    steps = 0.5 * (TWO_PI / k.shape[-1]) * (k + np.roll(k, -1, axis=-1))
+    cum = np.concatenate((np.zeros(k.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)[..., :-1]), axis=-1)
+    return cum - cum.mean(axis=-1, keepdims=True)
+
+
+def periodic_list(values) -> list:
+    """Python floats with a wrap-around copy of the first value (for linear, wrapped scalar lookups)."""
+    values = [float(v) for v in values]
+    return values + [values[0]]
 
 
 def _fail(path, line: int, reason: str) -> BackEmfTableError:

@@ -28,7 +28,6 @@ def test_linear_interpolation_and_wrap():
     assert tab.k_alpha_beta(11.5 * h)[0] == pytest.approx(0.5 * (kl + k0))
     assert tab.k_alpha_beta(-0.5 * h)[0] == pytest.approx(0.5 * (kl + k0))
     assert tab.k_abc(2 * math.pi + 0.3) == pytest.approx(tab.k_abc(0.3))
-    assert tab.interp('k_alpha', [11.5 * h])[0] == pytest.approx(0.5 * (kl + k0))
 
 
 def test_rotor_flux_is_integral_of_k(sine_table):

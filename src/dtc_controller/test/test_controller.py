@@ -228,3 +228,16 @@ def test_check_validates_a_change_without_rebuilding_or_rereading_the_table(tmp_
     with pytest.raises(ValueError, match='pole_pairs'):
         core.check({'motor.pole_pairs': 3})           # the table is re-read for the new motor
     assert len(loads) == 1 and core.params == params
+
+
+def test_modes_are_built_then_configured_and_reconfigured_in_place(trap_table):
+    from dtc_controller.core.modes import MODE_CLASSES, mode_class
+    params = SCHEMA.validate_changes(SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})
+    mode = mode_class('two_phase_four_switch').create(params, trap_table)
+    assert mode.split_now is mode.split_tables[1] and mode.hyst_a.band == pytest.approx(0.02 / 1000.0)
+    mode.configure(dict(params, rotation=-1, torque_band=0.04))
+    assert mode.split_now is mode.split_tables[-1] and mode.table_now is mode.tables[-1]
+    assert mode.hyst_a.band == pytest.approx(0.04 / 1000.0) and mode.torque_hyst.band == 0.04
+    assert set(MODE_CLASSES) == set(SCHEMA['mode'].choices)
+    with pytest.raises(ValueError, match="unknown mode 'no_such_mode'"):
+        mode_class('no_such_mode')

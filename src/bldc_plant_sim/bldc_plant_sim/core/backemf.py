@@ -147,11 +147,7 @@ class BackEmfShape:
         n = self.points
         theta = np.arange(n) * (TWO_PI / n)
         k = self.k_abc(theta)
-        # PM flux linkage: periodic integral of k (trapezoidal rule), zero mean.
-        nxt = np.roll(k, -1, axis=1)
-        cum = np.concatenate((np.zeros((3, 1)), np.cumsum(0.5 * (TWO_PI / n) * (k + nxt), axis=1)[:, :-1]),
-                             axis=1)
-        psi = cum - cum.mean(axis=1, keepdims=True)
+        psi = backemf_file.periodic_integral(k)      # PM flux linkage
         self.grid = theta
         self.k_grid = k
         self.psi_grid = psi
@@ -162,8 +158,8 @@ class BackEmfShape:
         hall = bits[0] | (bits[1] << 1) | (bits[2] << 2)
         self.fundamental = np.abs(c1)
         # Plain Python lists with a wrap-around copy: scalar fast path in the plant.
-        self.lut_k = tuple(list(map(float, row)) + [float(row[0])] for row in k)
-        self.lut_psi = tuple(list(map(float, row)) + [float(row[0])] for row in psi)
+        self.lut_k = tuple(backemf_file.periodic_list(row) for row in k)
+        self.lut_psi = tuple(backemf_file.periodic_list(row) for row in psi)
         self.lut_hall = [int(h) for h in hall] + [int(hall[0])]
         self.lut_scale = n / TWO_PI
 
@@ -197,10 +193,4 @@ class BackEmfShape:
 
 def rotor_flux_alpha_beta(shape: BackEmfShape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(theta, psi_r_alpha, psi_r_beta) over one cycle: zero-mean integrals of k_alpha, k_beta."""
-    ka, kb = clarke(*shape.k_grid)
-    h = TWO_PI / shape.points
-
-    def integ(k):
-        cum = np.concatenate(([0.0], np.cumsum(0.5 * h * (k + np.roll(k, -1)))[:-1]))
-        return cum - cum.mean()
-    return shape.grid, integ(ka), integ(kb)
+    return (shape.grid, *backemf_file.periodic_integral(np.vstack(clarke(*shape.k_grid))))

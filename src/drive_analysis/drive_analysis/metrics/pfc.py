@@ -27,9 +27,8 @@ source voltage ``grid_voltage`` (behind the supply impedance) and the current
     NaN if still outside at the end of the window: not recovered).
 ``output_voltage_deviation_V``  option ``t_event`` (else t_start), ``reference``: largest
     |averaged v_o - reference| after t_event (the dip or overshoot of a step).
-``boost_protection_tripped``  option ``bit`` (2 = boost over-current, 4 = over-voltage,
-    PlantState PROTECTION_*; default 6 = either): 1.0 if set at any sample.
-``boost_trip_time_s``  first sim time with that bit set (NaN if never).
+Boost protections: ``protection_tripped`` / ``trip_time_s`` of the two-phase module with
+``bit`` 2 (over-current), 4 (over-voltage) or 6 (either).
 ``boost_switch_enabled_fraction``  fraction of the window's samples with the boost
     switch enabled after protections (0 = held off: the safe state of the front end).
 ``peak_inductor_current_A``  largest boost inductor current in the window.
@@ -42,7 +41,7 @@ import math
 
 import numpy as np
 
-from drive_analysis.arrays import window
+from drive_analysis.arrays import moving_average, window
 from drive_common import signals
 
 LINE_FREQUENCY = 60.0
@@ -147,9 +146,7 @@ def _averaged_output(arrays, t_start, t_end, line_frequency):
     n = max(1, int(round(0.5 / line_frequency / step)))
     if len(v) <= n:
         return t[-1:], np.array([np.mean(v)])
-    c = np.cumsum(np.insert(v, 0, 0.0))
-    avg = (c[n:] - c[:-n]) / n
-    return t[n - 1:], avg
+    return t[n - 1:], moving_average(v, n)
 
 
 def output_recovery_time_s(arrays, t_event, reference=80.0, band=2.0, t_end=None,
@@ -171,23 +168,6 @@ def output_voltage_deviation_V(arrays, t_event=None, reference=80.0, t_start=Non
     start = t_event if t_event is not None else t_start
     t, avg = _averaged_output(arrays, start, t_end, line_frequency)
     return float(np.max(np.abs(avg - reference))) if len(t) else math.nan
-
-
-def _protection(arrays, t_start, t_end):
-    mask = _mask(arrays, t_start, t_end)
-    return (_field(arrays, 'time', mask),
-            _field(arrays, 'protection', mask).astype(np.int64))
-
-
-def boost_protection_tripped(arrays, bit=6, t_start=None, t_end=None) -> float:
-    _, prot = _protection(arrays, t_start, t_end)
-    return 1.0 if np.any(prot & int(bit)) else 0.0
-
-
-def boost_trip_time_s(arrays, bit=6, t_start=None, t_end=None) -> float:
-    t, prot = _protection(arrays, t_start, t_end)
-    hit = np.flatnonzero(prot & int(bit))
-    return float(t[hit[0]]) if len(hit) else math.nan
 
 
 def boost_switch_enabled_fraction(arrays, t_start=None, t_end=None) -> float:

@@ -7,8 +7,7 @@ row per controller sample), plus keyword options, and returns a float (NaN
 when the window holds no data). Controller and plant rows are paired by
 their ``step`` (the status of step k and the plant state at t_k). Options
 ``t_start`` / ``t_end`` [s] restrict a metric to a time window (default:
-the whole run). Angles are electrical; ``rated_torque`` defaults to the
-000 motor (``RATED_TORQUE_000``), 001 scenarios pass 0.3 N m. Torque ripple
+the whole run). Angles are electrical. Torque ripple
 (001 eq. (40)): :mod:`drive_analysis.metrics.ripple`.
 
 The names below are the ``metric:`` keys of the scenarios' checks (the
@@ -25,12 +24,11 @@ registry refuses a name defined in two metric modules).
     controller's i_d (Park at its estimated angle, as 000 Fig. 5.11 plots),
     ``source='plant'`` the true phase currents at the true angle.
     ``q_current_mean_A``: mean of the controller's i_q.
-    ``estimated_torque_rms_error_pct_rated``: RMS of (T_est - T_true) at the
-    controller samples in % of rated torque.
-    ``true_torque_mean_N_m`` / ``estimated_torque_mean_N_m``: DC torque of the
-    plant / of the controller's estimate.
+    ``estimated_torque_mean_N_m``: DC torque of the controller's estimate
+    (the plant's, the estimation error and the mean speed: the two-phase
+    module's ``mean_torque_N_m``, ``torque_estimation_rms_error_pct_rated``,
+    ``mean_speed_rad_s``).
     ``torque_tracking_error_N_m``: mean of (T_true - T*).
-    ``mean_mechanical_speed_rad_s``: mean plant speed.
     ``speed_estimate_error_pct``: mean of the sensorless electrical speed
     estimate over p * the true mechanical speed, minus 1, in % (``pole_pairs``).
     ``flux_locus_mean_radius_Wb``: mean of the locus radius over an integer
@@ -78,8 +76,6 @@ import numpy as np
 
 from drive_analysis.arrays import Arrays, field, last_whole_periods, mean_or_nan, paired
 from drive_common import signals
-
-from . import RATED_TORQUE_000
 
 _PHASES = {'a': 0, 'b': 1, 'c': 2}
 
@@ -131,21 +127,6 @@ def q_current_mean_A(arrays: Arrays, t_start=None, t_end=None) -> float:
     return mean_or_nan(paired(arrays, t_start, t_end)['dtc.q_current'])
 
 
-def estimated_torque_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
-                                         rated_torque: float = RATED_TORQUE_000) -> float:
-    """RMS of (T_est - T_true) at the controller samples, % of rated torque (000 Fig. 5.7)."""
-    d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
-        return math.nan
-    err = d['dtc.torque_estimate'] - d['plant.electromagnetic_torque']
-    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
-
-
-def true_torque_mean_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
-    """Mean of the plant's electromagnetic torque [N m] at the controller samples."""
-    return mean_or_nan(paired(arrays, t_start, t_end)['plant.electromagnetic_torque'])
-
-
 def estimated_torque_mean_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Mean of the controller's torque estimate [N m] (001 Table X 'predicted torque')."""
     return mean_or_nan(paired(arrays, t_start, t_end)['dtc.torque_estimate'])
@@ -155,11 +136,6 @@ def torque_tracking_error_N_m(arrays: Arrays, t_start=None, t_end=None) -> float
     """Mean of (T_true - T*) [N m]."""
     d = paired(arrays, t_start, t_end)
     return mean_or_nan(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'])
-
-
-def mean_mechanical_speed_rad_s(arrays: Arrays, t_start=None, t_end=None) -> float:
-    """Mean mechanical speed of the plant [rad/s]."""
-    return mean_or_nan(field(arrays, 'mechanical_speed', t_start, t_end)[1])
 
 
 def speed_estimate_error_pct(arrays: Arrays, t_start=None, t_end=None, pole_pairs: int = 2) -> float:

@@ -21,11 +21,6 @@ Definitions (the names are the ``metric:`` keys of the scenarios' checks):
     ``plant/state.electromagnetic_torque`` at the same instant t_k.
 ``mean_torque_N_m``
     Mean of the plant's true electromagnetic torque over the window [N m].
-``mean_torque_error_N_m``
-    Mean of (T_true - T*) over the window [N m]; T* =
-    ``dtc/status.torque_reference``. Hysteresis with a band far below the
-    per-sample torque step (0.001 N m vs about 0.1 N m at 25 us) leaves a
-    small offset of this mean.
 ``rise_time_s``
     Torque response to the largest step of T* inside the window: time from
     the step (first controller sample with the new reference) to the first
@@ -45,10 +40,12 @@ Definitions (the names are the ``metric:`` keys of the scenarios' checks):
 ``peak_phase_current_A``
     Largest |i_x| of the true phase currents in the window [A].
 ``protection_tripped``
-    1.0 if the plant's motor peak-current protection (PlantState
-    protection bit 0) was set at any recorded sample in the window, else 0.0.
+    1.0 if a plant protection of ``bit`` (PlantState PROTECTION_*: 1 = motor
+    peak current, the default; 2 = boost over-current, 4 = over-voltage,
+    6 = either boost protection) was set at any recorded sample in the
+    window, else 0.0.
 ``trip_time_s``
-    Sim time of the first recorded sample with the protection set (NaN if none).
+    Sim time of the first recorded sample with a protection of ``bit`` set (NaN if none).
 ``mean_speed_rad_s``
     Mean mechanical speed [rad/s] over the window.
 ``flux_dip_depth_Wb``
@@ -93,13 +90,6 @@ def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=No
 def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
     d = paired(arrays, t_start, t_end)
     return float(np.mean(d['plant.electromagnetic_torque'])) if len(d['time']) else math.nan
-
-
-def mean_torque_error_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
-    d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
-        return math.nan
-    return float(np.mean(d['plant.electromagnetic_torque'] - d['dtc.torque_reference']))
 
 
 def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
@@ -157,15 +147,14 @@ def peak_phase_current_A(arrays: Arrays, t_start=None, t_end=None) -> float:
     return float(np.max(np.abs(i))) if i.size else math.nan
 
 
-def protection_tripped(arrays: Arrays, t_start=None, t_end=None) -> float:
+def protection_tripped(arrays: Arrays, t_start=None, t_end=None, bit: int = PROTECTION_MOTOR_OVER_CURRENT) -> float:
     prot = field(arrays, 'protection', t_start, t_end)[1].astype(np.int64)
-    return float(bool(np.any(prot & PROTECTION_MOTOR_OVER_CURRENT)))
+    return float(bool(np.any(prot & int(bit))))
 
 
-def trip_time_s(arrays: Arrays, t_start=None, t_end=None) -> float:
+def trip_time_s(arrays: Arrays, t_start=None, t_end=None, bit: int = PROTECTION_MOTOR_OVER_CURRENT) -> float:
     t, prot = field(arrays, 'protection', t_start, t_end)
-    prot = prot.astype(np.int64)
-    hit = np.flatnonzero(prot & PROTECTION_MOTOR_OVER_CURRENT)
+    hit = np.flatnonzero(prot.astype(np.int64) & int(bit))
     return float(t[hit[0]]) if hit.size else math.nan
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drive_common import backemf_file
-from drive_common.backemf_file import COLUMNS, HEADER, BackEmfTableError
+from drive_common.backemf_file import COLUMNS, HEADER, BackEmfTableError, periodic_integral, periodic_list
 from drive_common.signals import TWO_PI
 
 __all__ = ['COLUMNS', 'HEADER', 'BackEmfTable', 'BackEmfTableError', 'periodic_list']
@@ -51,7 +51,7 @@ class BackEmfTable:
         self._kc = periodic_list(self.columns['k_c'])
         self._kal = periodic_list(self.columns['k_alpha'])
         self._kbe = periodic_list(self.columns['k_beta'])
-        psi_a, psi_b = _integrate_zero_mean(self.columns['k_alpha']), _integrate_zero_mean(self.columns['k_beta'])
+        psi_a, psi_b = periodic_integral(self.columns['k_alpha']), periodic_integral(self.columns['k_beta'])
         self.rotor_flux_alpha = psi_a
         self.rotor_flux_beta = psi_b
         self._psia = periodic_list(psi_a)
@@ -144,28 +144,6 @@ class BackEmfTable:
         i, f = self.lookup_index(theta)
         m = self._psim
         return m[i] + f * (m[i + 1] - m[i])
-
-    def interp(self, column: str, theta) -> np.ndarray:
-        """Vectorised linear, wrapped interpolation of a column (for analysis and tests)."""
-        th = np.mod(np.asarray(theta, dtype=float), TWO_PI)
-        grid = np.append(self.columns['theta_e'], TWO_PI)
-        vals = np.append(self.columns[column], self.columns[column][0])
-        return np.interp(th, grid, vals)
-
-
-def periodic_list(values) -> list:
-    """Python floats with a wrap-around copy of the first value (for linear, wrapped lookups)."""
-    values = [float(v) for v in values]
-    return values + [values[0]]
-
-
-def _integrate_zero_mean(k: np.ndarray) -> np.ndarray:
-    """Periodic integral of k over theta (trapezoidal on the grid), mean removed."""
-    n = len(k)
-    h = TWO_PI / n
-    nxt = np.roll(k, -1)
-    cum = np.concatenate(([0.0], np.cumsum(0.5 * h * (k + nxt))[:-1]))
-    return cum - cum.mean()
 
 
 def _check_consistency(name: str, cols: dict, row_lines: list) -> None:

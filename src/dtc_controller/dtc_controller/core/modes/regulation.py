@@ -20,9 +20,26 @@ from drive_common.signals import TWO_PI, clarke
 from ..hysteresis import TwoLevelHysteresis
 from ..speed_loop import SpeedPI
 from ..status import NAN
-from ..transforms import reconstruct_currents
 
 _ALL_OFF = (False,) * 6
+
+
+def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, float, float]:
+    """Phase currents [A] with at most one NaN (missing sensor) filled from i_a + i_b + i_c = 0.
+
+    Raises ValueError when two or more currents are missing.
+    """
+    if i_a == i_a and i_b == i_b and i_c == i_c:  # fast path: no NaN
+        return i_a, i_b, i_c
+    if i_a != i_a:
+        if i_b != i_b or i_c != i_c:
+            raise ValueError('at least two phase currents are NaN: cannot reconstruct')
+        return -i_b - i_c, i_b, i_c
+    if i_b != i_b:
+        if i_c != i_c:
+            raise ValueError('at least two phase currents are NaN: cannot reconstruct')
+        return i_a, -i_a - i_c, i_c
+    return i_a, i_b, -i_a - i_b
 
 
 class DtcMode:
