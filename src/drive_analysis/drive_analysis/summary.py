@@ -64,12 +64,6 @@ def thd_percent(t, x, f1: float, n_max: int = 40) -> float:
     return signals.thd(y, periods, n_max) * 100.0
 
 
-def total_thd_percent(phase_thds) -> float:
-    """001 eq. (39): THD = sqrt((THD_A^2 + THD_B^2 + THD_C^2) / 3)."""
-    phase_thds = np.asarray(phase_thds, float)
-    return float(math.sqrt(np.mean(phase_thds ** 2)))
-
-
 def torque_ripple_factor_window_percent(torque, rated_torque: float) -> float:
     """001 eq. (40) over a whole window: TRF = (T_max - T_min) / T_rated * 100 %.
 
@@ -137,7 +131,7 @@ def error_stats(estimate, truth, angle: bool = False) -> dict:
     err = err[~np.isnan(err)]
     if not len(err):
         return {'mean': float('nan'), 'rms': float('nan'), 'max_abs': float('nan'), 'samples': 0}
-    return {'mean': float(np.mean(err)), 'rms': float(np.sqrt(np.mean(err ** 2))),
+    return {'mean': float(np.mean(err)), 'rms': signals.rms(err),
             'max_abs': float(np.max(np.abs(err))), 'samples': int(len(err))}
 
 
@@ -182,7 +176,7 @@ def summarize(cols, rated_torque=None, window=None, line_frequency=60.0) -> dict
                     for k in range(3)]
             out['current_thd_percent'] = dict(zip('abc', thd))
             if all(isinstance(x, float) for x in thd):
-                out['current_thd_total_percent'] = total_thd_percent(thd)
+                out['current_thd_total_percent'] = signals.total_thd(thd)
             if all(isinstance(x, float) for x in fund):
                 out['current_balance'] = current_balance(fund)
         torque = steady['electromagnetic_torque']

@@ -27,7 +27,7 @@ PHASE_SHIFT = (0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0)
 
 __all__ = ['TWO_PI', 'SQRT3', 'INV_SQRT3', 'PHASE_SHIFT', 'clarke', 'clarke_rows', 'inverse_clarke',
            'park', 'inverse_park', 'wrap_angle', 'wrap_to_pi', 'rms', 'samples_per_whole_periods', 'periods_in',
-           'harmonics', 'thd', 'power_factor', 'displacement_factor']
+           'harmonics', 'thd_of', 'thd', 'total_thd', 'power_factor', 'displacement_factor']
 
 
 # ---------------------------------------------------------------------------- frames
@@ -127,12 +127,22 @@ def harmonics(x, periods: int, max_harmonic: int) -> np.ndarray:
     return out
 
 
-def thd(x, periods: int, max_harmonic: int) -> float:
-    """Total harmonic distortion (ratio) of harmonics 2..H over the fundamental (001 eq. (39))."""
-    h = np.abs(harmonics(x, periods, max_harmonic))
+def thd_of(amplitudes) -> float:
+    """THD (ratio) of peak amplitudes X_0..X_H: sqrt(sum_{h=2..H} X_h^2) / X_1 (001 eq. (39))."""
+    h = np.asarray(amplitudes, dtype=float)
     if len(h) < 2 or h[1] == 0.0:
         raise ValueError('no fundamental component')
     return float(np.sqrt(np.sum(h[2:] ** 2)) / h[1])
+
+
+def thd(x, periods: int, max_harmonic: int) -> float:
+    """THD (ratio) of a record spanning ``periods`` whole periods, harmonics 2..max_harmonic."""
+    return thd_of(np.abs(harmonics(x, periods, max_harmonic)))
+
+
+def total_thd(phase_thds) -> float:
+    """THD of a three-phase set from the phase THDs, 001 eq. (39): sqrt((THD_a^2 + THD_b^2 + THD_c^2) / 3)."""
+    return float(np.sqrt(np.mean(np.square(np.asarray(phase_thds, dtype=float)))))
 
 
 def power_factor(v, i) -> float:

@@ -59,6 +59,13 @@ def test_pure_sine_spectrum():
     assert signals.power_factor(np.sin(W * T), i) == pytest.approx(1.0, abs=1e-12)
 
 
+def test_total_thd_of_three_phases_eq39():
+    assert signals.total_thd([3.0, 4.0, 5.0]) == pytest.approx(math.sqrt((9 + 16 + 25) / 3))
+    assert signals.thd_of([0.5, 2.0, 0.0, 0.2]) == pytest.approx(0.1)
+    with pytest.raises(ValueError, match='no fundamental'):
+        signals.thd_of([1.0, 0.0, 0.3])
+
+
 def test_known_harmonic_mix():
     v = np.sin(W * T)
     i = np.sin(W * T) + 0.2 * np.sin(3 * W * T + 0.4) + 0.1 * np.sin(5 * W * T) + 0.05 * np.cos(39 * W * T)

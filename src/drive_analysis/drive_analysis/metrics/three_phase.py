@@ -87,7 +87,7 @@ def angle_error_rms_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     if not len(d['time']):
         return math.nan
     err = signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
-    return float(np.degrees(np.sqrt(np.mean(err ** 2))))
+    return float(np.degrees(signals.rms(err)))
 
 
 def angle_error_max_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
@@ -266,14 +266,14 @@ def phase_current_thd_percent(arrays: Arrays, phase: str = 'a', t_start=None, t_
     spec = _phase_spectrum(arrays, phase, t_start, t_end, frequency, pole_pairs)
     if spec is None or len(spec) < 3 or spec[1] <= 0.0:
         return math.nan
-    return float(100.0 * np.sqrt(np.sum(spec[2:max_order + 1] ** 2)) / spec[1])
+    return 100.0 * signals.thd_of(spec[:max_order + 1])
 
 
 def current_thd_percent(arrays: Arrays, t_start=None, t_end=None, frequency: float | None = None,
                         pole_pairs: int = 1, max_order: int = 50) -> float:
     """Total harmonic distortion of the three phase currents, 001 eq. (39) [%]."""
     thd = [phase_current_thd_percent(arrays, p, t_start, t_end, frequency, pole_pairs, max_order) for p in 'abc']
-    return float(np.sqrt(np.mean(np.square(thd))))
+    return signals.total_thd(thd)
 
 
 def predicted_minus_actual_torque_pct(arrays: Arrays, t_start=None, t_end=None) -> float:

@@ -69,6 +69,7 @@ import math
 import numpy as np
 
 from drive_analysis.arrays import Arrays, field, mean_or_nan, paired, samples_in
+from drive_common import signals
 
 from . import RATED_TORQUE_000
 
@@ -76,7 +77,7 @@ PROTECTION_MOTOR_OVER_CURRENT = 1
 
 
 def _rms_pct_rated(err: np.ndarray, rated_torque: float) -> float:
-    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
+    return 100.0 * signals.rms(err) / rated_torque
 
 
 def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
@@ -131,7 +132,7 @@ def _phase_c_rms(arrays: Arrays, sectors, t_start, t_end) -> float:
     if not sel.any():
         return math.nan
     i_c = d['plant.phase_current'][sel, 2]
-    return float(np.sqrt(np.mean(i_c ** 2)))
+    return signals.rms(i_c)
 
 
 def phase_c_current_rms_sectors_2_5_A(arrays: Arrays, t_start=None, t_end=None) -> float:
