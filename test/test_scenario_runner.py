@@ -68,7 +68,7 @@ def test_run_is_recorded_and_reported(recorded_run):
 
 
 def test_ros_graph_and_headless_loop_give_the_same_trajectory(recorded_run):
-    from drive_logger.analysis.data import load_columns
+    from drive_analysis.bag_columns import load_columns
     out, _ = recorded_run
     ros = load_columns(str(out / 'bag'))['/plant/state']
     scenario = load_scenario(find_scenario(SCENARIO))
@@ -158,7 +158,7 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
     One scenario per inverter/conduction family, and the PFC front end with its
     own controller at twice the DTC rate.
     """
-    from drive_logger.analysis.data import load_columns
+    from drive_analysis.bag_columns import load_columns
     duration = 0.006
     out = tmp_path / name
     result = run_cli(name, '--duration', str(duration), '--isolate', '--out', str(out))

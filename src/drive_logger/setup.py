@@ -15,14 +15,13 @@ setup(
     zip_safe=True,
     maintainer='DTC drive stack maintainers',
     maintainer_email='maintainers@dtc-drive-stack.org',
-    description='Recording of the drive graph to rosbag2-layout MCAP bags, bag replay in sim time, and bag analysis (seed metrics and figures).',
+    description='Recording of the drive graph to rosbag2-layout MCAP bags, bag replay in sim time and replay comparison.',
     license='Apache-2.0',
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
             'recorder = drive_logger.recorder_node:main',
             'replay = drive_logger.replay_node:main',
-            'analyze = drive_logger.analysis_cli:main',
             'compare_replay = drive_logger.compare_replay:main',
             'reindex = drive_logger.bag_reindex:main',
         ],

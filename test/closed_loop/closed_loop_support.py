@@ -13,11 +13,12 @@ import functools
 import math
 import time
 
-from drive_bringup import metrics_two_phase as mtp
+from drive_analysis import registry
+from drive_analysis.metrics import RATED_TORQUE_000
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
 
-RATED_TORQUE = mtp.RATED_TORQUE
+RATED_TORQUE = RATED_TORQUE_000
 # 000 Appendix A motor (the plant's motor files): phase circuit inductance L - M,
 # resistance, pole pairs, phase flat-top back-EMF constant K = lambda_f / p.
 L_CIRCUIT = 1.4e-3 - 0.3125e-3      # H
@@ -52,7 +53,7 @@ def metrics(name: str, duration: float, **overrides) -> dict[str, float]:
     sc, arrays, _ = run_reduced(name, duration)
     spec = dict(sc.metrics)
     spec.update(overrides)
-    return mtp.compute(arrays, spec, [c.metric for c in sc.checks])
+    return registry.evaluate(spec, arrays, [c.metric for c in sc.checks])
 
 
 def check_scenario_file(name: str, seed_reference: str) -> None:
@@ -63,9 +64,9 @@ def check_scenario_file(name: str, seed_reference: str) -> None:
     assert seed_reference in sc.seed_reference
     assert len(sc.description) > 100
     assert sc.checks
-    known = set(sc.metrics) | set(mtp.METRICS)
+    known = set(sc.metrics) | set(registry.metrics())
     for c in sc.checks:
         assert c.metric in known, f'{name}: check on unknown metric {c.metric}'
     for label, options in sc.metrics.items():
-        assert (options or {}).get('metric', label) in mtp.METRICS, label
+        assert (options or {}).get('metric', label) in registry.metrics(), label
     assert sc.node_parameters['dtc_controller']['backemf_table_path'].endswith('_backemf.csv')

@@ -15,8 +15,9 @@ import functools
 
 import pytest
 
+from drive_analysis.registry import lookup
 from drive_bringup.headless import run_headless
-from drive_bringup.report import evaluate_metrics, metric_function
+from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import Event, find_scenario, load_scenario
 
 PFC_SCENARIOS = ('pfc_without_pfc_fig_3_4', 'pfc_no_load_fig_3_5', 'pfc_load_fig_3_6',
@@ -56,9 +57,9 @@ def test_shipped_scenarios_are_complete(name):
         'ozturk_bldc_backemf.csv')
     assert ('pfc_controller' in sc.node_parameters) == (name != 'pfc_without_pfc_fig_3_4')
     for label, options in sc.metrics.items():
-        metric_function((options or {}).get('metric', label))
+        lookup((options or {}).get('metric', label))
     for check in sc.checks:
-        metric_function((sc.metrics.get(check.metric) or {}).get('metric', check.metric))
+        lookup((sc.metrics.get(check.metric) or {}).get('metric', check.metric))
 
 
 def test_without_pfc_the_rectifier_current_is_distorted():
@@ -79,7 +80,7 @@ def test_with_pfc_the_output_is_held_and_the_line_current_is_sinusoidal():
     w = {'t_start': 0.55}
     v, arrays = _values('pfc_no_load_fig_3_5', 0.6, line_power_factor=w, line_current_thd_pct=w,
                         mean_output_voltage_V=w, line_real_power_W=w,
-                        boost_protection_tripped={})
+                        boost_protection_tripped={'metric': 'protection_tripped', 'bit': 6})
     assert abs(v['mean_output_voltage_V'] - 80.0) < 2.0, v
     assert v['line_power_factor'] >= 0.99, v
     assert v['line_current_thd_pct'] <= 8.5, v
@@ -94,7 +95,7 @@ def test_load_step_output_recovers():
                    events=((0.35, 'dtc_controller', (('torque_reference', 0.573),)),),
                    after={'metric': 'output_voltage_deviation_V', 't_event': 0.5},
                    dev={'metric': 'output_voltage_deviation_V', 't_event': 0.35},
-                   mean_output_voltage_V=w, boost_protection_tripped={})
+                   mean_output_voltage_V=w, boost_protection_tripped={'metric': 'protection_tripped', 'bit': 6})
     assert v['dev'] > 3.0, v                 # the step did disturb the output
     assert v['after'] < 6.0, v               # and it is back near 80 V
     assert abs(v['mean_output_voltage_V'] - 80.0) < 3.0, v
@@ -110,10 +111,10 @@ def test_physical_trips_at_the_default_limits():
               (0.42, 'dtc_controller', (('torque_reference', 0.0),)))
     v, arrays = _values(
         'pfc_protection_trips', 0.5, events=events,
-        before={'metric': 'boost_protection_tripped', 'bit': 6, 't_end': 0.3},
-        oc={'metric': 'boost_protection_tripped', 'bit': 2, 't_start': 0.3, 't_end': 0.35},
+        before={'metric': 'protection_tripped', 'bit': 6, 't_end': 0.3},
+        oc={'metric': 'protection_tripped', 'bit': 2, 't_start': 0.3, 't_end': 0.35},
         peak={'metric': 'peak_inductor_current_A', 't_start': 0.3, 't_end': 0.35},
-        ov_time={'metric': 'boost_trip_time_s', 'bit': 4, 't_start': 0.42},
+        ov_time={'metric': 'trip_time_s', 'bit': 4, 't_start': 0.42},
         on_at_end={'metric': 'boost_switch_enabled_fraction', 't_start': 0.46},
         final_time_s={})
     assert v['before'] == 0.0 and v['oc'] == 1.0, v

@@ -14,7 +14,8 @@ import pytest
 
 pytest.importorskip('bldc_plant_sim.core.cosim')
 
-from bldc_plant_sim.backemf_generator import generator_test, write_table  # noqa: E402
+from bldc_plant_sim.backemf_generator import generator_test  # noqa: E402
+from drive_common import backemf_file  # noqa: E402
 from bldc_plant_sim.core.cosim import CoSimulation  # noqa: E402
 from bldc_plant_sim.core.plant import PlantCore  # noqa: E402
 from bldc_plant_sim.parameters import plant_params  # noqa: E402
@@ -26,7 +27,7 @@ def _table(tmp_path_factory, motor, pole_pairs):
     params = plant_params(motor)
     res = generator_test(params, 252, 30.0)
     path = tmp_path_factory.mktemp('backemf') / f'{motor}.csv'
-    write_table(path, res['columns'], {'pole_pairs': pole_pairs, 'points': 252, 'source': 'generator test'})
+    backemf_file.write(path, res['columns'], {'pole_pairs': pole_pairs, 'points': 252, 'source': 'generator test'})
     return BackEmfTable.load(path, pole_pairs)
 
 

@@ -3,7 +3,7 @@
 Each test loads a scenario file from drive_bringup/scenarios, shortens it (the
 full-length runs are the reproduction command's job: run_scenario / report),
 runs it through run_headless and checks the behaviour with physics bounds
-using the metrics of drive_bringup.metrics_three_phase. The metric functions
+using the metrics of drive_analysis.metrics.three_phase and .ripple. The metric functions
 themselves are pinned first on synthetic signals with known answers.
 """
 from __future__ import annotations
@@ -16,9 +16,12 @@ import pytest
 
 pytest.importorskip('bldc_plant_sim.core.cosim')
 
-from drive_bringup import metrics_three_phase as m  # noqa: E402
+from drive_analysis.metrics import ripple  # noqa: E402
+from drive_analysis.metrics import three_phase as m  # noqa: E402
+from drive_analysis.metrics import two_phase  # noqa: E402
+from drive_analysis.registry import lookup  # noqa: E402
 from drive_bringup.headless import run_headless  # noqa: E402
-from drive_bringup.report import check_rows, evaluate_metrics, metric_function  # noqa: E402
+from drive_bringup.report import check_rows, evaluate_metrics  # noqa: E402
 from drive_bringup.scenario import Event, find_scenario, load_scenario, scenario_dir  # noqa: E402
 
 MINE = sorted(p.stem for pat in ('three_phase_*.yaml', 'fstp_*.yaml', 'sstp_*.yaml')
@@ -43,8 +46,8 @@ def test_shipped_scenarios_are_valid_and_name_known_metrics():
         sc = load_scenario(find_scenario(name))
         assert sc.name == name and sc.seed_reference and sc.description and sc.checks
         for metric in set(sc.metrics) | {c.metric for c in sc.checks}:
-            fn = metric_function((sc.metrics.get(metric) or {}).get('metric', metric))   # aliases
-            assert fn.__module__ == 'drive_bringup.metrics_three_phase', (name, metric)
+            fn = lookup((sc.metrics.get(metric) or {}).get('metric', metric))   # aliases
+            assert fn.__module__.startswith('drive_analysis.metrics.'), (name, metric)
 
 
 # ---------------------------------------------------------------------------- metrics on known signals
@@ -74,7 +77,7 @@ def test_metrics_on_synthetic_signals():
     assert m.current_imbalance(a) == pytest.approx(0.2 / 2.1, rel=1e-6)
     assert m.current_thd_percent(a) == pytest.approx(10.0, rel=1e-6)          # eq. (39): 5th at 10 %
     assert m.current_thd_percent(a, max_order=4) == pytest.approx(0.0, abs=1e-6)
-    assert m.torque_ripple_factor_percent(a) == pytest.approx(20.0, rel=1e-3)  # eq. (40): 0.06 / 0.3
+    assert ripple.torque_ripple_factor_median_period_percent(a) == pytest.approx(20.0, rel=1e-3)  # eq. (40): 0.06 / 0.3
     assert m.predicted_minus_actual_torque_pct(a) == pytest.approx(5.0, rel=1e-9)
     assert m.angle_error_rms_deg(a) == pytest.approx(3.0 / math.sqrt(2), rel=1e-3)
     assert m.angle_error_max_deg(a) == pytest.approx(3.0, rel=1e-3)
@@ -97,16 +100,16 @@ def test_dtifc_sensorless_scenario_reduced():
     assert abs(m.d_current_mean_A(a, **steady)) < 0.2
     assert 0.3 < m.d_current_positive_fraction(a, **steady) < 0.7
     assert m.d_current_mean_A(a, source='plant', **steady) == pytest.approx(0.0, abs=0.3)
-    assert m.estimated_torque_rms_error_pct_rated(a, t_start=0.05) < 2.0
-    assert m.true_torque_mean_N_m(a, **steady) == pytest.approx(0.51, abs=0.02)
-    assert m.true_torque_mean_N_m(a, t_start=0.22) == pytest.approx(0.6375, abs=0.03)
+    assert two_phase.torque_estimation_rms_error_pct_rated(a, t_start=0.05) < 2.0
+    assert two_phase.mean_torque_N_m(a, **steady) == pytest.approx(0.51, abs=0.02)
+    assert two_phase.mean_torque_N_m(a, t_start=0.22) == pytest.approx(0.6375, abs=0.03)
     # i_d = 0: |psi_s| = |psi_r + L i_q| ~ rotor-flux amplitude 7 pi k_LL / 36 (k_LL = 0.1146 V s/rad)
     psi_r = 7 * math.pi * 0.1146 / 36
     assert m.flux_locus_mean_radius_Wb(a, **steady) == pytest.approx(psi_r, rel=0.05)
     assert m.flux_locus_mean_radius_Wb(a, source='plant', **steady) == pytest.approx(psi_r, rel=0.05)
     # not a circle: the ideal trapezoid's rounded hexagon, (max - min) / mean about 0.012
     assert 0.009 <= m.flux_locus_radius_variation(a, **steady) <= 0.015
-    assert m.mean_mechanical_speed_rad_s(a, **steady) == pytest.approx(30.0, abs=0.5)  # dynamometer
+    assert two_phase.mean_speed_rad_s(a, **steady) == pytest.approx(30.0, abs=0.5)  # dynamometer
     assert m.flux_locus_dominant_order(a, **steady) == 6.0
     assert abs(m.speed_estimate_error_pct(a, t_start=0.1, t_end=0.2, pole_pairs=2)) < 5.0
 
@@ -124,7 +127,7 @@ def test_dtifc_field_weakening_scenario():
     assert m.flux_locus_shape_correlation(a, before, after) > 0.9
     assert m.d_current_mean_A(a, *after) == pytest.approx(-5.0, abs=0.2)
     assert m.angle_error_rms_deg(a, t_start=0.02) < 5.0
-    assert m.true_torque_mean_N_m(a, *after) == pytest.approx(0.51, abs=0.03)
+    assert two_phase.mean_torque_N_m(a, *after) == pytest.approx(0.51, abs=0.03)
 
 
 # ---------------------------------------------------------------------------- 001 Tables IX-X
@@ -140,10 +143,10 @@ def fstp_runs():
         out[key] = {'amps': [m.phase_current_fundamental_A(a, p, **w) for p in 'abc'],
                     'imbalance': m.current_imbalance(a, **w),
                     'offset': m.predicted_minus_actual_torque_pct(a, **w),
-                    'torque': m.true_torque_mean_N_m(a, **w),
+                    'torque': two_phase.mean_torque_N_m(a, **w),
                     'thd': m.current_thd_percent(a, **w),
-                    'trf': m.torque_ripple_factor_percent(a, **w),
-                    'speed': m.mean_mechanical_speed_rad_s(a, **w)}
+                    'trf': ripple.torque_ripple_factor_median_period_percent(a, **w),
+                    'speed': two_phase.mean_speed_rad_s(a, **w)}
     return out
 
 

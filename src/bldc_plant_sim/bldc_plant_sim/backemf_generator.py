@@ -23,13 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
+from drive_common import backemf_file
 from drive_common.samples import ALL_OFF
+from drive_common.signals import TWO_PI
 
 from .core.plant import PlantCore
 from .parameters import plant_params
 
-COLUMNS = ('theta_e', 'k_a', 'k_b', 'k_c', 'k_ba', 'k_ca', 'k_alpha', 'k_beta', 'k_d', 'k_q')
-TWO_PI = 2.0 * math.pi
 
 
 def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict:
@@ -65,30 +65,7 @@ def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict
         k_ca[n] = (v[2] - v[0]) / w
         for _ in range(m):
             plant.advance()
-    return {'columns': table_columns(k_ba, k_ca), 'speed': w_e / p, 'ticks_per_point': m}
-
-
-def table_columns(k_ba, k_ca) -> dict:
-    """All table columns from the line-to-line constants on the grid 2 pi n / N."""
-    k_ba, k_ca = np.asarray(k_ba, float), np.asarray(k_ca, float)
-    theta = np.arange(len(k_ba)) * (TWO_PI / len(k_ba))
-    k_a = -(k_ba + k_ca) / 3.0
-    k_b, k_c = k_a + k_ba, k_a + k_ca
-    k_alpha = (2.0 * k_a - k_b - k_c) / 3.0
-    k_beta = (k_b - k_c) / math.sqrt(3.0)
-    cos, sin = np.cos(theta), np.sin(theta)
-    return {'theta_e': theta, 'k_a': k_a, 'k_b': k_b, 'k_c': k_c, 'k_ba': k_ba, 'k_ca': k_ca,
-            'k_alpha': k_alpha, 'k_beta': k_beta, 'k_d': k_alpha * cos + k_beta * sin,
-            'k_q': -k_alpha * sin + k_beta * cos}
-
-
-def write_table(path, columns: dict, metadata: dict) -> None:
-    """CSV of docs/architecture.md: '# key: value' lines, header, one row per angle."""
-    lines = [f'# {k}: {v}' for k, v in metadata.items()]
-    lines.append(','.join(COLUMNS))
-    data = np.column_stack([columns[c] for c in COLUMNS])
-    lines += [','.join(f'{v:.12g}' for v in row) for row in data]
-    Path(path).write_text('\n'.join(lines) + '\n')
+    return {'columns': backemf_file.columns_from_line_to_line(k_ba, k_ca), 'speed': w_e / p, 'ticks_per_point': m}
 
 
 def main(argv=None) -> int:
@@ -118,7 +95,7 @@ def main(argv=None) -> int:
                       f'{result["speed"]:.6g} mech rad/s',
             'convention': 'docs/architecture.md (k = d psi_r/d theta_e, e = omega_e k; '
                           'k_a,k_b,k_c without zero sequence, 000 eq. 5.13)'}
-    write_table(out, result['columns'], meta)
+    backemf_file.write(out, result['columns'], meta)
     print(f'wrote {out} ({args.points} points, {result["speed"]:.4g} mech rad/s, '
           f'k_LL peak {np.max(np.abs(result["columns"]["k_ba"])):.6g} V s/rad)')
     return 0

@@ -6,11 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from bldc_plant_sim.backemf_generator import generator_test, main, table_columns, write_table
-from bldc_plant_sim.core.backemf import (BackEmfShape, read_line_to_line_table, rotor_flux_alpha_beta,
+from bldc_plant_sim.backemf_generator import generator_test, main
+from bldc_plant_sim.core.backemf import (BackEmfShape, rotor_flux_alpha_beta,
                                          trapezoid_harmonics, trapezoid_unit)
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import plant_params
+from drive_common import backemf_file
 
 K = 0.0573
 
@@ -124,7 +125,7 @@ def test_generator_cli_writes_the_table_file_and_table_shape_round_trips(tmp_pat
     assert '# pole_pairs: 2' in text and '# points: 252' in text
     header = [ln for ln in text if not ln.startswith('#')][0]
     assert header == 'theta_e,k_a,k_b,k_c,k_ba,k_ca,k_alpha,k_beta,k_d,k_q'
-    theta, k_ba, k_ca, meta = read_line_to_line_table(out)
+    theta, k_ba, k_ca, meta = _read(out)
     assert len(theta) == 252 and theta[1] == pytest.approx(2 * math.pi / 252)
     # a motor using the written table as its shape gives the same table back
     params = plant_params('ozturk_bldc', **{'motor.backemf.shape': 'table',
@@ -132,9 +133,14 @@ def test_generator_cli_writes_the_table_file_and_table_shape_round_trips(tmp_pat
     again = generator_test(params, points=252, speed=20.0)['columns']
     # (the 252-point table is re-gridded onto the 3072-point lookup table: ~1e-4 interpolation)
     np.testing.assert_allclose(again['k_ba'], k_ba, rtol=0, atol=2e-4 * np.max(np.abs(k_ba)))
-    cols = table_columns(k_ba, k_ca)
+    cols = backemf_file.columns_from_line_to_line(k_ba, k_ca)
     np.testing.assert_allclose(cols['k_alpha'] ** 2 + cols['k_beta'] ** 2,
                                cols['k_d'] ** 2 + cols['k_q'] ** 2, rtol=1e-9)
+
+
+def _read(path):
+    table = backemf_file.read(path)
+    return (table.columns['theta_e'], table.columns['k_ba'], table.columns['k_ca'], table.metadata)
 
 
 # ---- back-EMF table files the plant reads: checked, every error names path and line --------
@@ -144,7 +150,8 @@ def _good_table(tmp_path, points=24):
     shape = BackEmfShape('trapezoid', K)
     k = shape.k_abc(theta)
     path = tmp_path / 'table.csv'
-    write_table(path, table_columns(k[1] - k[0], k[2] - k[0]), {'pole_pairs': 2, 'points': points})
+    backemf_file.write(path, backemf_file.columns_from_line_to_line(k[1] - k[0], k[2] - k[0]),
+                      {'pole_pairs': 2, 'points': points})
     return path
 
 
@@ -167,7 +174,7 @@ def _set_cell(lines, row, col, value):
 
 
 def test_a_good_table_is_read(tmp_path):
-    theta, k_ba, k_ca, meta = read_line_to_line_table(_good_table(tmp_path))
+    theta, k_ba, k_ca, meta = _read(_good_table(tmp_path))
     assert len(theta) == 24 and meta['points'] == '24'
 
 
@@ -199,7 +206,7 @@ def test_bad_tables_are_refused_with_path_and_line(tmp_path, edit, line_of, reas
         path.write_text('\n'.join(lines) + '\n')
     line = _data_start(path.read_text().splitlines()) + 1 + line_of
     with pytest.raises(ValueError, match=reason) as err:
-        read_line_to_line_table(path)
+        backemf_file.read(path)
     assert str(err.value).startswith(f'{path}:{line}: '), str(err.value)
     # the plant refuses the same file when it is its back-EMF shape
     with pytest.raises(ValueError, match=reason):
@@ -210,11 +217,11 @@ def test_bad_tables_are_refused_with_path_and_line(tmp_path, edit, line_of, reas
 def test_missing_header_column_names_the_line(tmp_path):
     path = _edit(_good_table(tmp_path), lambda ls: [ln.replace('k_ca', 'k_cx') for ln in ls])
     with pytest.raises(ValueError, match=r'table\.csv:\d+: back-EMF table header lacks column k_ca'):
-        read_line_to_line_table(path)
+        backemf_file.read(path)
 
 
 def test_shipped_tables_pass_the_checks():
     from bldc_plant_sim.parameters import MOTORS_DIR
     for path in sorted(MOTORS_DIR.glob('*.csv')):
-        theta, _, _, meta = read_line_to_line_table(path)
+        theta, _, _, meta = _read(path)
         assert len(theta) == int(meta['points'])

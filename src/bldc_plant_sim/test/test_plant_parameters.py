@@ -55,7 +55,7 @@ def test_held_parameters_are_refused_while_running_and_runtime_ones_apply():
 def test_unknown_motor_file_and_bad_table_file_are_refused():
     with pytest.raises(ParameterError, match='no motor file'):
         PlantCore({'motor.file': 'no_such_motor'})
-    with pytest.raises(OSError):
+    with pytest.raises(ValueError, match='/nonexistent.csv:0: cannot read back-EMF table'):
         PlantCore({'motor.backemf.shape': 'table', 'motor.backemf.table_file': '/nonexistent.csv'})
 
 

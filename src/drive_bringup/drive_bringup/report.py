@@ -1,65 +1,28 @@
 """Scenario reports: metrics, seed checks and figures from a bag or a headless run.
 
-Both sources are turned into one flat arrays dict, keys
-``'<topic without leading slash>.<field>'`` (``'plant/state.phase_current'``,
-``'dtc/status.torque_estimate'``, ``'plant/state.time'``), which is what the
-scenario metric functions take: ``fn(arrays, **options) -> float``. A
-scenario's ``metrics`` and ``checks`` name such functions (or aliases:
-``name: {metric: <function>, ...options}``); they live in the
-``drive_bringup.metrics_*`` modules (one per family of seed results).
+Both sources are turned into one flat arrays dict (:mod:`drive_analysis.arrays`;
+a bag through :func:`drive_analysis.arrays.flatten_columns`), on which the
+scenario's ``metrics`` and ``checks`` are evaluated by name through the one
+metric registry, :mod:`drive_analysis.registry`.
 """
 from __future__ import annotations
 
-import importlib
 import json
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
+from drive_analysis import registry
+from drive_analysis.arrays import flatten_columns
 from drive_bringup.scenario import Scenario
 
-METRIC_MODULES = ('drive_bringup.metrics_two_phase', 'drive_bringup.metrics_three_phase',
-                  'drive_bringup.metrics_pfc')
-
-
-def flatten_columns(columns: dict[str, dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """{topic: {field: array}} (drive_logger.analysis.data) -> flat arrays dict ('t' -> 'time')."""
-    flat = {}
-    for topic, cols in columns.items():
-        key = topic.lstrip('/')
-        for name, values in cols.items():
-            flat[f'{key}.{"time" if name == "t" else name}'] = values
-    return flat
-
-
-def metric_function(name: str) -> Callable[..., float]:
-    for module_name in METRIC_MODULES:
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name != module_name:
-                raise
-            continue
-        fn = getattr(module, name, None)
-        if callable(fn) and not name.startswith('_'):
-            return fn
-    raise KeyError(f'no metric named {name!r} in {", ".join(METRIC_MODULES)}')
+__all__ = ['evaluate_metrics', 'check_rows', 'write_report']
 
 
 def evaluate_metrics(scenario: Scenario, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
     """Every metric the scenario names (in ``metrics`` or ``checks``); errors become strings."""
-    names = list(scenario.metrics) + [c.metric for c in scenario.checks
-                                      if c.metric not in scenario.metrics]
-    values: dict[str, Any] = {}
-    for name in names:
-        options = dict(scenario.metrics.get(name) or {})
-        function = options.pop('metric', name)   # an alias: {metric: <function>, ...options}
-        try:
-            values[name] = float(metric_function(function)(arrays, **options))
-        except Exception as exc:  # noqa: BLE001 - one bad metric must not hide the others
-            values[name] = f'error: {type(exc).__name__}: {exc}'
-    return values
+    return registry.evaluate(scenario.metrics, arrays, [c.metric for c in scenario.checks])
 
 
 def check_rows(scenario: Scenario, values: dict[str, Any]) -> list[dict[str, Any]]:
@@ -77,9 +40,9 @@ def check_rows(scenario: Scenario, values: dict[str, Any]) -> list[dict[str, Any
 
 def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dict[str, Any]:
     """Analyse a recorded run: report.json, figures/*.png; returns the summary."""
-    from drive_logger.analysis.data import load_columns
-    from drive_logger.analysis.figures import draw_all
-    from drive_logger.analysis_cli import json_safe, summarize
+    from drive_analysis.bag_columns import load_columns
+    from drive_analysis.figures import draw_all
+    from drive_analysis.summary import json_safe, summarize
 
     out_dir = Path(out_dir)
     if columns is None:

@@ -22,7 +22,7 @@ Schema (keys marked * are required)::
         node*: plant | dtc_controller | pfc_controller
         parameters*: {...}
     record: {enabled: bool, topics: [str, ...]}
-    metrics: {name: {...options}}   # see drive_logger.analysis
+    metrics: {name: {...options}}   # names: drive_analysis.registry
     figures: [str, ...]
     checks:                    # rows of the reproduction table
       - metric*: str           # key of the analysis summary
@@ -148,9 +148,9 @@ TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 
 
 def _known_metric(path: Path, key: str, name: str) -> None:
-    from drive_bringup.report import metric_function
+    from drive_analysis.registry import lookup
     try:
-        metric_function(name)
+        lookup(name)
     except KeyError as exc:
         raise _fail(path, key, exc.args[0]) from exc
 
@@ -266,7 +266,7 @@ def load_scenario(path: str | Path) -> Scenario:
     figures = raw.get('figures') or []
     if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
         raise _fail(path, 'figures', 'expected a list of figure names')
-    from drive_logger.analysis.figures import ALL_FIGURES
+    from drive_analysis.figures import ALL_FIGURES
     for i, figure in enumerate(figures):
         if figure not in ALL_FIGURES:
             raise _fail(path, f'figures[{i}]', f'unknown figure {figure!r} (known: '

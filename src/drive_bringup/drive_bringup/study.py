@@ -63,7 +63,8 @@ from typing import Any, Callable, Iterator
 import numpy as np
 import yaml
 
-from drive_bringup.report import evaluate_metrics, metric_function   # the metric registry (one place)
+from drive_analysis.registry import lookup as metric_function   # the one metric registry
+from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario, node_schema, resolve_package_path)
 from drive_bringup.scenario import _mapping, _number  # the same value checks as scenarios

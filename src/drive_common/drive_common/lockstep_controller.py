@@ -41,11 +41,14 @@ class LockstepControllerNode(Node):
     schema: the node's parameter schema (declared once here).
     make_core: builds the core from a validated parameter snapshot; raises
         ParameterError (or ValueError/OSError for bad files) to refuse.
+    check: validates a changed snapshot the same way without building a core
+        (e.g. ``DtcCore.check``); default: build a throw-away core with make_core.
     """
 
     def __init__(self, node_name: str, *, schema: ParameterSchema,
                  make_core: Callable[[dict[str, Any]], Any],
-                 channels: LockstepChannels, **kwargs) -> None:
+                 channels: LockstepChannels, check: Callable[[dict[str, Any]], Any] | None = None,
+                 **kwargs) -> None:
         super().__init__(node_name, **kwargs)
         self._channels = channels
         self._lock = threading.Lock()
@@ -56,7 +59,7 @@ class LockstepControllerNode(Node):
         except (ParameterError, ValueError, OSError) as exc:
             # Do not start half-configured: the caller (main) reports and exits.
             raise ParameterError(f'{node_name}: cannot start: {exc}') from exc
-        self._make_core = make_core
+        self._check = check or make_core
         self.samples_answered = 0
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)
@@ -98,10 +101,9 @@ class LockstepControllerNode(Node):
     def _on_parameters(self, snapshot: dict[str, Any]) -> None:
         """Validate a change against the core now; apply it at the next sample."""
         try:
-            probe = self._make_core(dict(snapshot))
+            self._check(dict(snapshot))
         except (ValueError, OSError) as exc:
             raise ParameterError(str(exc)) from exc
-        del probe
         with self._lock:
             self._pending = snapshot
 

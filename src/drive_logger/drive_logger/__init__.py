@@ -1,1 +1,1 @@
-"""Recording of the drive graph to rosbag2-layout MCAP bags, bag replay in sim time, and bag analysis (seed metrics and figures)."""
+"""Recording of the drive graph to rosbag2-layout MCAP bags, bag replay in sim time and replay comparison."""

@@ -1,8 +1,9 @@
 """The ``dtc_controller`` node: a thin lockstep wrapper over DtcCore.
 
 Answers each ``drive/measurement`` with a ``drive/gate_command`` for the
-same step and publishes ``dtc/status`` (DESIGN.md §3, §5). Parameters are
-declared once from :data:`dtc_controller.parameters.SCHEMA`; references,
+same step and publishes ``dtc/status`` (docs/architecture.md "Time and lockstep", "DTC modes").
+Parameters are declared once from :data:`dtc_controller.parameters.SCHEMA` and a
+change is validated by ``DtcCore.check`` (no throw-away core); references,
 bands and gains act at the next sample; a change of ``mode`` (or of any
 other non-runtime parameter) rebuilds the mode cleanly at the next sample
 boundary. A malformed or mismatched back-EMF table stops the node at start
@@ -30,7 +31,7 @@ class DtcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
         super().__init__('dtc_controller', schema=SCHEMA, make_core=make_core,
-                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
+                         check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
                                                    DriveSample, GateCommand, topics.GATE_COMMAND,
                                                    DtcStatus, topics.DTC_STATUS), **kwargs)
 

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 
-TWO_PHASE_MODES = ('two_phase_six_switch', 'two_phase_four_switch')
-RESERVED_MODES = ('three_phase_dtifc', 'three_phase_pmsm', 'three_phase_four_switch')
-MODES = TWO_PHASE_MODES + RESERVED_MODES
+MODES = ('two_phase_six_switch', 'two_phase_four_switch', 'three_phase_dtifc', 'three_phase_pmsm',
+         'three_phase_four_switch')
+"""The ``mode`` choices: one class each in :mod:`dtc_controller.core.modes`."""
 
 # Appendix A motor of 000: R = 0.315 ohm, L = 1.4 mH, M = 0.3125 mH, P = 4 poles.
 _SPECS = (
-    ParameterSpec('mode', 'two_phase_six_switch', 'DTC mode (DESIGN.md section 5)', choices=MODES, runtime=False),
+    ParameterSpec('mode', 'two_phase_six_switch', 'DTC mode (docs/architecture.md "DTC modes")', choices=MODES, runtime=False),
     ParameterSpec('sample_period', 25e-6, 'controller sample period T_s', 's', 1e-6, 1e-2, runtime=False),
     ParameterSpec('rotation', 1, 'commanded rotation: +1 counter-clockwise, -1 clockwise', choices=(1, -1)),
     ParameterSpec('torque_reference', 0.0, 'electromagnetic torque reference T* (signed; used without the speed loop)',

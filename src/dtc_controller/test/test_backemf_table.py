@@ -28,7 +28,6 @@ def test_linear_interpolation_and_wrap():
     assert tab.k_alpha_beta(11.5 * h)[0] == pytest.approx(0.5 * (kl + k0))
     assert tab.k_alpha_beta(-0.5 * h)[0] == pytest.approx(0.5 * (kl + k0))
     assert tab.k_abc(2 * math.pi + 0.3) == pytest.approx(tab.k_abc(0.3))
-    assert tab.interp('k_alpha', [11.5 * h])[0] == pytest.approx(0.5 * (kl + k0))
 
 
 def test_rotor_flux_is_integral_of_k(sine_table):
@@ -55,7 +54,7 @@ def _good_text(tab):
     (lambda t: t.replace('# points: 36', '# points: 37'), 'points: 37'),
     (lambda t: t.replace('# pole_pairs: 2\n', ''), 'pole_pairs'),
     (lambda t: t.rstrip('\n').rsplit('\n', 1)[0] + '\n', 'rows'),
-    (lambda t: t.replace(HEADER + '\n', HEADER + '\nfoo\n', 1), 'line'),
+    (lambda t: t.replace(HEADER + '\n', HEADER + '\nfoo\n', 1), 'cells'),
 ])
 def test_malformed_file_names_file_and_problem(tmp_path, mutate, problem):
     p = _write(tmp_path, mutate(_good_text(make_table(points=36))))

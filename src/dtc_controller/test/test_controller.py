@@ -206,3 +206,38 @@ def test_closed_loop_four_switch_tracks_torque_and_keeps_ic_small(rotation):
     assert len(signed) > 100
     assert abs(sum(signed) / len(signed)) < 0.1
     assert sum(i_c_split) / len(i_c_split) < 0.35  # vs. about 2.2 A in phases a and b
+
+
+def test_check_validates_a_change_without_rebuilding_or_rereading_the_table(tmp_path, monkeypatch):
+    from dtc_controller.core.backemf_table import BackEmfTable
+    path = tmp_path / 'table.csv'
+    make_table('trapezoid').write(path)
+    core = DtcCore({'backemf_table_path': str(path)})
+    mode, params = core.mode, dict(core.params)
+    loads = []
+    original = BackEmfTable.load
+    monkeypatch.setattr(BackEmfTable, 'load', classmethod(lambda cls, *a, **k: loads.append(a) or original(*a, **k)))
+    checked = core.check({'torque_reference': 0.5, 'mode': 'two_phase_four_switch'})
+    assert checked['torque_reference'] == 0.5 and checked['mode'] == 'two_phase_four_switch'
+    assert loads == []                                # same file and motor: the loaded table is reused
+    assert core.mode is mode and core.params == params   # nothing applied
+    with pytest.raises(ParameterError):
+        core.check({'torque_band': -1.0})
+    with pytest.raises(ValueError, match='needs a back-EMF table'):
+        core.check({'backemf_table_path': ''})        # a two-phase mode without a table
+    with pytest.raises(ValueError, match='pole_pairs'):
+        core.check({'motor.pole_pairs': 3})           # the table is re-read for the new motor
+    assert len(loads) == 1 and core.params == params
+
+
+def test_modes_are_built_then_configured_and_reconfigured_in_place(trap_table):
+    from dtc_controller.core.modes import MODE_CLASSES, mode_class
+    params = SCHEMA.validate_changes(SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})
+    mode = mode_class('two_phase_four_switch').create(params, trap_table)
+    assert mode.split_now is mode.split_tables[1] and mode.hyst_a.band == pytest.approx(0.02 / 1000.0)
+    mode.configure(dict(params, rotation=-1, torque_band=0.04))
+    assert mode.split_now is mode.split_tables[-1] and mode.table_now is mode.tables[-1]
+    assert mode.hyst_a.band == pytest.approx(0.04 / 1000.0) and mode.torque_hyst.band == 0.04
+    assert set(MODE_CLASSES) == set(SCHEMA['mode'].choices)
+    with pytest.raises(ValueError, match="unknown mode 'no_such_mode'"):
+        mode_class('no_such_mode')

@@ -6,7 +6,7 @@ from dtc_controller.core.flux_estimator import InverterVoltageModel, VoltageMode
 from dtc_controller.core.speed_loop import SpeedPI
 from dtc_controller.core.torque_estimator import TorqueEstimator
 from dtc_controller.core import position as pos
-from dtc_controller.core.transforms import clarke
+from drive_common.signals import clarke
 
 
 def test_torque_eq_2_16_equals_phase_sum(trap_table):

@@ -7,7 +7,7 @@ import pytest
 
 from dtc_controller.core import line_to_line as ll
 from dtc_controller.core.backemf_table import BackEmfTable
-from dtc_controller.core.transforms import clarke, park
+from drive_common.signals import clarke, park
 
 SHIFT = (0.0, 2 * math.pi / 3, 4 * math.pi / 3)
 

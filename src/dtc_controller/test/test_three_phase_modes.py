@@ -15,7 +15,7 @@ from drive_common.samples import DriveSample
 from dtc_controller.core.backemf_table import BackEmfTable
 from dtc_controller.core.controller import DtcCore
 from dtc_controller.core.vectors import leg_states, phase_voltages
-from dtc_controller.core.transforms import clarke, inverse_clarke
+from drive_common.signals import clarke, inverse_clarke
 
 SHIFT = (0.0, 2 * math.pi / 3, 4 * math.pi / 3)
 

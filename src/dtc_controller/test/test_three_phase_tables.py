@@ -4,7 +4,7 @@ import math
 import pytest
 
 from dtc_controller.core import three_phase_tables as tpt
-from dtc_controller.core.transforms import clarke
+from drive_common.signals import clarke
 from dtc_controller.core.vectors import three_phase_six_switch_vectors
 
 SQ3 = math.sqrt(3.0)

@@ -6,7 +6,7 @@ import pytest
 
 from dtc_controller.core import voltage_drop_compensation as vdc
 from dtc_controller.core.three_phase_tables import fstp_vectors
-from dtc_controller.core.transforms import clarke
+from drive_common.signals import clarke
 from dtc_controller.core.vectors import three_phase_six_switch_vectors, voltage_coefficients
 
 SQ3 = math.sqrt(3.0)

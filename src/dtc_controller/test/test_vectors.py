@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from dtc_controller.core import vectors as vx
+from drive_common import signals
 
 VDC = 113.137  # 80 sqrt(2) V
 
@@ -113,5 +114,5 @@ def test_every_switch_state_matches_circuit():
             if sum(1 for leg in legs if leg != vx.OPEN) < 2:
                 continue
             emf = (1.0, 2.0, -3.0)
-            got = vx.alpha_beta(*vx.phase_voltages(legs, VDC, 0.4 * VDC, emf))
+            got = signals.clarke(*vx.phase_voltages(legs, VDC, 0.4 * VDC, emf))
             assert got == pytest.approx(clarke(circuit_phase_voltages(bits, VDC, 0.4 * VDC, mid, emf)))

@@ -3,8 +3,9 @@
 Subscribes ``pfc/measurement`` (dtc_msgs/PfcMeasurement), answers every
 sample with ``pfc/duty_command`` (dtc_msgs/DutyCommand, same step and stamp)
 and publishes ``pfc/status`` (dtc_msgs/PfcStatus). Parameters: see
-:data:`pfc_controller.parameters.PFC_SCHEMA`; accepted changes act from the
-next sample, rejected ones keep the old value and return the reason.
+:data:`pfc_controller.parameters.PFC_SCHEMA`; a change is validated by
+``PfcCore.check``; accepted changes act from the next sample, rejected ones
+keep the old value and return the reason.
 Run: ``ros2 run pfc_controller pfc_controller --ros-args -p voltage_reference:=90.0``.
 """
 from __future__ import annotations
@@ -23,7 +24,7 @@ class PfcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus
         super().__init__('pfc_controller', schema=PFC_SCHEMA, make_core=PfcCore,
-                         channels=LockstepChannels(PfcMeasurement, topics.PFC_MEASUREMENT,
+                         check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(PfcMeasurement, topics.PFC_MEASUREMENT,
                                                    PfcSample, DutyCommand, topics.DUTY_COMMAND,
                                                    PfcStatus, topics.PFC_STATUS), **kwargs)
 

@@ -85,3 +85,13 @@ def test_core_modules_do_not_import_ros():
             'print(bad); sys.exit(1 if bad else 0)')
     result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_check_validates_a_change_without_applying_it():
+    core = PfcCore()
+    before = core.params
+    checked = core.check({'voltage_reference': 90.0})
+    assert checked['voltage_reference'] == 90.0 and core.params == before
+    with pytest.raises(ParameterError):
+        core.check({'voltage_kp': -1.0})
+    assert core.params == before

@@ -12,7 +12,7 @@ Shapes (per unit of the constant K, phase a before the gain):
   1st, 3rd and 5th terms of the trapezoid's series, see
   :func:`trapezoid_harmonics` (c_3 = 2/9, c_5 = 1/25 of the fundamental).
 - ``sine``: -K sin(theta) (001's PM BLAC, K = psi_PM).
-- ``table``: a back-EMF table file (docs/architecture.md CSV); the phase
+- ``table``: a back-EMF table file (:mod:`drive_common.backemf_file`); the phase
   constants are rebuilt from the line-to-line columns as in 000 eq. (5.13):
   k_a = -(k_ba + k_ca)/3, k_b = k_a + k_ba, k_c = k_a + k_ca (no zero sequence,
   which line-to-line measurements cannot see).
@@ -45,11 +45,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-TWO_PI = 2.0 * math.pi
+from drive_common import backemf_file
+from drive_common.signals import TWO_PI, clarke
+
 SHIFTS = (0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0)
 SHAPES = ('trapezoid', 'harmonic', 'sine', 'table')
 
@@ -77,91 +78,6 @@ def trapezoid_harmonics(orders) -> list[float]:
     return [b(int(n)) / b(1) for n in orders]
 
 
-MIN_TABLE_ROWS = 12
-"""Fewest data rows a back-EMF table may have: one per 30 electrical degrees, the corner
-spacing of the 120-degree trapezoid (fewer rows cannot describe a six-step waveform)."""
-
-
-def read_line_to_line_table(path) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-    """(theta_e, k_ba, k_ca, metadata) from a back-EMF table CSV (docs/architecture.md).
-
-    Checked: a header naming theta_e, k_ba and k_ca; one numeric, finite cell per
-    header column on every row; theta_e in rad, strictly increasing within
-    [0, 2 pi) (a last angle of 2 pi or more is reported as a likely table in
-    degrees); at least MIN_TABLE_ROWS rows, and as many as a ``# points:``
-    line says. Every error is a ValueError starting ``<path>:<line>:``
-    (a missing file raises OSError).
-    """
-    meta: dict[str, str] = {}
-    header = None
-    header_line = 0
-    rows: list[list[float]] = []
-    lines: list[int] = []
-    text = Path(path).read_text()
-    last = 0
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        last = lineno
-        if not line.strip():
-            continue
-        if line.startswith('#'):
-            body = line[1:]
-            if ':' in body:
-                key, value = body.split(':', 1)
-                meta[key.strip()] = value.strip()
-            continue
-        if header is None:
-            header = [h.strip() for h in line.split(',')]
-            header_line = lineno
-            for col in ('theta_e', 'k_ba', 'k_ca'):
-                if col not in header:
-                    raise ValueError(f'{path}:{lineno}: back-EMF table header lacks column {col} '
-                                     f'(header: {",".join(header)})')
-            continue
-        cells = line.split(',')
-        if len(cells) != len(header):
-            raise ValueError(f'{path}:{lineno}: {len(cells)} cells, the header has {len(header)}')
-        row = []
-        for name, cell in zip(header, cells):
-            try:
-                value = float(cell)
-            except ValueError:
-                raise ValueError(f'{path}:{lineno}: column {name}: {cell.strip()!r} is not a '
-                                 'number') from None
-            if not math.isfinite(value):
-                raise ValueError(f'{path}:{lineno}: column {name}: {cell.strip()!r} is not finite')
-            row.append(value)
-        rows.append(row)
-        lines.append(lineno)
-    if header is None:
-        raise ValueError(f'{path}:{last}: no header line in back-EMF table')
-    if len(rows) < MIN_TABLE_ROWS:
-        raise ValueError(f'{path}:{lines[-1] if lines else header_line}: {len(rows)} data row(s); '
-                         f'a back-EMF table needs at least {MIN_TABLE_ROWS} over one electrical cycle')
-    if 'points' in meta:
-        try:
-            points = int(meta['points'])
-        except ValueError:
-            points = None
-        if points != len(rows):
-            raise ValueError(f'{path}:{lines[-1]}: {len(rows)} data rows, the "# points:" line '
-                             f'says {meta["points"]}')
-    data = np.array(rows, dtype=float)
-    col = {name: data[:, j] for j, name in enumerate(header)}
-    theta = col['theta_e']
-    if theta[0] < 0.0:
-        raise ValueError(f'{path}:{lines[0]}: theta_e {theta[0]:g} is negative; angles must lie in '
-                         '[0, 2 pi) rad')
-    for n in range(1, len(theta)):
-        if not theta[n] > theta[n - 1]:
-            raise ValueError(f'{path}:{lines[n]}: theta_e {theta[n]:g} does not increase (previous '
-                             f'row {theta[n - 1]:g}); rows must be in strictly increasing angle')
-    if theta[-1] >= TWO_PI:
-        hint = ' (angles in degrees? the table wants rad)' if theta[-1] > 2.0 * TWO_PI else ''
-        raise ValueError(f'{path}:{lines[-1]}: theta_e {theta[-1]:g} is not below 2 pi; angles '
-                         f'must lie in [0, 2 pi) rad{hint}')
-    return theta, col['k_ba'], col['k_ca'], meta
-
-
 @dataclass
 class BackEmfShape:
     """Per-phase back-EMF constants of a motor (exact evaluation and fast lookup tables).
@@ -184,8 +100,8 @@ class BackEmfShape:
             raise ValueError(f'back-EMF shape {self.kind!r} is not one of {SHAPES}')
         self._table = None
         if self.kind == 'table':
-            theta, k_ba, k_ca, _ = read_line_to_line_table(self.table_file)
-            self._table = (np.asarray(theta), np.asarray(k_ba), np.asarray(k_ca))
+            cols = backemf_file.read(self.table_file).columns
+            self._table = (cols['theta_e'], cols['k_ba'], cols['k_ca'])
         self._build_luts()
 
     @classmethod
@@ -231,11 +147,7 @@ class BackEmfShape:
         n = self.points
         theta = np.arange(n) * (TWO_PI / n)
         k = self.k_abc(theta)
-        # PM flux linkage: periodic integral of k (trapezoidal rule), zero mean.
-        nxt = np.roll(k, -1, axis=1)
-        cum = np.concatenate((np.zeros((3, 1)), np.cumsum(0.5 * (TWO_PI / n) * (k + nxt), axis=1)[:, :-1]),
-                             axis=1)
-        psi = cum - cum.mean(axis=1, keepdims=True)
+        psi = backemf_file.periodic_integral(k)      # PM flux linkage
         self.grid = theta
         self.k_grid = k
         self.psi_grid = psi
@@ -246,8 +158,8 @@ class BackEmfShape:
         hall = bits[0] | (bits[1] << 1) | (bits[2] << 2)
         self.fundamental = np.abs(c1)
         # Plain Python lists with a wrap-around copy: scalar fast path in the plant.
-        self.lut_k = tuple(list(map(float, row)) + [float(row[0])] for row in k)
-        self.lut_psi = tuple(list(map(float, row)) + [float(row[0])] for row in psi)
+        self.lut_k = tuple(backemf_file.periodic_list(row) for row in k)
+        self.lut_psi = tuple(backemf_file.periodic_list(row) for row in psi)
         self.lut_hall = [int(h) for h in hall] + [int(hall[0])]
         self.lut_scale = n / TWO_PI
 
@@ -279,17 +191,6 @@ class BackEmfShape:
         return float(np.max(np.abs(self.k_grid[1] - self.k_grid[0])))
 
 
-def clarke(xa, xb, xc):
-    """Amplitude-invariant Clarke (docs/architecture.md): (alpha, beta)."""
-    return (2.0 * xa - xb - xc) / 3.0, (xb - xc) / math.sqrt(3.0)
-
-
 def rotor_flux_alpha_beta(shape: BackEmfShape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(theta, psi_r_alpha, psi_r_beta) over one cycle: zero-mean integrals of k_alpha, k_beta."""
-    ka, kb = clarke(*shape.k_grid)
-    h = TWO_PI / shape.points
-
-    def integ(k):
-        cum = np.concatenate(([0.0], np.cumsum(0.5 * h * (k + np.roll(k, -1)))[:-1]))
-        return cum - cum.mean()
-    return shape.grid, integ(ka), integ(kb)
+    return (shape.grid, *backemf_file.periodic_integral(np.vstack(clarke(*shape.k_grid))))

@@ -1,6 +1,6 @@
 """Switching-level boost PFC front end of 000 ch. III (Fig. 3.1), no rclpy.
 
-Circuit (DESIGN.md §6): 60 Hz grid v_g = sqrt(2) V_rms sin(w t + phi)
+Circuit (docs/architecture.md "The plant"): 60 Hz grid v_g = sqrt(2) V_rms sin(w t + phi)
 -> optional EMI filter (C1 across the grid, L1 and L2 in the two line
 conductors, C2 across the bridge input) -> diode bridge (forward drop V_f per
 diode, two in the path) -> boost inductor L (series resistance R_L) -> boost

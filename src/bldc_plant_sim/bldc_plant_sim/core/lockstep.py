@@ -1,7 +1,7 @@
 """Lockstep schedule shared by the plant node and the headless co-simulation.
 
-DESIGN.md §3: the plant counts integer base ticks; a controller with period
-N * base_tick is due at tick k when k % N == 0. Its command is latched at
+docs/architecture.md "Time and lockstep": the plant counts integer base
+ticks; a controller with period N * base_tick is due at tick k when k % N == 0. Its command is latched at
 the sample it answers (or, with ``computation_delay``, one controller
 sample later, as a DSP that writes its PWM registers at the next interrupt)
 and held until the next command.

@@ -1,6 +1,6 @@
 """PlantCore: motor + inverter + DC link + load + sensors + protection, stepped per base tick.
 
-Integration (DESIGN.md §6): between events the circuit is linear with
+Integration (docs/architecture.md "The plant"): between events the circuit is linear with
 constant sources. Over a segment of length T the back-EMFs are held at the
 segment's mid angle (predicted with the last acceleration), device drops at
 their segment-start values and the DC-link voltages at their start values;
@@ -94,7 +94,7 @@ class EnergyLedger:
 
 
 class PlantCore:
-    """The plant of DESIGN.md §6 without ROS (API: docs/architecture.md "Core APIs").
+    """The plant of docs/architecture.md "The plant" without ROS (API: "Core APIs").
 
     params: a parameter snapshot of PLANT_NODE_SCHEMA (missing names take
     their defaults). With ``motor.file`` the file gives the motor's values and

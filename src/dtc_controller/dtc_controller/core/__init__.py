@@ -1,6 +1,6 @@
 """ROS-agnostic DTC controller core (pure Python + numpy; no rclpy, no *_msgs, no plant code).
 
-One module per concept: :mod:`transforms`, :mod:`backemf_table`,
+One module per concept (frames: :mod:`drive_common.signals`): :mod:`backemf_table`,
 :mod:`hysteresis`, :mod:`vectors`, :mod:`switching_tables`,
 :mod:`torque_estimator`, :mod:`flux_estimator`, :mod:`speed_loop`,
 :mod:`position`, one module per mode under :mod:`modes`, and

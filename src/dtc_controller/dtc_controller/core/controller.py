@@ -30,13 +30,31 @@ class DtcCore:
         self._pending: dict | None = None
         self._build()
 
+    def _table_for(self, p: dict) -> BackEmfTable | None:
+        """The back-EMF table snapshot p needs: the loaded one unless its file or motor changed."""
+        if self._backemf is not None and not self._table_changed(p):
+            return self._backemf
+        return BackEmfTable.load(p['backemf_table_path'], p['motor.pole_pairs']) if p['backemf_table_path'] else None
+
+    def _table_changed(self, p: dict) -> bool:
+        return any(p[n] != self.params[n] for n in ('backemf_table_path', 'motor.pole_pairs'))
+
     def _build(self) -> None:
         p = self.params
-        cls = mode_class(p['mode'])
-        if self._backemf is None and p['backemf_table_path']:
-            self._backemf = BackEmfTable.load(p['backemf_table_path'], p['motor.pole_pairs'])
-        self.mode = cls(p, self._backemf)
+        self._backemf = self._table_for(p)
+        self.mode = mode_class(p['mode']).create(p, self._backemf)
         self.topology = self.mode.topology
+
+    def check(self, params: dict) -> dict:
+        """The validated snapshot of a parameter change, without building a core or touching this one.
+
+        Raises ParameterError (a value), BackEmfTableError (a new table file) or ValueError (the
+        mode cannot run with it, e.g. no table); the back-EMF file is read only when its path or
+        the motor's pole pairs change.
+        """
+        p = SCHEMA.validate_changes(self.params, dict(params))
+        mode_class(p['mode']).check(p, self._table_for(p))
+        return p
 
     @property
     def backemf(self) -> BackEmfTable | None:
@@ -50,13 +68,13 @@ class DtcCore:
     def _apply_pending(self) -> None:
         new, self._pending = self._pending, None
         structural = [n for n in SCHEMA.names() if not SCHEMA[n].runtime and new[n] != self.params[n]]
-        if 'backemf_table_path' in structural or 'motor.pole_pairs' in structural:
+        if self._table_changed(new):
             self._backemf = None
         self.params = new
         if structural:
             self._build()
         else:
-            self.mode.apply_runtime(new)
+            self.mode.configure(new)
 
     def update(self, sample: DriveSample) -> tuple[GateSample, DtcStatusSample]:
         """One controller sample: measurement k -> gate command and status for step k."""

@@ -5,7 +5,7 @@ measured without the neutral).
 
 * (5.10) Line-to-line Clarke, amplitude-invariant (same as the project's Clarke
   for a zero-sequence-free set): alpha = -(x_ba + x_ca)/3,
-  beta = (x_ba - x_ca)/sqrt(3) -- :func:`transforms.alpha_beta_from_line_to_line`.
+  beta = (x_ba - x_ca)/sqrt(3) -- :func:`line_to_line_clarke`.
 * (5.13) inverse: x_a = -(x_ba + x_ca)/3, x_b = (2 x_ba - x_ca)/3, x_c = (2 x_ca - x_ba)/3.
 * (5.15) Line-to-line Park. The seed's eq. (5.4) puts q *lagging* d
   (q_seed = alpha sin(theta) - beta cos(theta) = -q); the project's Park has
@@ -22,14 +22,17 @@ from __future__ import annotations
 
 import math
 
-from .backemf_table import BackEmfTable, periodic_list
-from .transforms import INV_SQRT3, alpha_beta_from_line_to_line
+from drive_common.backemf_file import periodic_list
+from drive_common.signals import INV_SQRT3
+
+from .backemf_table import BackEmfTable
 
 _PI6 = math.pi / 6.0
 _TWO_THIRDS = 2.0 / 3.0
 
-line_to_line_clarke = alpha_beta_from_line_to_line
-"""Eq. (5.10): (alpha, beta) of (x_ba, x_ca); reused from :mod:`transforms`."""
+def line_to_line_clarke(x_ba: float, x_ca: float) -> tuple[float, float]:
+    """Eq. (5.10): (alpha, beta) of a zero-sequence-free set from (x_ba, x_ca) (x_a = -(x_ba + x_ca)/3)."""
+    return -(x_ba + x_ca) / 3.0, (x_ba - x_ca) * INV_SQRT3
 
 
 def line_to_line_inverse(x_ba: float, x_ca: float) -> tuple[float, float, float]:

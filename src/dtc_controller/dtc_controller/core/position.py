@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from .transforms import PHASE_SHIFT, TWO_PI, wrap_angle
+from drive_common.signals import PHASE_SHIFT, TWO_PI, wrap_angle
 
 
 def encoder_angle(count: int, counts_per_rev: int, pole_pairs: int, offset: float = 0.0) -> float:

@@ -29,8 +29,10 @@ from __future__ import annotations
 
 import math
 
+from drive_common.signals import clarke
+
 from .switching_tables import derive_flux_table, sector_of_angle, select_vector
-from .vectors import HIGH, LOW, MIDPOINT, VoltageVector, alpha_beta, phase_voltages, switches_of, \
+from .vectors import HIGH, LOW, MIDPOINT, VoltageVector, phase_voltages, switches_of, \
     three_phase_six_switch_vectors
 
 QUARTER = 0.5 * math.pi
@@ -101,7 +103,7 @@ def fstp_vectors(midpoint_phase: int = 0) -> tuple[VoltageVector, ...]:
             legs = [MIDPOINT] * 3
             legs[switched[0]], legs[switched[1]] = s0, s1
             legs = tuple(legs)
-            al, be = alpha_beta(*phase_voltages(legs, 1.0, 0.5))
+            al, be = clarke(*phase_voltages(legs, 1.0, 0.5))
             ang = math.atan2(be, al) % TWO_PI
             idx = int(round(ang / QUARTER)) % 4 + 1
             out.append(VoltageVector(f'V{idx}', idx, switches_of(legs), legs, al, be, False))

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
-from .transforms import INV_SQRT3
+from drive_common.signals import clarke
 
 HIGH, LOW, OPEN, MIDPOINT = 'H', 'L', 'O', 'M'
 PHASES = ('a', 'b', 'c')
@@ -71,11 +71,6 @@ def phase_voltages(legs, v_dc: float, v_mid: float | None = None,
     return tuple((term[x] - v_n) if term[x] is not None else float(emf[x]) for x in range(3))
 
 
-def alpha_beta(v_a: float, v_b: float, v_c: float) -> tuple[float, float]:
-    """Amplitude-invariant Clarke transform of phase voltages."""
-    return (2.0 * v_a - v_b - v_c) / 3.0, (v_b - v_c) * INV_SQRT3
-
-
 @lru_cache(maxsize=None)
 def voltage_coefficients(legs: tuple) -> tuple:
     """Linear model of the alpha/beta voltage of a leg pattern (exact, by superposition).
@@ -84,14 +79,14 @@ def voltage_coefficients(legs: tuple) -> tuple:
     v_alpha = a_dc V_dc + a_mid v_mid + sum(ka e_x), v_beta likewise, where
     open_terms = ((x, ka, kb), ...) for each open phase x.
     """
-    a_dc, b_dc = alpha_beta(*phase_voltages(legs, 1.0, 0.0))
-    a_mid, b_mid = alpha_beta(*phase_voltages(legs, 0.0, 1.0))
+    a_dc, b_dc = clarke(*phase_voltages(legs, 1.0, 0.0))
+    a_mid, b_mid = clarke(*phase_voltages(legs, 0.0, 1.0))
     terms = []
     for x in range(3):
         if legs[x] == OPEN:
             e = [0.0, 0.0, 0.0]
             e[x] = 1.0
-            ka, kb = alpha_beta(*phase_voltages(legs, 0.0, 0.0, e))
+            ka, kb = clarke(*phase_voltages(legs, 0.0, 0.0, e))
             terms.append((x, ka, kb))
     return a_dc, a_mid, b_dc, b_mid, tuple(terms)
 
@@ -124,12 +119,12 @@ class VoltageVector:
 
     def voltage(self, v_dc: float, v_mid: float | None = None, emf=(0.0, 0.0, 0.0)) -> tuple[float, float]:
         """alpha/beta voltage [V] from the circuit for the given DC link and open-phase back-EMFs."""
-        return alpha_beta(*phase_voltages(self.legs, v_dc, v_mid, emf))
+        return clarke(*phase_voltages(self.legs, v_dc, v_mid, emf))
 
 
 def _make(name: str, index: int, legs: tuple) -> VoltageVector:
     va, vb, vc = phase_voltages(legs, 1.0, 0.5)
-    alpha, beta = alpha_beta(va, vb, vc)
+    alpha, beta = clarke(va, vb, vc)
     two = sum(1 for v in (va, vb, vc) if abs(v) < 1e-12) == 1 and math.hypot(alpha, beta) > 1e-12
     return VoltageVector(name, index, switches_of(legs), legs, alpha, beta, two)
 

@@ -24,7 +24,7 @@ with these formulas (pinned by tests). Values change at runtime (attributes).
 """
 from __future__ import annotations
 
-from .transforms import INV_SQRT3
+from drive_common.signals import INV_SQRT3
 
 SCHEMES = ('none', 'simple', 'proposed')
 

@@ -106,14 +106,26 @@ class PfcCore:
         """Eq. (3.6): K_m = V_max / V_min."""
         return self._km
 
+    def check(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """The validated snapshot of a parameter change; ParameterError / ValueError to refuse it.
+
+        Nothing of the running core changes (the lockstep node validates every change with this).
+        """
+        p = PFC_SCHEMA.validate_changes(self._p or PFC_SCHEMA.defaults(), dict(params))
+        if self._line_period_changed(p):
+            LinePeriodAverage(p['line_frequency'], p['sample_period'])
+        return p
+
+    def _line_period_changed(self, p: Mapping[str, Any]) -> bool:
+        return (self._average is None or p['line_frequency'] != self._p.get('line_frequency')
+                or p['sample_period'] != self._p.get('sample_period'))
+
     def reconfigure(self, params: Mapping[str, Any]) -> None:
-        """Take a new parameter snapshot (validated); it acts from the next update."""
-        old = self._p
-        p = PFC_SCHEMA.validate_changes(old or PFC_SCHEMA.defaults(), dict(params))
-        self._p = p
-        if (self._average is None or p['line_frequency'] != old.get('line_frequency')
-                or p['sample_period'] != old.get('sample_period')):
+        """Take a new parameter snapshot (validated by :meth:`check`); it acts from the next update."""
+        p = self.check(params)
+        if self._line_period_changed(p):
             self._average = LinePeriodAverage(p['line_frequency'], p['sample_period'])
+        self._p = p
         self._km = p['input_voltage_max'] / p['input_voltage_min']
         self._inv_vmax = 1.0 / p['input_voltage_max']
         self._inv_vbase = 1.0 / p['output_voltage_base']

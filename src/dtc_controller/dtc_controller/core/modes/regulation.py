@@ -1,28 +1,98 @@
-"""What every DTC mode regulates alike: the torque and flux hysteresis, the speed PI and their references.
+"""The base of every DTC mode: its life cycle and what all modes regulate alike.
 
-Torque reference T* (parameter, or the speed PI's output when ``speed_loop.enabled``),
-flux reference, rotation (selects the switching table ``table_now`` of ``self.tables``),
-two-level torque / flux comparators with half-width bands and the speed PI gains.
-Runtime changes act from the next sample.
+Life cycle (docs/architecture.md "DTC modes"): :meth:`DtcMode.create` builds the
+mode (``cls(params, backemf)``: the subclass sets up its estimators and tables
+after ``super().__init__``) and then calls :meth:`DtcMode.configure`, which sets
+everything a runtime parameter change may alter; the controller calls
+``configure`` again for each runtime change (it acts from the next sample).
+
+Shared regulation: torque reference T* (parameter, or the speed PI's output when
+``speed_loop.enabled``), flux reference, rotation (selects the switching table
+``table_now`` of ``self.tables``), two-level torque / flux comparators with
+half-width bands, the speed PI, the measurement of a sample (currents with one
+missing sensor reconstructed, Clarke, encoder angle) and the memory of the
+applied switch state for the next sample's voltage model.
 """
 from __future__ import annotations
 
+from drive_common.signals import TWO_PI, clarke
+
 from ..hysteresis import TwoLevelHysteresis
 from ..speed_loop import SpeedPI
+from ..status import NAN
+
+_ALL_OFF = (False,) * 6
 
 
-class DtcRegulation:
-    """Mixin of the mode base classes; the mode provides ``tables`` {rotation: table}."""
+def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, float, float]:
+    """Phase currents [A] with at most one NaN (missing sensor) filled from i_a + i_b + i_c = 0.
 
-    def _build_regulators(self, params: dict) -> None:
-        """The torque and flux comparators and the speed PI (references follow in apply_runtime)."""
+    Raises ValueError when two or more currents are missing.
+    """
+    if i_a == i_a and i_b == i_b and i_c == i_c:  # fast path: no NaN
+        return i_a, i_b, i_c
+    if i_a != i_a:
+        if i_b != i_b or i_c != i_c:
+            raise ValueError('at least two phase currents are NaN: cannot reconstruct')
+        return -i_b - i_c, i_b, i_c
+    if i_b != i_b:
+        if i_c != i_c:
+            raise ValueError('at least two phase currents are NaN: cannot reconstruct')
+        return i_a, -i_a - i_c, i_c
+    return i_a, i_b, -i_a - i_b
+
+
+class DtcMode:
+    """Base of the mode classes; a mode sets ``name``, ``topology``, ``tables`` {rotation: table}
+    and ``step(sample) -> (switch_on, DtcStatusSample)``."""
+
+    name = ''
+    topology = 6
+    midpoint_phase: int | None = None
+
+    needs_table_hint = 'needs a back-EMF table (parameter backemf_table_path)'
+
+    @classmethod
+    def needs_table(cls, params: dict) -> bool:
+        """Whether the mode cannot run on snapshot params without a back-EMF table."""
+        return True
+
+    @classmethod
+    def check(cls, params: dict, backemf) -> None:
+        """ValueError when the mode cannot run with this snapshot and table (what __init__ relies on)."""
+        p = int(params['motor.pole_pairs'])
+        if backemf is not None and backemf.pole_pairs != p:
+            raise ValueError(f'{backemf.source_path}: table is for pole_pairs {backemf.pole_pairs}, '
+                             f'motor.pole_pairs is {p}')
+        if backemf is None and cls.needs_table(params):
+            raise ValueError(f'mode {cls.name}: {cls.needs_table_hint}')
+
+    def __init__(self, params: dict, backemf) -> None:
+        self.check(params, backemf)
+        self.pole_pairs = int(params['motor.pole_pairs'])
+        self.table = backemf
+        self.inductance = float(params['motor.inductance'])
+        self.encoder_offset = float(params['estimation.encoder_offset'])
         self.torque_hyst = TwoLevelHysteresis(params['torque_band'])
         self.flux_hyst = TwoLevelHysteresis(params['flux_band'])
         self.speed_pi = SpeedPI(params['speed_loop.kp'], params['speed_loop.ki'],
                                 params['speed_loop.period_samples'], params['sample_period'],
                                 params['speed_loop.torque_limit'])
+        self._started = False
+        self._prev_switch = _ALL_OFF
+        self._prev_vdc = 0.0
+        self._prev_vmid = 0.0
+        self._prev_i = (0.0, 0.0, 0.0)
+        self._speed_m = 0.0
 
-    def _apply_references(self, params: dict) -> None:
+    @classmethod
+    def create(cls, params: dict, backemf) -> 'DtcMode':
+        """Build the mode, then configure it from the same snapshot."""
+        mode = cls(params, backemf)
+        mode.configure(params)
+        return mode
+
+    def configure(self, params: dict) -> None:
         """Rotation and its table, torque / flux references and bands, speed loop and PI gains."""
         self.rotation = int(params['rotation'])
         self.table_now = self.tables[self.rotation]
@@ -34,3 +104,32 @@ class DtcRegulation:
         self.speed_reference = float(params['speed_reference'])
         self.speed_pi.set_gains(params['speed_loop.kp'], params['speed_loop.ki'],
                                 params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
+
+    def measure(self, s):
+        """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample."""
+        i_a, i_b, i_c = s.phase_current
+        if not (i_a == i_a and i_b == i_b and i_c == i_c):
+            i_a, i_b, i_c = reconstruct_currents(i_a, i_b, i_c)
+        theta = s.encoder_angle
+        if self.encoder_offset:
+            theta = (theta + self.encoder_offset) % TWO_PI
+        v_dc = s.dc_link_voltage
+        v_mid = s.midpoint_voltage
+        self._speed_m = s.mechanical_speed
+        if v_mid != v_mid:
+            v_mid = 0.5 * v_dc
+        return (i_a, i_b, i_c, *clarke(i_a, i_b, i_c), theta, v_dc, v_mid)
+
+    def torque_reference_now(self, speed_m: float) -> tuple[float, float]:
+        """(T* [N m], speed reference or NaN); speed_m [rad/s] is the speed the loop regulates."""
+        if self.speed_loop:
+            return self.speed_pi.update(self.speed_reference, speed_m), self.speed_reference
+        return self.torque_reference, NAN
+
+    def remember(self, switch_on, v_dc, v_mid, i_a, i_b, i_c) -> None:
+        """The applied switch state and the sample's measurements, for the next sample's voltage model."""
+        self._started = True
+        self._prev_switch = switch_on
+        self._prev_vdc = v_dc
+        self._prev_vmid = v_mid
+        self._prev_i = (i_a, i_b, i_c)

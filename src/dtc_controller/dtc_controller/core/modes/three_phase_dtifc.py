@@ -37,14 +37,14 @@ class ThreePhaseDtifcMode(ThreePhaseBase):
     midpoint_phase = None
     default_integrator = 'hu_wu'
     default_position = 'sensorless'
-    needs_table = True
+    table_required = True
 
     def __init__(self, params, backemf) -> None:
-        self.id_hyst = TwoLevelHysteresis(params['dtifc.d_current_band'])
         super().__init__(params, backemf)
+        self.id_hyst = TwoLevelHysteresis(params['dtifc.d_current_band'])
 
-    def apply_runtime(self, params) -> None:
-        super().apply_runtime(params)
+    def configure(self, params) -> None:
+        super().configure(params)
         self.id_reference = float(params['dtifc.d_current_reference'])
         self.id_hyst.band = float(params['dtifc.d_current_band'])
 

@@ -20,46 +20,39 @@ from __future__ import annotations
 
 import math
 
+from drive_common.signals import TWO_PI
+
 from ..backemf_table import BackEmfTable
 from ..line_to_line import DqBackEmf
 from ..status import NAN, DtcStatusSample
 from ..stator_flux_estimators import CurrentModelFlux, compensate_low_pass, make_voltage_model
 from ..three_phase_tables import six_switch_sector, six_switch_table
-from ..transforms import INV_SQRT3, TWO_PI, reconstruct_currents
 from ..vectors import leg_states, voltage_coefficients
 from ..voltage_drop_compensation import VoltageDropCompensation
-from .regulation import DtcRegulation
+from .regulation import DtcMode
 
-_ALL_OFF = (False,) * 6
 DEFAULT_CUTOFF = {'low_pass': 5.0, 'hu_wu': 20.0, 'pure': 0.0}
 """rad/s: 001 uses a 5 rad/s low-pass integrator, 000 ch. V a 20 rad/s Hu-Wu integrator."""
 
 
-class ThreePhaseBase(DtcRegulation):
+class ThreePhaseBase(DtcMode):
     """Shared state and per-sample helpers; subclasses set name, topology, defaults and ``step``."""
 
-    name = ''
-    topology = 6
-    midpoint_phase: int | None = None
     default_integrator = 'pure'
     default_position = 'encoder'
-    needs_table = False
+    table_required = False
+    needs_table_hint = 'needs a back-EMF table (backemf_table_path) or three_phase.pm_flux > 0'
+
+    @classmethod
+    def needs_table(cls, params: dict) -> bool:
+        return cls.table_required or float(params['three_phase.pm_flux']) <= 0.0
 
     def __init__(self, params: dict, backemf: BackEmfTable | None) -> None:
-        p = int(params['motor.pole_pairs'])
-        if backemf is not None and backemf.pole_pairs != p:
-            raise ValueError(f'{backemf.source_path}: table is for pole_pairs {backemf.pole_pairs}, '
-                             f'motor.pole_pairs is {p}')
-        self.table = backemf
+        super().__init__(params, backemf)
         self.dq = DqBackEmf(backemf) if backemf is not None else None
         psi_m = float(params['three_phase.pm_flux'])
-        if self.dq is None and (self.needs_table or psi_m <= 0.0):
-            raise ValueError(f'mode {self.name}: needs a back-EMF table (backemf_table_path) '
-                             'or three_phase.pm_flux > 0')
         self.psi_m = psi_m
-        self.pole_pairs = p
         self.sample_period = float(params['sample_period'])
-        self.inductance = float(params['motor.inductance'])
         self.resistance = float(params['motor.resistance'])
         self.rotor_flux_fn = self.dq.rotor_flux if self.dq is not None else self._sine_rotor_flux
         self.rotor_flux_amplitude = self.dq.rotor_flux_max if self.dq is not None else psi_m
@@ -79,7 +72,6 @@ class ThreePhaseBase(DtcRegulation):
         pos = params['three_phase.position_source']
         pos = self.default_position if pos == 'auto' else pos
         self.sensorless = pos == 'sensorless' and not self.current_model
-        self.encoder_offset = float(params['estimation.encoder_offset'])
         self.initial_angle = float(params['three_phase.initial_angle'])
         self.init_from_rotor = params['estimation.initial_flux'] == 'backemf_table'
         self._speed_gain = 1.0 - math.exp(-float(params['three_phase.speed_filter_cutoff']) * self.sample_period)
@@ -88,18 +80,8 @@ class ThreePhaseBase(DtcRegulation):
         self.compensation = VoltageDropCompensation(self.midpoint_phase)
         self._coeffs: dict = {}
 
-        # ---- tables and controllers
         self.tables = {r: self.make_table(r) for r in (1, -1)}
-        self._build_regulators(params)
-        self.apply_runtime(params)
-
-        self._started = False
-        self._prev_switch = _ALL_OFF
-        self._prev_vdc = 0.0
-        self._prev_vmid = 0.0
-        self._prev_i = (0.0, 0.0, 0.0)
         self._prev_theta = 0.0
-        self._speed_m = 0.0
         self.omega_e = 0.0
 
     # -------------------------------------------------------------- configuration
@@ -109,11 +91,11 @@ class ThreePhaseBase(DtcRegulation):
     def sector_of(self, angle: float) -> int:
         return six_switch_sector(angle)
 
-    def apply_runtime(self, params: dict) -> None:
+    def configure(self, params: dict) -> None:
         """References, bands, gains, rotation, compensation and device drops (from the next sample)."""
+        super().configure(params)
         self.flux_ref_from_table = (params['flux_control.reference_source'] == 'backemf_table'
                                     and self.dq is not None)
-        self._apply_references(params)
         self.lpf_compensation = bool(params['three_phase.low_pass_compensation'])
         self.compensation.configure(params['voltage_drop.compensation'], params['voltage_drop.v_ce'],
                                     params['voltage_drop.v_d'], params['voltage_drop.v_f'],
@@ -141,21 +123,6 @@ class ThreePhaseBase(DtcRegulation):
             v_al += d_al
             v_be += d_be
         return v_al, v_be
-
-    def measure(self, s):
-        """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample."""
-        i_a, i_b, i_c = s.phase_current
-        if not (i_a == i_a and i_b == i_b and i_c == i_c):
-            i_a, i_b, i_c = reconstruct_currents(i_a, i_b, i_c)
-        theta = s.encoder_angle
-        if self.encoder_offset:
-            theta = (theta + self.encoder_offset) % TWO_PI
-        v_dc = s.dc_link_voltage
-        v_mid = s.midpoint_voltage
-        self._speed_m = s.mechanical_speed
-        if v_mid != v_mid:
-            v_mid = 0.5 * v_dc
-        return i_a, i_b, i_c, (2.0 * i_a - i_b - i_c) / 3.0, (i_b - i_c) * INV_SQRT3, theta, v_dc, v_mid
 
     def estimate_flux(self, i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid) -> tuple[float, float]:
         """Stator flux (psi_alpha, psi_beta) [Wb] at sample k (module doc)."""
@@ -199,19 +166,6 @@ class ThreePhaseBase(DtcRegulation):
             self.omega_e += self._speed_gain * (d / self.sample_period - self.omega_e)
         self._prev_theta = theta
         return theta, self.omega_e
-
-    def torque_reference_now(self, speed_m: float) -> tuple[float, float]:
-        """(T* [N m], speed reference or NaN); the speed loop uses the estimated speed when sensorless."""
-        if self.speed_loop:
-            return self.speed_pi.update(self.speed_reference, speed_m), self.speed_reference
-        return self.torque_reference, NAN
-
-    def remember(self, switch_on, v_dc, v_mid, i_a, i_b, i_c) -> None:
-        self._started = True
-        self._prev_switch = switch_on
-        self._prev_vdc = v_dc
-        self._prev_vmid = v_mid
-        self._prev_i = (i_a, i_b, i_c)
 
 
 class ThreePhasePmsmMode(ThreePhaseBase):

@@ -36,25 +36,23 @@ class TwoPhaseFourSwitchMode(TwoPhaseModeBase):
     midpoint_phase = MIDPOINT_PHASE
 
     def __init__(self, params, backemf) -> None:
+        super().__init__(params, backemf)
         self.hyst_a = TwoLevelHysteresis(0.0)
         self.hyst_b = TwoLevelHysteresis(0.0)
-        super().__init__(params, backemf)
         self.split_sectors = split_phase_sectors(self.tables[1], MIDPOINT_PHASE)
         self.split_tables = {r: derive_split_phase_table(self.vectors, MIDPOINT_PHASE, self.split_sectors, r)
                              for r in (1, -1)}
         self._split_set = frozenset(self.split_sectors)
-        self.split_now = self.split_tables[self.rotation]
 
     def make_vectors(self):
         return four_switch_vectors(MIDPOINT_PHASE)
 
-    def apply_runtime(self, params) -> None:
-        super().apply_runtime(params)
+    def configure(self, params) -> None:
+        super().configure(params)
         band = float(params['torque_band']) / float(params['four_switch.split_band_divisor'])
         self.hyst_a.band = band
         self.hyst_b.band = band
-        if hasattr(self, 'split_tables'):
-            self.split_now = self.split_tables[self.rotation]
+        self.split_now = self.split_tables[self.rotation]
 
     def _select(self, sector, phi, tau, theta, i_a, i_b, t_ref):
         if sector not in self._split_set:

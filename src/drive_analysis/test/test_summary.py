@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from drive_logger.analysis import metrics
+from drive_analysis import summary as metrics
 
 
 def test_thd_of_known_harmonics_eq39():
@@ -13,7 +13,6 @@ def test_thd_of_known_harmonics_eq39():
     x = 2.0 * np.sin(2 * np.pi * f1 * t) + 0.2 * np.sin(2 * np.pi * 5 * f1 * t) + 0.1 * np.cos(2 * np.pi * 7 * f1 * t)
     assert metrics.thd_percent(t, x, f1) == pytest.approx(math.hypot(0.2, 0.1) / 2.0 * 100, rel=1e-3)
     assert metrics.harmonics(t, x + 0.5, f1, 1)[0] == pytest.approx(0.5, abs=1e-6)
-    assert metrics.total_thd_percent([3.0, 4.0, 5.0]) == pytest.approx(math.sqrt((9 + 16 + 25) / 3))
 
 
 def test_fundamental_frequency_and_balance():
@@ -28,7 +27,7 @@ def test_fundamental_frequency_and_balance():
 
 def test_trf_eq40_and_ripple():
     torque = 0.3 + 0.015 * np.sin(np.linspace(0, 12 * np.pi, 6000, endpoint=False))
-    assert metrics.torque_ripple_factor_percent(torque, 0.3) == pytest.approx(0.03 / 0.3 * 100, rel=1e-3)
+    assert metrics.torque_ripple_factor_window_percent(torque, 0.3) == pytest.approx(0.03 / 0.3 * 100, rel=1e-3)
     r = metrics.ripple(torque)
     assert r['peak_to_peak'] == pytest.approx(0.03, rel=1e-3)
     assert r['rms_deviation'] == pytest.approx(0.015 / math.sqrt(2), rel=1e-2)

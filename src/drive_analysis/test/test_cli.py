@@ -7,7 +7,8 @@ import pytest
 from rclpy.serialization import serialize_message
 
 from drive_common.conversions import time_msg
-from drive_logger import analysis_cli, qos_yaml
+from drive_analysis import cli as analysis_cli
+from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter
 from drive_logger.message_definitions import type_definition
 from dtc_msgs.msg import DtcStatus, PlantState
@@ -48,7 +49,7 @@ def test_analyze_writes_summary_and_figures(tmp_path):
     assert summary['current_fundamental_frequency'] == pytest.approx(F1, rel=0.02)
     assert summary['current_thd_total_percent'] == pytest.approx(5.0, rel=1e-2)
     assert summary['current_balance']['imbalance_percent'] == pytest.approx(0.0, abs=0.1)
-    assert summary['torque_ripple_factor_percent'] == pytest.approx(0.02 / 0.3 * 100, rel=2e-2)
+    assert summary['torque_ripple_factor_window_percent'] == pytest.approx(0.02 / 0.3 * 100, rel=2e-2)
     assert summary['power_factor'] == pytest.approx(math.cos(0.3) * 1.0, abs=5e-3)
     assert summary['torque_estimation_error']['mean'] == pytest.approx(0.002, abs=1e-9)
     assert summary['angle_estimation_error']['max_abs'] == pytest.approx(0.01, abs=1e-9)

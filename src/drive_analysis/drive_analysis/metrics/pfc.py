@@ -1,14 +1,12 @@
 """Metrics of the boost PFC results (000 ch. III, Figs. 3.4-3.6), pure numpy.
 
-Every metric takes the flat arrays dict of a run (headless
-:meth:`drive_bringup.headless.HeadlessResult.arrays` or a bag through
-:func:`drive_bringup.report.flatten_columns`): plant ground truth as
+Every metric takes the flat arrays dict of a run (:mod:`drive_analysis.arrays`): plant ground truth as
 ``'plant/state.<field>'`` with ``'plant/state.time'``, PFC internals as
 ``'pfc/status.<field>'``; plus keyword options; it returns a float (NaN when
 the window holds no data). Options ``t_start`` / ``t_end`` [s] restrict a
-metric to the samples with t_start <= t < t_end (default: the whole run).
+metric to the samples with t_start <= t <= t_end (default: the whole run).
 
-Line-side metrics use :mod:`pfc_controller.grid_metrics` over the LAST whole
+Line-side metrics use :mod:`drive_common.signals` over the LAST whole
 line cycles of the window (``cycles`` limits how many; the record must be
 evenly sampled -- the plant state is recorded every DTC sample, 25 us, so 3
 line cycles of 60 Hz are exactly 2000 samples). The voltage is the grid
@@ -29,9 +27,8 @@ source voltage ``grid_voltage`` (behind the supply impedance) and the current
     NaN if still outside at the end of the window: not recovered).
 ``output_voltage_deviation_V``  option ``t_event`` (else t_start), ``reference``: largest
     |averaged v_o - reference| after t_event (the dip or overshoot of a step).
-``boost_protection_tripped``  option ``bit`` (2 = boost over-current, 4 = over-voltage,
-    PlantState PROTECTION_*; default 6 = either): 1.0 if set at any sample.
-``boost_trip_time_s``  first sim time with that bit set (NaN if never).
+Boost protections: ``protection_tripped`` / ``trip_time_s`` of the two-phase module with
+``bit`` 2 (over-current), 4 (over-voltage) or 6 (either).
 ``boost_switch_enabled_fraction``  fraction of the window's samples with the boost
     switch enabled after protections (0 = held off: the safe state of the front end).
 ``peak_inductor_current_A``  largest boost inductor current in the window.
@@ -44,80 +41,68 @@ import math
 
 import numpy as np
 
-from pfc_controller import grid_metrics
+from drive_analysis.arrays import moving_average, window
+from drive_common import signals
 
 LINE_FREQUENCY = 60.0
 
 
-def _window(arrays: dict, t_start: float | None, t_end: float | None,
-            topic: str = 'plant/state') -> np.ndarray:
-    t = np.asarray(arrays[f'{topic}.time'], dtype=float)
-    mask = np.ones(t.shape, dtype=bool)
-    if t_start is not None:
-        mask &= t >= t_start - 1e-12
-    if t_end is not None:
-        mask &= t < t_end - 1e-12
-    return mask
+def _mask(arrays: dict, t_start, t_end) -> np.ndarray:
+    return window(arrays['plant/state.time'], t_start, t_end)
 
 
-def _field(arrays: dict, name: str, mask: np.ndarray, topic: str = 'plant/state') -> np.ndarray:
-    return np.asarray(arrays[f'{topic}.{name}'], dtype=float)[mask]
+def _field(arrays: dict, name: str, mask: np.ndarray) -> np.ndarray:
+    return np.asarray(arrays[f'plant/state.{name}'], dtype=float)[mask]
 
 
 def _grid(arrays: dict, t_start=None, t_end=None, cycles=None,
           line_frequency: float = LINE_FREQUENCY):
-    """(v, i, sample_rate) over the last whole line cycles of the window."""
-    mask = _window(arrays, t_start, t_end)
+    """(v, i, periods) over the last whole line cycles of the window."""
+    mask = _mask(arrays, t_start, t_end)
     t = _field(arrays, 'time', mask)
     if len(t) < 3:
         raise ValueError('window holds too few samples')
     dt = np.diff(t)
     # The headless runner appends the final state; keep only the evenly spaced part.
     step = float(np.median(dt))
-    even = np.abs(dt - step) < 1e-3 * step
-    if not even[-1]:
-        mask_idx = np.flatnonzero(mask)[:-1]
-        mask = np.zeros_like(mask)
-        mask[mask_idx] = True
-        t = t[:-1]
-    rate = 1.0 / step
-    v = grid_metrics.whole_cycles(_field(arrays, 'grid_voltage', mask), rate, line_frequency,
-                                  cycles)
-    i = grid_metrics.whole_cycles(_field(arrays, 'grid_current', mask), rate, line_frequency,
-                                  cycles)
+    if not abs(dt[-1] - step) < 1e-3 * step:
+        mask[np.flatnonzero(mask)[-1]] = False
+    v, i = _field(arrays, 'grid_voltage', mask), _field(arrays, 'grid_current', mask)
+    n, periods = signals.samples_per_whole_periods(len(v), 1.0 / step / line_frequency, cycles)
+    v, i = v[len(v) - n:], i[len(i) - n:]
     if np.isnan(v).any() or np.isnan(i).any():
         raise ValueError('no grid quantities recorded (front end disabled?)')
-    return v, i, rate
+    return v, i, periods
 
 
 def line_power_factor(arrays, t_start=None, t_end=None, cycles=None,
                       line_frequency=LINE_FREQUENCY) -> float:
     v, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return grid_metrics.power_factor(v, i)
+    return signals.power_factor(v, i)
 
 
 def line_current_thd_pct(arrays, t_start=None, t_end=None, cycles=None,
                          line_frequency=LINE_FREQUENCY, max_harmonic=40) -> float:
-    _, i, rate = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return 100.0 * grid_metrics.thd(i, rate, line_frequency, max_harmonic)
+    _, i, periods = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return 100.0 * signals.thd(i, periods, max_harmonic)
 
 
 def line_displacement_factor(arrays, t_start=None, t_end=None, cycles=None,
                              line_frequency=LINE_FREQUENCY) -> float:
-    v, i, rate = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return grid_metrics.displacement_factor(v, i, rate, line_frequency)
+    v, i, periods = _grid(arrays, t_start, t_end, cycles, line_frequency)
+    return signals.displacement_factor(v, i, periods)
 
 
 def line_current_rms_A(arrays, t_start=None, t_end=None, cycles=None,
                        line_frequency=LINE_FREQUENCY) -> float:
     _, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return grid_metrics.rms(i)
+    return signals.rms(i)
 
 
 def line_voltage_rms_V(arrays, t_start=None, t_end=None, cycles=None,
                        line_frequency=LINE_FREQUENCY) -> float:
     v, _, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return grid_metrics.rms(v)
+    return signals.rms(v)
 
 
 def line_real_power_W(arrays, t_start=None, t_end=None, cycles=None,
@@ -127,7 +112,7 @@ def line_real_power_W(arrays, t_start=None, t_end=None, cycles=None,
 
 
 def _output(arrays, t_start, t_end) -> np.ndarray:
-    return _field(arrays, 'dc_link_voltage', _window(arrays, t_start, t_end))
+    return _field(arrays, 'dc_link_voltage', _mask(arrays, t_start, t_end))
 
 
 def mean_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
@@ -152,7 +137,7 @@ def min_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
 
 def _averaged_output(arrays, t_start, t_end, line_frequency):
     """(t, v_o averaged over a trailing half line cycle) in the window."""
-    mask = _window(arrays, t_start, t_end)
+    mask = _mask(arrays, t_start, t_end)
     t = _field(arrays, 'time', mask)
     v = _field(arrays, 'dc_link_voltage', mask)
     if len(t) < 3:
@@ -161,9 +146,7 @@ def _averaged_output(arrays, t_start, t_end, line_frequency):
     n = max(1, int(round(0.5 / line_frequency / step)))
     if len(v) <= n:
         return t[-1:], np.array([np.mean(v)])
-    c = np.cumsum(np.insert(v, 0, 0.0))
-    avg = (c[n:] - c[:-n]) / n
-    return t[n - 1:], avg
+    return t[n - 1:], moving_average(v, n)
 
 
 def output_recovery_time_s(arrays, t_event, reference=80.0, band=2.0, t_end=None,
@@ -187,30 +170,13 @@ def output_voltage_deviation_V(arrays, t_event=None, reference=80.0, t_start=Non
     return float(np.max(np.abs(avg - reference))) if len(t) else math.nan
 
 
-def _protection(arrays, t_start, t_end):
-    mask = _window(arrays, t_start, t_end)
-    return (_field(arrays, 'time', mask),
-            _field(arrays, 'protection', mask).astype(np.int64))
-
-
-def boost_protection_tripped(arrays, bit=6, t_start=None, t_end=None) -> float:
-    _, prot = _protection(arrays, t_start, t_end)
-    return 1.0 if np.any(prot & int(bit)) else 0.0
-
-
-def boost_trip_time_s(arrays, bit=6, t_start=None, t_end=None) -> float:
-    t, prot = _protection(arrays, t_start, t_end)
-    hit = np.flatnonzero(prot & int(bit))
-    return float(t[hit[0]]) if len(hit) else math.nan
-
-
 def boost_switch_enabled_fraction(arrays, t_start=None, t_end=None) -> float:
-    on = _field(arrays, 'boost_switch_enabled', _window(arrays, t_start, t_end))
+    on = _field(arrays, 'boost_switch_enabled', _mask(arrays, t_start, t_end))
     return float(np.mean(on)) if len(on) else math.nan
 
 
 def peak_inductor_current_A(arrays, t_start=None, t_end=None) -> float:
-    i = _field(arrays, 'inductor_current', _window(arrays, t_start, t_end))
+    i = _field(arrays, 'inductor_current', _mask(arrays, t_start, t_end))
     return float(np.max(i)) if len(i) else math.nan
 
 

@@ -1,6 +1,6 @@
 """The seeds' figures as PNG from bag columns (matplotlib, Agg backend, no ROS).
 
-Each function takes the columns of :func:`drive_logger.analysis.data.load_columns`
+Each function takes the columns of :func:`drive_analysis.bag_columns.load_columns`
 and an output path, and returns the path, or None when the bag lacks the data.
 """
 from __future__ import annotations

@@ -1,21 +1,17 @@
 """Metrics of the three-phase DTC results (000 ch. V, 001 Tables IX-X), pure numpy.
 
-Every metric takes the flat arrays dict of
-:meth:`drive_bringup.headless.HeadlessResult.arrays` (or of a recorded bag,
-:func:`drive_bringup.report.flatten_columns`): plant ground truth as
+Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground truth as
 ``'plant/state.<field>'`` (one row per recorded plant sample, vector fields
 as (N, 3) arrays) and controller internals as ``'dtc/status.<field>'`` (one
 row per controller sample), plus keyword options, and returns a float (NaN
 when the window holds no data). Controller and plant rows are paired by
 their ``step`` (the status of step k and the plant state at t_k). Options
 ``t_start`` / ``t_end`` [s] restrict a metric to a time window (default:
-the whole run). Angles are electrical; ``rated_torque`` defaults to the
-000 motor (1.28352 N m), 001 scenarios pass 0.3 N m.
+the whole run). Angles are electrical. Torque ripple
+(001 eq. (40)): :mod:`drive_analysis.metrics.ripple`.
 
-The names below are the ``metric:`` keys of the scenarios' checks. They are
-deliberately distinct from the names in :mod:`drive_bringup.metrics_two_phase`
-(the report looks metrics up there first, so a shared name would shadow
-these).
+The names below are the ``metric:`` keys of the scenarios' checks (the
+registry refuses a name defined in two metric modules).
 
 000 ch. V (sensorless DTIFC, Figs. 5.5-5.8, 5.11)
     ``angle_error_rms_deg``: RMS of wrap(theta_est - theta_true) [electrical
@@ -28,12 +24,11 @@ these).
     controller's i_d (Park at its estimated angle, as 000 Fig. 5.11 plots),
     ``source='plant'`` the true phase currents at the true angle.
     ``q_current_mean_A``: mean of the controller's i_q.
-    ``estimated_torque_rms_error_pct_rated``: RMS of (T_est - T_true) at the
-    controller samples in % of rated torque.
-    ``true_torque_mean_N_m`` / ``estimated_torque_mean_N_m``: DC torque of the
-    plant / of the controller's estimate.
+    ``estimated_torque_mean_N_m``: DC torque of the controller's estimate
+    (the plant's, the estimation error and the mean speed: the two-phase
+    module's ``mean_torque_N_m``, ``torque_estimation_rms_error_pct_rated``,
+    ``mean_speed_rad_s``).
     ``torque_tracking_error_N_m``: mean of (T_true - T*).
-    ``mean_mechanical_speed_rad_s``: mean plant speed.
     ``speed_estimate_error_pct``: mean of the sensorless electrical speed
     estimate over p * the true mechanical speed, minus 1, in % (``pole_pairs``).
     ``flux_locus_mean_radius_Wb``: mean of the locus radius over an integer
@@ -69,13 +64,6 @@ these).
     Nyquist limit of the 50 us samples; the switching noise between the
     harmonics is not counted, as in a harmonic analyser). Each phase is
     analysed by an FFT over the whole-period window.
-    ``torque_ripple_factor_percent``: 001 eq. (40), TRF = T_pk-pk / T_rated
-    * 100 %, T = the plant's electromagnetic torque (``signal='plant'``,
-    default) or the controller's estimate (``'estimate'``), optionally
-    smoothed by a moving average over ``smoothing`` [s] (a torque
-    transducer's bandwidth; 0 = raw samples). The pk-pk is the median over
-    the electrical periods in the window of each period's max - min
-    (robust against a single outlier sample).
     ``estimated_torque_mean_N_m``: the DC predicted torque of 001 Table X.
     ``predicted_minus_actual_torque_pct``: 100 * (mean T_est - mean T_true) /
     mean T_true: the offset of the predicted torque over the actual one.
@@ -86,60 +74,10 @@ import math
 
 import numpy as np
 
-RATED_TORQUE_000 = 1.28352      # N m, 000 Appendix A
-RATED_TORQUE_001 = 0.3          # N m, 001 Table VIII
+from drive_analysis.arrays import Arrays, field, last_whole_periods, mean_or_nan, paired
+from drive_common import signals
 
-Arrays = dict
 _PHASES = {'a': 0, 'b': 1, 'c': 2}
-
-
-# ---------------------------------------------------------------------------- helpers
-def _window(t: np.ndarray, t_start, t_end) -> np.ndarray:
-    lo = -math.inf if t_start is None else float(t_start)
-    hi = math.inf if t_end is None else float(t_end)
-    return (t >= lo - 1e-12) & (t <= hi + 1e-12)
-
-
-def paired(arrays: Arrays, t_start=None, t_end=None) -> dict:
-    """Plant rows at the controller samples: {'time', 'plant.<f>', 'dtc.<f>'} within the window."""
-    p_step = np.asarray(arrays['plant/state.step']).astype(np.int64)
-    d_step = np.asarray(arrays['dtc/status.step']).astype(np.int64)
-    order = np.argsort(p_step, kind='stable')
-    pos = np.searchsorted(p_step[order], d_step)
-    pos = np.clip(pos, 0, len(p_step) - 1)
-    found = p_step[order][pos] == d_step
-    rows_d = np.flatnonzero(found)
-    rows_p = order[pos[found]]
-    t = np.asarray(arrays['plant/state.time'])[rows_p]
-    keep = _window(t, t_start, t_end)
-    out = {'time': t[keep]}
-    for key, val in arrays.items():
-        if key.endswith('.time'):
-            continue
-        if key.startswith('plant/state.'):
-            out['plant.' + key[len('plant/state.'):]] = np.asarray(val)[rows_p][keep]
-        elif key.startswith('dtc/status.'):
-            out['dtc.' + key[len('dtc/status.'):]] = np.asarray(val)[rows_d][keep]
-    return out
-
-
-def _plant(arrays: Arrays, name: str, t_start=None, t_end=None) -> tuple[np.ndarray, np.ndarray]:
-    t = np.asarray(arrays['plant/state.time'])
-    keep = _window(t, t_start, t_end)
-    return t[keep], np.asarray(arrays[f'plant/state.{name}'])[keep]
-
-
-def _wrap(x: np.ndarray) -> np.ndarray:
-    return (x + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def _clarke(abc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a, b, c = abc[:, 0], abc[:, 1], abc[:, 2]
-    return (2.0 * a - b - c) / 3.0, (b - c) / math.sqrt(3.0)
-
-
-def _mean(x: np.ndarray) -> float:
-    return float(np.mean(x)) if len(x) else math.nan
 
 
 # ---------------------------------------------------------------------------- 000 ch. V
@@ -148,8 +86,8 @@ def angle_error_rms_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
-    err = _wrap(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
-    return float(np.degrees(np.sqrt(np.mean(err ** 2))))
+    err = signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
+    return float(np.degrees(signals.rms(err)))
 
 
 def angle_error_max_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
@@ -157,7 +95,7 @@ def angle_error_max_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     d = paired(arrays, t_start, t_end)
     if not len(d['time']):
         return math.nan
-    return float(np.degrees(np.max(np.abs(_wrap(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])))))
+    return float(np.degrees(np.max(np.abs(signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])))))
 
 
 def _d_current(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray, np.ndarray]:
@@ -167,15 +105,15 @@ def _d_current(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray,
         return d['dtc.d_current'], ref
     if source != 'plant':
         raise ValueError(f"source must be 'controller' or 'plant', not {source!r}")
-    i_al, i_be = _clarke(np.asarray(d['plant.phase_current'], dtype=float).reshape(-1, 3))
+    i_al, i_be = signals.clarke_rows(d['plant.phase_current'])
     th = d['plant.rotor_angle']
-    return i_al * np.cos(th) + i_be * np.sin(th), ref
+    return signals.park(i_al, i_be, th)[0], ref
 
 
 def d_current_mean_A(arrays: Arrays, t_start=None, t_end=None, source: str = 'controller') -> float:
     """Mean d-axis current [A] (000 Fig. 5.11: oscillates around i_d* = 0)."""
     i_d, _ = _d_current(arrays, t_start, t_end, source)
-    return _mean(i_d)
+    return mean_or_nan(i_d)
 
 
 def d_current_positive_fraction(arrays: Arrays, t_start=None, t_end=None, source: str = 'controller') -> float:
@@ -186,47 +124,27 @@ def d_current_positive_fraction(arrays: Arrays, t_start=None, t_end=None, source
 
 def q_current_mean_A(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Mean of the controller's q-axis current [A]."""
-    return _mean(paired(arrays, t_start, t_end)['dtc.q_current'])
-
-
-def estimated_torque_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
-                                         rated_torque: float = RATED_TORQUE_000) -> float:
-    """RMS of (T_est - T_true) at the controller samples, % of rated torque (000 Fig. 5.7)."""
-    d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
-        return math.nan
-    err = d['dtc.torque_estimate'] - d['plant.electromagnetic_torque']
-    return float(100.0 * np.sqrt(np.mean(err ** 2)) / rated_torque)
-
-
-def true_torque_mean_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
-    """Mean of the plant's electromagnetic torque [N m] at the controller samples."""
-    return _mean(paired(arrays, t_start, t_end)['plant.electromagnetic_torque'])
+    return mean_or_nan(paired(arrays, t_start, t_end)['dtc.q_current'])
 
 
 def estimated_torque_mean_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Mean of the controller's torque estimate [N m] (001 Table X 'predicted torque')."""
-    return _mean(paired(arrays, t_start, t_end)['dtc.torque_estimate'])
+    return mean_or_nan(paired(arrays, t_start, t_end)['dtc.torque_estimate'])
 
 
 def torque_tracking_error_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Mean of (T_true - T*) [N m]."""
     d = paired(arrays, t_start, t_end)
-    return _mean(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'])
-
-
-def mean_mechanical_speed_rad_s(arrays: Arrays, t_start=None, t_end=None) -> float:
-    """Mean mechanical speed of the plant [rad/s]."""
-    return _mean(_plant(arrays, 'mechanical_speed', t_start, t_end)[1])
+    return mean_or_nan(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'])
 
 
 def speed_estimate_error_pct(arrays: Arrays, t_start=None, t_end=None, pole_pairs: int = 2) -> float:
     """100 * (mean estimated electrical speed / (p * mean true mechanical speed) - 1)."""
     d = paired(arrays, t_start, t_end)
-    true = _mean(d['plant.mechanical_speed']) * pole_pairs
+    true = mean_or_nan(d['plant.mechanical_speed']) * pole_pairs
     if not len(d['time']) or true == 0.0:
         return math.nan
-    return float(100.0 * (_mean(d['dtc.speed_estimate']) / true - 1.0))
+    return float(100.0 * (mean_or_nan(d['dtc.speed_estimate']) / true - 1.0))
 
 
 def _flux(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray, np.ndarray]:
@@ -235,8 +153,8 @@ def _flux(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray, np.n
         return d['dtc.flux_alpha'], d['dtc.flux_beta']
     if source != 'plant':
         raise ValueError(f"source must be 'controller' or 'plant', not {source!r}")
-    _, psi = _plant(arrays, 'flux_linkage', t_start, t_end)
-    return _clarke(np.asarray(psi, dtype=float).reshape(-1, 3))
+    _, psi = field(arrays, 'flux_linkage', t_start, t_end)
+    return signals.clarke_rows(psi)
 
 
 def _radius_profile(arrays: Arrays, t_start, t_end, source: str, bins: int) -> np.ndarray:
@@ -302,35 +220,13 @@ def flux_locus_radius_ratio(arrays: Arrays, a=(None, None), b=(None, None), sour
 
 
 # ---------------------------------------------------------------------------- 001 Tables IX-X
-def _periodic_window(arrays: Arrays, name: str, t_start, t_end, frequency, pole_pairs):
-    """(t, x, f): the plant samples of the largest whole number of electrical periods that end at t_end."""
-    t, x = _plant(arrays, name, t_start, t_end)
-    if len(t) < 4:
-        return t[:0], x[:0], math.nan
-    if frequency is None:
-        _, w = _plant(arrays, 'mechanical_speed', t_start, t_end)
-        frequency = abs(float(np.mean(w))) * pole_pairs / (2.0 * math.pi)
-    if not frequency > 0.0:
-        return t[:0], x[:0], math.nan
-    dt = float(np.median(np.diff(t)))
-    n_per = int(round(1.0 / (frequency * dt)))
-    periods = len(t) // n_per if n_per > 0 else 0
-    if periods < 1:
-        return t[:0], x[:0], math.nan
-    n = periods * n_per
-    return t[-n:], x[-n:], 1.0 / (n_per * dt)
-
-
 def _phase_spectrum(arrays: Arrays, phase, t_start, t_end, frequency, pole_pairs):
-    """(|X_n| peak amplitudes for n = 0, 1, 2, ... of the electrical frequency)."""
-    t, cur, f = _periodic_window(arrays, 'phase_current', t_start, t_end, frequency, pole_pairs)
-    if not len(t):
+    """|X_n| peak amplitudes (n = 0, 1, 2, ... of the electrical frequency) of one true phase current."""
+    t, cur, periods = last_whole_periods(arrays, 'phase_current', t_start, t_end, frequency, pole_pairs)
+    if not periods:
         return None
     x = np.asarray(cur, dtype=float).reshape(-1, 3)[:, _PHASES[phase] if isinstance(phase, str) else int(phase)]
-    n = len(x)
-    periods = int(round(n * (t[1] - t[0]) * f))
-    spec = np.abs(np.fft.rfft(x)) * 2.0 / n
-    return spec[::periods] if periods > 0 else None
+    return np.abs(signals.harmonics(x, periods, len(x) // 2 // periods))
 
 
 def phase_current_fundamental_A(arrays: Arrays, phase: str = 'a', t_start=None, t_end=None,
@@ -370,59 +266,21 @@ def phase_current_thd_percent(arrays: Arrays, phase: str = 'a', t_start=None, t_
     spec = _phase_spectrum(arrays, phase, t_start, t_end, frequency, pole_pairs)
     if spec is None or len(spec) < 3 or spec[1] <= 0.0:
         return math.nan
-    harm = spec[2:max_order + 1]
-    return float(100.0 * np.sqrt(np.sum(harm ** 2)) / spec[1])
+    return 100.0 * signals.thd_of(spec[:max_order + 1])
 
 
 def current_thd_percent(arrays: Arrays, t_start=None, t_end=None, frequency: float | None = None,
                         pole_pairs: int = 1, max_order: int = 50) -> float:
     """Total harmonic distortion of the three phase currents, 001 eq. (39) [%]."""
     thd = [phase_current_thd_percent(arrays, p, t_start, t_end, frequency, pole_pairs, max_order) for p in 'abc']
-    return float(np.sqrt(np.mean(np.square(thd))))
-
-
-def torque_ripple_factor_percent(arrays: Arrays, t_start=None, t_end=None, rated_torque: float = RATED_TORQUE_001,
-                                 signal: str = 'plant', smoothing: float = 0.0, frequency: float | None = None,
-                                 pole_pairs: int = 1) -> float:
-    """Torque ripple factor, 001 eq. (40): median per-period pk-pk torque / T_rated [%]."""
-    if signal == 'plant':
-        t, x, f = _periodic_window(arrays, 'electromagnetic_torque', t_start, t_end, frequency, pole_pairs)
-    elif signal == 'estimate':
-        d = paired(arrays, t_start, t_end)
-        sub = {'plant/state.time': d['time'], 'plant/state.electromagnetic_torque': d['dtc.torque_estimate'],
-               'plant/state.mechanical_speed': d['plant.mechanical_speed']}
-        t, x, f = _periodic_window(sub, 'electromagnetic_torque', None, None, frequency, pole_pairs)
-    else:
-        raise ValueError(f"signal must be 'plant' or 'estimate', not {signal!r}")
-    if not len(t):
-        return math.nan
-    x = np.asarray(x, dtype=float)
-    dt = float(t[1] - t[0])
-    if smoothing > 0.0:
-        k = max(1, int(round(smoothing / dt)))
-        x = np.convolve(x, np.ones(k) / k, mode='same')
-        x[:k] = x[k]
-        x[-k:] = x[-k - 1]
-    n_per = int(round(1.0 / (f * dt)))
-    per = x[: (len(x) // n_per) * n_per].reshape(-1, n_per)
-    return float(100.0 * np.median(per.max(axis=1) - per.min(axis=1)) / rated_torque)
+    return signals.total_thd(thd)
 
 
 def predicted_minus_actual_torque_pct(arrays: Arrays, t_start=None, t_end=None) -> float:
     """100 * (mean predicted - mean actual torque) / mean actual torque (001 Table X offset)."""
     d = paired(arrays, t_start, t_end)
-    actual = _mean(d['plant.electromagnetic_torque'])
+    actual = mean_or_nan(d['plant.electromagnetic_torque'])
     if not len(d['time']) or actual == 0.0:
         return math.nan
-    return float(100.0 * (_mean(d['dtc.torque_estimate']) - actual) / actual)
+    return float(100.0 * (mean_or_nan(d['dtc.torque_estimate']) - actual) / actual)
 
-
-METRICS = {f.__name__: f for f in (
-    angle_error_rms_deg, angle_error_max_deg, d_current_mean_A, d_current_positive_fraction, q_current_mean_A,
-    estimated_torque_rms_error_pct_rated, true_torque_mean_N_m, estimated_torque_mean_N_m,
-    torque_tracking_error_N_m, mean_mechanical_speed_rad_s, speed_estimate_error_pct,
-    flux_locus_mean_radius_Wb, flux_locus_radius_variation, flux_locus_dominant_order, flux_locus_shape_correlation,
-    flux_locus_radius_ratio, phase_current_fundamental_A, phase_a_current_fundamental_A,
-    phase_b_current_fundamental_A, phase_c_current_fundamental_A, current_imbalance, phase_current_thd_percent,
-    current_thd_percent, torque_ripple_factor_percent, predicted_minus_actual_torque_pct)}
-"""Metric name -> function(arrays, **options) -> float."""

@@ -1,0 +1,106 @@
+"""The flat arrays dict every metric takes, and the helpers to slice it (numpy, no ROS).
+
+A run is one dict, keys ``'<topic without leading slash>.<field>'``:
+``'plant/state.time'`` (s), ``'plant/state.phase_current'`` ((N, 3) A),
+``'dtc/status.torque_estimate'``, ``'pfc/status.<field>'``, ... The headless
+runner builds it directly (:meth:`drive_bringup.headless.HeadlessResult.arrays`);
+a bag gives it through :func:`flatten_columns` of
+:func:`drive_analysis.bag_columns.load_columns`.
+
+Windows: ``t_start <= t <= t_end`` (both ends included, 1e-12 s slack for
+float sample times; None = open). Controller and plant rows are paired by
+their ``step`` (the status of step k and the plant state at t_k).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drive_common import signals
+
+Arrays = dict
+PLANT, DTC = 'plant/state', 'dtc/status'
+
+
+def flatten_columns(columns: dict[str, dict[str, np.ndarray]]) -> Arrays:
+    """{topic: {field: array}} (:func:`~drive_analysis.bag_columns.load_columns`) -> flat arrays ('t' -> 'time')."""
+    return {f'{topic.lstrip("/")}.{"time" if name == "t" else name}': values
+            for topic, cols in columns.items() for name, values in cols.items()}
+
+
+def window(t, t_start: float | None = None, t_end: float | None = None) -> np.ndarray:
+    """Boolean mask of the samples with t_start <= t <= t_end (None: open end)."""
+    t = np.asarray(t, dtype=float)
+    lo = -math.inf if t_start is None else float(t_start)
+    hi = math.inf if t_end is None else float(t_end)
+    return (t >= lo - 1e-12) & (t <= hi + 1e-12)
+
+
+def field(arrays: Arrays, name: str, t_start=None, t_end=None, topic: str = PLANT) -> tuple[np.ndarray, np.ndarray]:
+    """(t, values) of ``<topic>.<name>`` within the window."""
+    t = np.asarray(arrays[f'{topic}.time'], dtype=float)
+    keep = window(t, t_start, t_end)
+    return t[keep], np.asarray(arrays[f'{topic}.{name}'])[keep]
+
+
+def paired(arrays: Arrays, t_start=None, t_end=None) -> dict:
+    """Plant rows at the controller samples: {'time', 'plant.<f>', 'dtc.<f>'} within the window."""
+    p_step = np.asarray(arrays[f'{PLANT}.step']).astype(np.int64)
+    d_step = np.asarray(arrays[f'{DTC}.step']).astype(np.int64)
+    order = np.argsort(p_step, kind='stable')
+    pos = np.clip(np.searchsorted(p_step[order], d_step), 0, len(p_step) - 1)
+    found = p_step[order][pos] == d_step
+    rows_d = np.flatnonzero(found)
+    rows_p = order[pos[found]]
+    t = np.asarray(arrays[f'{PLANT}.time'])[rows_p]
+    keep = window(t, t_start, t_end)
+    out = {'time': t[keep]}
+    for key, val in arrays.items():
+        topic, _, name = key.rpartition('.')
+        if name == 'time':
+            continue
+        if topic == PLANT:
+            out['plant.' + name] = np.asarray(val)[rows_p][keep]
+        elif topic == DTC:
+            out['dtc.' + name] = np.asarray(val)[rows_d][keep]
+    return out
+
+
+def mean_or_nan(x) -> float:
+    """Mean of x, NaN for an empty window."""
+    return float(np.mean(x)) if len(x) else math.nan
+
+
+def moving_average(x: np.ndarray, n: int) -> np.ndarray:
+    """Means of every run of n consecutive samples (len(x) - n + 1 values; n clipped to 1..len(x))."""
+    n = max(1, min(int(n), len(x)))
+    c = np.cumsum(np.concatenate(([0.0], x)))
+    return (c[n:] - c[:-n]) / n
+
+
+def samples_in(time: np.ndarray, duration: float) -> int:
+    """Samples of the record's median step that span ``duration`` [s] (at least 1)."""
+    dt = float(np.median(np.diff(time))) if len(time) > 1 else 1.0
+    return max(1, int(round(duration / dt)))
+
+
+def last_whole_periods(arrays: Arrays, name: str, t_start=None, t_end=None, frequency: float | None = None,
+                       pole_pairs: int = 1) -> tuple[np.ndarray, np.ndarray, int]:
+    """(t, x, periods): plant samples of ``name`` over the most whole electrical periods ending at the window's end.
+
+    The period is rounded to whole samples of the median step; ``frequency`` [Hz] defaults to
+    the mean |mechanical speed| * ``pole_pairs`` / (2 pi). ``periods`` is 0 (and t, x empty)
+    when the window holds less than one period.
+    """
+    t, x = field(arrays, name, t_start, t_end)
+    if len(t) >= 4:
+        if frequency is None:
+            frequency = abs(float(np.mean(field(arrays, 'mechanical_speed', t_start, t_end)[1]))) * pole_pairs / (
+                2.0 * math.pi)
+        if frequency > 0.0:
+            n_per = int(round(1.0 / (frequency * float(np.median(np.diff(t))))))
+            if 0 < n_per <= len(t):
+                n, periods = signals.samples_per_whole_periods(len(t), n_per)
+                return t[-n:], x[-n:], periods
+    return t[:0], x[:0], 0

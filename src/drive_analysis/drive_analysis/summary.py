@@ -1,0 +1,218 @@
+"""The ``analyze`` summary's helpers: seed metrics on plain numpy arrays of a bag (SI units, no ROS).
+
+- Phase-current THD and the three-phase THD: 001 eq. (39),
+  ``THD_x = sqrt(sum_{n>=2} X_n^2) / X_1 * 100 %``,
+  ``THD = sqrt((THD_A^2 + THD_B^2 + THD_C^2) / 3)``.
+- Torque ripple factor over the window: 001 eq. (40), ``TRF = T_pk-pk / T_rated * 100 %``.
+- Power factor ``P / (V_rms I_rms)`` over whole line periods (000 ch. III).
+- Torque rise time (10-90 %), ripple, current balance (fundamental per
+  phase), estimation errors against ground truth (torque, wrapped angle).
+Harmonics are the DFT (:mod:`drive_common.signals`) of the signal resampled
+uniformly over a whole number of fundamental periods, so there is no leakage
+for periodic signals. The scenarios' metrics are in :mod:`drive_analysis.metrics`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drive_analysis.arrays import window
+from drive_common import signals
+
+
+def fundamental_frequency(t: np.ndarray, x: np.ndarray) -> float:
+    """Hz, frequency of the largest non-DC spectral peak of x(t) (uniformly resampled)."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    n = len(t)
+    if n < 8:
+        raise ValueError('too few samples for a spectrum')
+    grid = np.linspace(t[0], t[-1], n)
+    y = np.interp(grid, t, x)
+    spectrum = np.abs(np.fft.rfft(y - y.mean()))
+    k = int(np.argmax(spectrum[1:]) + 1)
+    return k / (grid[-1] - grid[0]) * (n - 1) / n
+
+
+def whole_periods(t: np.ndarray, f1: float) -> tuple[float, float]:
+    """(t_start, t_end) of the last whole number of periods of f1 inside t."""
+    span = t[-1] - t[0]
+    periods = math.floor(span * f1 + 1e-9)
+    if periods < 1:
+        raise ValueError(f'window of {span:.4g} s holds no whole period at {f1:.4g} Hz')
+    return t[-1] - periods / f1, t[-1]
+
+
+def _resampled(t, x, f1: float, samples_per_period: int) -> tuple[np.ndarray, int]:
+    """(x resampled uniformly over the last whole periods of f1, number of periods)."""
+    t, x = np.asarray(t, float), np.asarray(x, float)
+    t0, t1 = whole_periods(t, f1)
+    periods = round((t1 - t0) * f1)
+    m = periods * samples_per_period
+    return np.interp(t0 + np.arange(m) * (t1 - t0) / m, t, x), periods
+
+
+def harmonics(t, x, f1: float, n_max: int = 40, points_per_period: int = 256) -> np.ndarray:
+    """Peak amplitudes X_0..X_n_max of x(t) at multiples of f1 (X_0 = mean)."""
+    y, periods = _resampled(t, x, f1, max(points_per_period, 2 * n_max + 2))
+    return np.abs(signals.harmonics(y, periods, n_max))
+
+
+def thd_percent(t, x, f1: float, n_max: int = 40) -> float:
+    """001 eq. (39), one phase: sqrt(sum_{n=2}^{n_max} X_n^2) / X_1 * 100 %."""
+    y, periods = _resampled(t, x, f1, max(256, 2 * n_max + 2))
+    return signals.thd(y, periods, n_max) * 100.0
+
+
+def torque_ripple_factor_window_percent(torque, rated_torque: float) -> float:
+    """001 eq. (40) over a whole window: TRF = (T_max - T_min) / T_rated * 100 %.
+
+    The scenarios' per-period variant is ``metrics.ripple.torque_ripple_factor_median_period_percent``.
+    """
+    torque = np.asarray(torque, float)
+    return float((np.max(torque) - np.min(torque)) / rated_torque * 100.0)
+
+
+def ripple(x) -> dict:
+    """Peak-to-peak and RMS deviation about the mean of a steady-state signal."""
+    x = np.asarray(x, float)
+    return {'mean': float(np.mean(x)), 'peak_to_peak': float(np.ptp(x)),
+            'rms_deviation': float(np.sqrt(np.mean((x - x.mean()) ** 2)))}
+
+
+def power_factor(t, v, i, f1: float) -> float:
+    """PF = mean(v i) / (V_rms I_rms) over whole periods of the line frequency f1 (resampled)."""
+    t, v, i = (np.asarray(a, float) for a in (t, v, i))
+    t0, t1 = whole_periods(t, f1)
+    grid = np.linspace(t0, t1, max(len(t), 1000), endpoint=False)
+    return signals.power_factor(np.interp(grid, t, v), np.interp(grid, t, i))
+
+
+def rise_time(t, y, t_step: float, y_before: float, y_after: float,
+              low: float = 0.1, high: float = 0.9) -> float:
+    """s from the first crossing of y_before + low*dy to that of y_before + high*dy after t_step (NaN if never)."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    after = t >= t_step
+    t, y = t[after], y[after]
+    dy = y_after - y_before
+    progress = (y - y_before) / dy if dy else np.zeros_like(y)
+    lo = np.nonzero(progress >= low)[0]
+    hi = np.nonzero(progress >= high)[0]
+    if not len(lo) or not len(hi):
+        return float('nan')
+    return float(t[hi[0]] - t[lo[0]])
+
+
+def largest_step(t, reference) -> tuple[float, float, float] | None:
+    """(t_step, before, after) of the largest jump of a piecewise-constant reference, or None."""
+    reference = np.asarray(reference, float)
+    if len(reference) < 2:
+        return None
+    jumps = np.abs(np.diff(reference))
+    jumps[np.isnan(jumps)] = 0.0
+    k = int(np.argmax(jumps))
+    if jumps[k] == 0:
+        return None
+    return float(np.asarray(t)[k + 1]), float(reference[k]), float(reference[k + 1])
+
+
+def current_balance(fundamentals) -> dict:
+    """Fundamental amplitude per phase and the imbalance (max - min) / mean * 100 %."""
+    f = np.asarray(fundamentals, float)
+    return {'fundamental_amplitudes': [float(a) for a in f],
+            'imbalance_percent': float((f.max() - f.min()) / f.mean() * 100.0)}
+
+
+def error_stats(estimate, truth, angle: bool = False) -> dict:
+    """Mean, RMS and max |error| of estimate - truth (angles wrapped), NaN samples skipped."""
+    err = np.asarray(estimate, float) - np.asarray(truth, float)
+    if angle:
+        err = signals.wrap_to_pi(err)
+    err = err[~np.isnan(err)]
+    if not len(err):
+        return {'mean': float('nan'), 'rms': float('nan'), 'max_abs': float('nan'), 'samples': 0}
+    return {'mean': float(np.mean(err)), 'rms': signals.rms(err),
+            'max_abs': float(np.max(np.abs(err))), 'samples': int(len(err))}
+
+
+STATE, STATUS = '/plant/state', '/dtc/status'
+
+
+def _window(cols, t0, t1):
+    mask = window(cols['t'], t0, t1)
+    return {k: v[mask] for k, v in cols.items() if len(v) == len(cols['t'])}
+
+
+def _matched(a, b, field_a, field_b):
+    """Values of a[field_a] and b[field_b] at the steps both topics have."""
+    _, ia, ib = np.intersect1d(a['step'], b['step'], return_indices=True)
+    return a[field_a][ia], b[field_b][ib]
+
+
+def _safe(fn, *args, **kwargs):
+    try:
+        value = fn(*args, **kwargs)
+    except (ValueError, ZeroDivisionError, IndexError, FloatingPointError) as exc:
+        return {'error': str(exc)}
+    return value
+
+
+def summarize(cols, rated_torque=None, window=None, line_frequency=60.0) -> dict:
+    """The metrics of a run's columns (see module docstring)."""
+    out: dict = {'topics': {t: int(len(c.get('step', []))) for t, c in cols.items()}}
+    state, status = cols.get(STATE), cols.get(STATUS)
+    if state is not None and len(state.get('t', [])) > 8:
+        t = state['t']
+        t0, t1 = window or (t[0] + 0.5 * (t[-1] - t[0]), t[-1])
+        out['window'] = [float(t0), float(t1)]
+        steady = _window(state, t0, t1)
+        currents = steady['phase_current']
+        i_ref = currents[:, int(np.nanargmax(np.nanstd(currents, axis=0)))]
+        f1 = _safe(fundamental_frequency, steady['t'], i_ref)
+        if isinstance(f1, float):
+            out['current_fundamental_frequency'] = f1
+            thd = [_safe(thd_percent, steady['t'], currents[:, k], f1) for k in range(3)]
+            fund = [_safe(lambda k=k: float(harmonics(steady['t'], currents[:, k], f1, 1)[1]))
+                    for k in range(3)]
+            out['current_thd_percent'] = dict(zip('abc', thd))
+            if all(isinstance(x, float) for x in thd):
+                out['current_thd_total_percent'] = signals.total_thd(thd)
+            if all(isinstance(x, float) for x in fund):
+                out['current_balance'] = current_balance(fund)
+        torque = steady['electromagnetic_torque']
+        out['torque_ripple'] = ripple(torque)
+        if rated_torque:
+            out['torque_ripple_factor_window_percent'] = torque_ripple_factor_window_percent(torque, rated_torque)
+        out['speed_ripple'] = ripple(steady['mechanical_speed'])
+        grid_v, grid_i = steady.get('grid_voltage'), steady.get('grid_current')
+        if grid_v is not None and np.isfinite(grid_v).all() and np.isfinite(grid_i).all():
+            out['power_factor'] = _safe(power_factor, steady['t'], grid_v, grid_i, line_frequency)
+            out['grid_current_thd_percent'] = _safe(thd_percent, steady['t'], grid_i, line_frequency)
+    if status is not None and len(status.get('t', [])) > 1:
+        step = largest_step(status['t'], status['torque_reference'])
+        if step is not None and state is not None:
+            t_step, before, after = step
+            out['torque_step'] = {'time': t_step, 'from': before, 'to': after,
+                                  'rise_time_10_90': rise_time(state['t'], state['electromagnetic_torque'],
+                                                                       t_step, before, after)}
+        if state is not None:
+            est, true = _matched(status, state, 'torque_estimate', 'electromagnetic_torque')
+            out['torque_estimation_error'] = error_stats(est, true)
+            est, true = _matched(status, state, 'rotor_angle_estimate', 'rotor_angle')
+            out['angle_estimation_error'] = error_stats(est, true, angle=True)
+        out['flux_ripple'] = ripple(status['flux_magnitude'][np.isfinite(status['flux_magnitude'])]) \
+            if np.isfinite(status['flux_magnitude']).any() else None
+    return out
+
+
+def json_safe(value):
+    """JSON-safe copy: NaN/inf -> None, numpy scalars -> Python numbers."""
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
