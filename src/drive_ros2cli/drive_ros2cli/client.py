@@ -15,8 +15,9 @@ from typing import Callable
 
 from drive_ros2cli.errors import CliError
 
-SETTLE_PERIOD = 0.3      # s the graph must stay unchanged to count as discovered
+SETTLE_PERIOD = 1.0      # s the graph must stay unchanged to count as discovered
 SETTLE_EXTRA = 3.0       # s spent at most after --spin-time waiting for it to settle
+NAME_WAIT = 3.0          # s a named node/topic/service/action may take to appear before it is unknown
 DEFAULT_TIMEOUT = 5.0    # s a remote call (service, parameter, action) may take
 
 
@@ -66,6 +67,9 @@ class CliNode:
         self.node = rclpy.create_node(f'_{name}_{os.getpid()}', context=self.context,
                                       start_parameter_services=False,
                                       parameter_overrides=overrides)
+        from rclpy.executors import SingleThreadedExecutor
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
         self._discovered = False
 
     def __enter__(self) -> 'CliNode':
@@ -73,6 +77,7 @@ class CliNode:
 
     def __exit__(self, *exc) -> None:
         import rclpy
+        self.executor.shutdown(timeout_sec=1.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
@@ -95,31 +100,33 @@ class CliNode:
         while time.monotonic() < deadline:
             self.spin_for(SETTLE_PERIOD)
             now = self._snapshot()
-            if now == last:
+            if now == last and len(now[0]) > 1:      # settled, and someone besides us is there
                 return
             last = now
 
+    def wait_for_name(self, lookup: Callable[[], object], timeout: float = NAME_WAIT) -> object:
+        """After discovery, wait up to timeout s for lookup() to find a named entity."""
+        self.discover()
+        return self.wait_for(lookup, timeout)
+
     def spin_for(self, seconds: float) -> None:
-        import rclpy
         end = time.monotonic() + seconds
         while (left := end - time.monotonic()) > 0:
-            rclpy.spin_once(self.node, timeout_sec=min(left, 0.05))
+            self.executor.spin_once(timeout_sec=min(left, 0.05))
 
     def wait_for(self, predicate: Callable[[], object], timeout: float) -> object:
         """Spin until predicate() is truthy; return its value, or None after timeout s."""
-        import rclpy
         deadline = time.monotonic() + timeout
         while True:
             value = predicate()
             if value or time.monotonic() > deadline:
                 return value
-            rclpy.spin_once(self.node, timeout_sec=0.05)
+            self.executor.spin_once(timeout_sec=0.05)
 
     def call(self, future, timeout: float, what: str):
         """Result of a future, spinning; CliError naming ``what`` after timeout s."""
-        import rclpy
-        rclpy.spin_until_future_complete(self.node, future,
-                                         timeout_sec=None if timeout == float('inf') else timeout)
+        self.executor.spin_until_future_complete(
+            future, timeout_sec=None if timeout == float('inf') else timeout)
         if not future.done():
             future.cancel()
             raise CliError(f'{what}: no answer within {timeout:g} s')
@@ -133,11 +140,11 @@ class CliNode:
         names = {join_node_name(n, ns) for n, ns in self.node.get_node_names_and_namespaces()}
         return sorted(n for n in names if include_hidden or not is_hidden(n))
 
-    def require_node(self, full_name: str, timeout: float = 0.0, include_hidden: bool = True) -> str:
+    def require_node(self, full_name: str, timeout: float = NAME_WAIT, include_hidden: bool = True) -> str:
         """The absolute name of a running node; CliError('Node not found') otherwise."""
         full_name = absolute_name(full_name)
-        self.discover()
-        if not self.wait_for(lambda: full_name in self.node_names(include_hidden=include_hidden), timeout):
+        if not self.wait_for_name(lambda: full_name in self.node_names(include_hidden=include_hidden),
+                                  timeout):
             raise CliError('Node not found')
         return full_name
 

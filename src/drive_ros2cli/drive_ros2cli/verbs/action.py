@@ -60,7 +60,7 @@ def info_main(args) -> int:
                                     get_action_server_names_and_types_by_node)
     name = absolute_name(args.action_name)
     with CliNode(args) as cli:
-        if name not in dict(_actions(cli)):
+        if not cli.wait_for_name(lambda: name in dict(_actions(cli))):
             raise CliError(f"Unknown action '{name}'")
         clients, servers = [], []
         for node_name, namespace in cli.node.get_node_names_and_namespaces():

@@ -51,7 +51,7 @@ def list_main(args) -> int:
 def type_main(args) -> int:
     name = absolute_name(args.service_name)
     with CliNode(args) as cli:
-        types = dict(cli.services(include_hidden=True)).get(name)
+        types = cli.wait_for_name(lambda: dict(cli.services(include_hidden=True)).get(name))
     if not types:
         raise CliError(f"Unknown service '{name}'")
     for service_type in types:

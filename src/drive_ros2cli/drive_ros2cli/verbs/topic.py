@@ -198,7 +198,7 @@ def info_main(args) -> int:
     topic = absolute_name(args.topic_name)
     end = '\n\n' if args.verbose else '\n'
     with CliNode(args) as cli:
-        types = dict(cli.topics(include_hidden=True)).get(topic)
+        types = cli.wait_for_name(lambda: dict(cli.topics(include_hidden=True)).get(topic))
         if not types:
             raise CliError(f"Unknown topic '{topic}'")
         node = cli.node
