@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 import sys
 
-from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments
+from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, add_node_arguments
 from drive_ros2cli.errors import CliError
 from drive_ros2cli.yaml_values import dump_yaml, load_yaml
 
