@@ -83,9 +83,11 @@ class CliNode:
 
     # ------------------------------------------------------------- discovery
     def _snapshot(self):
+        """Nodes, topics with their endpoint counts, services: what discovery still adds to."""
         node = self.node
-        return (sorted(node.get_node_names_and_namespaces()),
-                sorted((n, tuple(t)) for n, t in node.get_topic_names_and_types()),
+        topics = sorted((n, tuple(t), node.count_publishers(n), node.count_subscribers(n))
+                        for n, t in node.get_topic_names_and_types())
+        return (sorted(node.get_node_names_and_namespaces()), topics,
                 sorted((n, tuple(t)) for n, t in node.get_service_names_and_types()))
 
     def discover(self) -> None:

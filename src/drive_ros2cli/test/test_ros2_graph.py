@@ -45,7 +45,8 @@ def test_topic_list_and_info(drive_graph):
     assert '/drive/gate_command [dtc_msgs/msg/GateCommand]' in listed
     assert '/plant/state' in ros2.ok('topic', 'list').splitlines()
 
-    info = ros2.ok('topic', 'info', '/drive/measurement').splitlines()
+    # counts need both processes' endpoints discovered: give discovery the time a loaded machine needs
+    info = ros2.ok('topic', 'info', '/drive/measurement', '--spin-time', '3').splitlines()
     assert info == ['Type: dtc_msgs/msg/DriveMeasurement', 'Publisher count: 1', 'Subscription count: 1']
     verbose = ros2.ok('topic', 'info', '-v', '/plant/state')
     assert verbose.startswith('Type: dtc_msgs/msg/PlantState\n\nPublisher count: 1\n\nNode name: plant\n'
