@@ -154,9 +154,7 @@ def get_main(args) -> int:
         print('Parameter not set.')
         return 0
     label, attr = GET_LABELS[value.type]
-    shown = getattr(value, attr)
-    if not isinstance(shown, (bool, int, float, str)):
-        shown = list(shown)
+    shown = getattr(value, attr)          # arrays print as rclpy holds them: array('d', [...]), as upstream
     print(shown if args.hide_type else f'{label} {shown}')
     return 0
 
