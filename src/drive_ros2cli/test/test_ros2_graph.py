@@ -231,3 +231,37 @@ def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_pat
     info = ros2.ok('bag', 'info', str(bag))
     line = next(l for l in info.splitlines() if 'Topic: /plant/state' in l)
     assert int(line.split('Count: ')[1].split()[0]) == on_disk
+
+
+MUTE_NODE = '''
+import time, rclpy
+rclpy.init()
+node = rclpy.create_node('mute')     # advertises the parameter services, never spins: never answers
+print('mute up', flush=True)
+time.sleep(600)
+'''
+
+
+def test_param_verbs_never_hang_on_a_node_that_does_not_answer(drive_graph, tmp_path):
+    """Issue 13 item 2: a node that advertises parameter services but never answers costs the
+    command its time-out and a one-line report, never a hang."""
+    import subprocess
+    import sys
+
+    from drive_common.harness import wait_until
+
+    ros2 = drive_graph
+    log = open(tmp_path / 'mute.out', 'w')
+    mute = subprocess.Popen([sys.executable, '-c', MUTE_NODE], env=ros2.env, stdout=log, stderr=subprocess.STDOUT)
+    try:
+        wait_until(lambda: '/mute' in ros2('node', 'list').out, 60.0, what='/mute in the graph')
+        everyone = ros2('param', 'list', '--spin-time', '3', '--service-timeout', '2')
+        assert everyone.code == 0
+        assert '/plant:\n  base_tick\n' in everyone.out and '/mute:' not in everyone.out
+        assert "list_parameters service of node '/mute': no answer within 2 s" in everyone.err
+        one = ros2('param', 'get', '/mute', 'use_sim_time', '--service-timeout', '2')
+        assert one.code == 1 and one.err.strip() == "get_parameters service of node '/mute': no answer within 2 s"
+    finally:
+        mute.kill()
+        mute.wait(timeout=10)
+        log.close()
