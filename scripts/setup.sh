@@ -85,12 +85,18 @@ if ! colcon build --symlink-install --event-handlers console_direct- \
 fi
 grep -E '^Summary' "$BUILD_LOG" | sed 's/^/[setup] /' || true
 rm -f "$BUILD_LOG"
-# The wheels carry no ros2cli: provide the minimal `ros2` shim (run, param, topic list).
-if [ "$SYSTEM_ROS" = 0 ] && [ ! -e .venv/bin/ros2 -o -L .venv/bin/ros2 ]; then
-  cat > .venv/bin/ros2 <<'SHIM'
+# The wheels carry no ros2cli: install the embedded `ros2` (src/drive_ros2cli,
+# upstream ros2cli's verbs and output) unless a real one exists. An earlier
+# embedded `ros2` (ours: it names its module) is replaced.
+ROS2_BIN=.venv/bin/ros2
+if [ "$SYSTEM_ROS" = 0 ] && { [ ! -e "$ROS2_BIN" ] \
+     || grep -q -E 'drive_ros2cli|drive_common\.ros2_shim' "$ROS2_BIN" 2>/dev/null; }; then
+  rm -f "$ROS2_BIN"
+  cat > "$ROS2_BIN" <<'SHIM'
 #!/usr/bin/env bash
-exec python -m drive_common.ros2_shim "$@"
+# Embedded ros2 (src/drive_ros2cli), installed by scripts/setup.sh; use after `source scripts/env.sh`.
+exec "$(dirname "$0")/python" -m drive_ros2cli "$@"
 SHIM
-  chmod +x .venv/bin/ros2
+  chmod +x "$ROS2_BIN"
 fi
 say "ready: source scripts/env.sh to use the workspace"

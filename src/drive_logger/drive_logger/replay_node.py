@@ -16,6 +16,7 @@ Parameters (read at start):
   part of a truncated or corrupt bag instead of failing),
   ``wait_for_subscribers`` (double s, 0.0: wait up to this long for at least
   one subscriber on every replayed topic before starting).
+- ``start_offset`` (double s, 0.0): skip the first seconds of log time.
 A bag that cannot be read is an error naming the problem (exit code 2).
 """
 from __future__ import annotations
@@ -68,6 +69,7 @@ class ReplayNode(Node):
         self.declare_parameter('publish_clock', True, ro)
         self.declare_parameter('salvage', False, ro)
         self.declare_parameter('wait_for_subscribers', 0.0, ro)
+        self.declare_parameter('start_offset', 0.0, ro)   # s into the bag to start at (ros2 bag play --start-offset)
         get = lambda name: self.get_parameter(name).value  # noqa: E731
         if not get('bag'):
             raise BagReadError('parameter bag is required (bag directory or .mcap file)')
@@ -77,6 +79,7 @@ class ReplayNode(Node):
         self.rate = float(get('rate'))
         self.loop = bool(get('loop'))
         self.wait_for_subscribers = float(get('wait_for_subscribers'))
+        self.start_offset_ns = round(float(get('start_offset')) * 1e9)
         selected = [t for t in get('topics') if t]
         remaps = parse_remaps([r for r in get('remap') if r])
         infos = self.reader.topics
@@ -117,10 +120,13 @@ class ReplayNode(Node):
         """Publish the bag once, paced by log time / rate."""
         stamped = self._header_topics() if self.synthesize_clock else set()
         last_clock = None
-        wall0 = bag0 = None
+        wall0 = bag0 = first = None
         for msg in self.reader.messages(self.topic_names):
             if not rclpy.ok(context=self.context):
                 return
+            first = msg.log_time if first is None else first
+            if msg.log_time - first < self.start_offset_ns:
+                continue
             if self.rate > 0:
                 if wall0 is None:
                     wall0, bag0 = time.monotonic(), msg.log_time

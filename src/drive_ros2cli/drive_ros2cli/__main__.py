@@ -1,0 +1,3 @@
+from drive_ros2cli.cli import main
+
+raise SystemExit(main())

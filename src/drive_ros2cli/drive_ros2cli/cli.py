@@ -1,0 +1,67 @@
+"""``ros2 <command> <verb> ...``: argument parsing and dispatch.
+
+Each command lives in :mod:`drive_ros2cli.verbs` (``node``, ``topic``,
+``param``, ``service``, ``action``, ``interface``, ``run``, ``pkg``,
+``bag``) and registers its verbs with argparse, so usage, ``-h`` and
+errors look like upstream ros2cli: a wrong argument or an unknown verb
+prints the usage and exits 2. A verb returns its exit code; a
+:class:`~drive_ros2cli.errors.CliError` prints its one-line message on
+stderr and exits 1 (upstream returns an error string, which Python prints
+and turns into exit code 1).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import signal
+import sys
+
+from drive_ros2cli.errors import CliError
+
+COMMANDS = ('action', 'bag', 'interface', 'node', 'param', 'pkg', 'run', 'service', 'topic')
+
+
+def _add_command(subparsers, name: str) -> None:
+    module = importlib.import_module(f'drive_ros2cli.verbs.{name}')
+    parser = subparsers.add_parser(name, help=module.DESCRIPTION, description=module.DESCRIPTION)
+    if hasattr(module, 'add_arguments'):          # a command without verbs (run)
+        module.add_arguments(parser)
+        parser.set_defaults(main=module.main)
+        return
+    verbs = parser.add_subparsers(title='Commands', dest='verb',
+                                  metavar=f'Call `ros2 {name} <command> -h` for more detailed usage.')
+    module.add_verbs(verbs)
+    parser.set_defaults(main=lambda args, p=parser: _print_help(p))
+
+
+def _print_help(parser: argparse.ArgumentParser) -> int:
+    parser.print_help()
+    return 0
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='ros2', description='ros2 is an extensible command-line tool for ROS 2.',
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    commands = parser.add_subparsers(title='Commands', dest='command',
+                                     metavar='Call `ros2 <command> -h` for more detailed usage.')
+    for name in COMMANDS:
+        _add_command(commands, name)
+    parser.set_defaults(main=lambda args: _print_help(parser))
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = make_parser()
+    args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        return int(args.main(args) or 0)
+    except CliError as exc:
+        print(exc, file=sys.stderr)
+        return exc.code
+    except KeyboardInterrupt:
+        return int(signal.SIGINT)      # as upstream: Ctrl-C ends a streaming verb with code 2
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

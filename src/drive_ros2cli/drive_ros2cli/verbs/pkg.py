@@ -1,0 +1,38 @@
+"""``ros2 pkg list|executables``: packages of the ament index and their executables."""
+from __future__ import annotations
+
+from drive_ros2cli.verbs.run import executables, package_prefix
+
+DESCRIPTION = 'Various package related sub-commands'
+
+
+def add_verbs(verbs) -> None:
+    p = verbs.add_parser('list', help='Output a list of available packages',
+                         description='Output a list of available packages')
+    p.set_defaults(main=list_main)
+    p = verbs.add_parser('executables', help='Output a list of package specific executables',
+                         description='Output a list of package specific executables')
+    p.add_argument('package_name', nargs='?', help='Name of the ROS package')
+    p.add_argument('--full-path', action='store_true', help='Show the full path of each executable')
+    p.set_defaults(main=executables_main)
+
+
+def _packages() -> list[str]:
+    from ament_index_python.packages import get_packages_with_prefixes
+    return sorted(get_packages_with_prefixes())
+
+
+def list_main(args) -> int:
+    for name in _packages():
+        print(name)
+    return 0
+
+
+def executables_main(args) -> int:
+    packages = [args.package_name] if args.package_name else _packages()
+    if args.package_name:
+        package_prefix(args.package_name)        # unknown package: error
+    for package in packages:
+        for path in executables(package):
+            print(path if args.full_path else f'{package} {path.name}')
+    return 0

@@ -1,0 +1,31 @@
+"""YAML for parameter values: floats stay floats in both directions.
+
+PyYAML follows YAML 1.1, which reads ``1e-06`` (no dot) as a string; rcl's
+parameter-file parser and YAML 1.2 read it as a float. :func:`load_yaml`
+reads such exponent forms as floats too, so ``ros2 param set /plant x 1e-06``
+and a hand-written parameter file mean what they say. :func:`dump_yaml`
+writes floats in a form every reader takes as float (``1.0e-06``: PyYAML's
+representer inserts the dot), arrays as lists, mappings in key order.
+"""
+from __future__ import annotations
+
+import re
+
+import yaml
+
+_FLOAT_RE = re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$')
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also resolves '1e-06', '2E5' as floats (YAML 1.2 core schema)."""
+
+
+_Loader.add_implicit_resolver('tag:yaml.org,2002:float', _FLOAT_RE, list('-+0123456789.'))
+
+
+def load_yaml(text: str):
+    return yaml.load(text, Loader=_Loader)
+
+
+def dump_yaml(data) -> str:
+    return yaml.safe_dump(data, default_flow_style=False, sort_keys=False, allow_unicode=True)

@@ -1,0 +1,79 @@
+"""The embedded `ros2`: usage errors, and the verbs that read the install, not the graph.
+
+- an unknown command or verb, a missing or wrong argument: usage on stderr, exit 2;
+- `interface list|show`, `pkg list|executables`, `run` against the installed packages;
+- the parameter YAML keeps floats floats (1e-06) and arrays lists both ways.
+"""
+import pytest
+import yaml
+
+from drive_ros2cli.verbs.param import parameter_from_value
+from drive_ros2cli.yaml_values import dump_yaml, load_yaml
+
+
+@pytest.mark.parametrize('args, message', [
+    (('frobnicate',), "invalid choice: 'frobnicate'"),
+    (('topic', 'frobnicate'), "invalid choice: 'frobnicate'"),
+    (('topic', 'echo'), 'the following arguments are required: topic_name'),
+    (('param', 'get', '/plant'), 'the following arguments are required: parameter_name'),
+    (('topic', 'pub', '--rate', 'fast', '/x', 'std_msgs/msg/String'), "invalid float value: 'fast'"),
+    (('node', 'list', '--no-such-option'), 'unrecognized arguments: --no-such-option'),
+    (('bag', 'play'), 'the following arguments are required: bag_path'),
+])
+def test_wrong_usage_prints_usage_and_exits_2(ros2_offline, args, message):
+    result = ros2_offline(*args)
+    assert result.code == 2
+    assert result.err.startswith('usage: ros2') and message in result.err
+    assert 'Traceback' not in result.err
+
+
+def test_help_and_bare_command_print_usage(ros2_offline):
+    assert 'usage: ros2 topic' in ros2_offline.ok('topic')
+    top = ros2_offline.ok('--help')
+    for command in ('action', 'bag', 'interface', 'node', 'param', 'pkg', 'run', 'service', 'topic'):
+        assert command in top
+
+
+def test_interface_list_and_show(ros2_offline):
+    listed = ros2_offline.ok('interface', 'list').splitlines()
+    sections = [l for l in listed if not l.startswith('    ')]
+    assert sections == ['Messages:', 'Services:', 'Actions:']
+    assert '    dtc_msgs/msg/GateCommand' in listed and '    dtc_msgs/srv/ResetProtection' in listed
+    assert listed.index('    dtc_msgs/action/Run') > listed.index('Actions:')
+    assert ros2_offline.ok('interface', 'list', '-a').splitlines()[0] == 'Actions:'
+
+    shown = ros2_offline.ok('interface', 'show', 'dtc_msgs/action/Run')
+    assert 'float64 target_time' in shown and shown.count('---') == 2
+    duty = ros2_offline.ok('interface', 'show', 'dtc_msgs/msg/DutyCommand', '--no-comments').splitlines()
+    assert duty[:4] == ['std_msgs/Header header', '\tbuiltin_interfaces/Time stamp', '\t\tint32 sec',
+                        '\t\tuint32 nanosec']
+    assert 'float64 duty' in duty and not any('#' in line for line in duty)
+    unknown = ros2_offline('interface', 'show', 'dtc_msgs/msg/NoSuchType')
+    assert unknown.code == 1 and 'NoSuchType' in unknown.err
+
+
+def test_pkg_and_run(ros2_offline):
+    packages = ros2_offline.ok('pkg', 'list').splitlines()
+    assert {'dtc_msgs', 'drive_logger', 'bldc_plant_sim', 'rclpy'} <= set(packages)
+    assert packages == sorted(packages)
+    executables = ros2_offline.ok('pkg', 'executables', 'drive_logger').splitlines()
+    assert {'drive_logger recorder', 'drive_logger replay'} <= set(executables)
+    assert ros2_offline('pkg', 'executables', 'no_such_package').code == 1
+
+    ran = ros2_offline('run', 'drive_logger', 'analyze', '--help')
+    assert ran.code == 0 and 'usage:' in ran.out
+    missing = ros2_offline('run', 'no_such_package', 'x')
+    assert missing.code == 1 and missing.err.strip() == "Package 'no_such_package' not found"
+    assert ros2_offline('run', 'drive_logger', 'no_such_executable').err.strip() == 'No executable found'
+
+
+def test_parameter_yaml_keeps_floats_and_arrays():
+    params = {'front_end': {'max_step': 1e-06, 'filter': {'inductance': 1e-05}},
+              'sensors': {'current_offset': [0.1, 0.0, -1e-06]}, 'motor': {'pole_pairs': 2, 'file': 'x'}}
+    text = dump_yaml({'/plant': {'ros__parameters': params}})
+    assert yaml.safe_load(text)['/plant']['ros__parameters'] == params       # YAML 1.1 readers too
+    assert load_yaml(text)['/plant']['ros__parameters'] == params
+    # what users type: exponent without a dot is a float, not a string
+    assert load_yaml('1e-06') == 1e-06 and load_yaml('-2E5') == -200000.0 and load_yaml('e5') == 'e5'
+    assert parameter_from_value('x', load_yaml('[1, 2.5]')).value == [1.0, 2.5]
+    assert parameter_from_value('x', [], declared_type=8).type_.name == 'DOUBLE_ARRAY'
