@@ -21,12 +21,14 @@ What it serves:
 A viewer never blocks the graph: the subscriptions are best effort with a
 bounded depth (a reliable publisher never waits for a best-effort reader),
 the receive thread hands decimated frames to the send thread through a
-bounded queue (full: the oldest frame is dropped and counted), and the
-SDK's send path never waits for a client either (each client has a bounded
-outbox, ``message_backlog_size``; when it is full the SDK drops the oldest
-frames and logs "outbox for client ... full", at most every 30 s, counted
-here as ``sdk_outbox_full_notices``; a client whose control queue overflows
-is disconnected).
+bounded queue (full: the oldest frame is dropped and counted as
+``dropped_frames`` on /diagnostics), and the SDK's send path never waits
+for a client either: ``Channel.log`` puts the frame into each subscribed
+client's bounded outbox (``message_backlog_size``) and, when that is full,
+drops the oldest data frame; a client whose control queue (status, time,
+parameters) overflows is disconnected. foxglove-sdk 0.30.3 does not report
+its per-client drops to Python, so they are not in ``dropped_frames``:
+compare ``forwarded <topic>`` on /diagnostics with what a viewer received.
 
 Parameters (read at start):
 - ``topics`` (string[]): ``name`` or ``name:pkg/msg/Type``; default plant/state,
@@ -45,7 +47,6 @@ Bad parameters end the node with exit code 2 and a one-line reason.
 """
 from __future__ import annotations
 
-import logging
 import signal
 import sys
 import threading
@@ -69,7 +70,6 @@ from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
 
 DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
-SDK_OUTBOX_FULL = 'outbox for client'
 
 
 class LiveViewConfigError(RuntimeError):
@@ -81,18 +81,6 @@ def _plain(value):
     if isinstance(value, (str, bytes, bool, int, float)) or value is None:
         return value
     return [v.item() if hasattr(v, 'item') else v for v in value]
-
-
-class _SdkNotices(logging.Handler):
-    """Counts the SDK's 'outbox full' log notices (it drops a slow client's oldest frames)."""
-
-    def __init__(self) -> None:
-        super().__init__(logging.INFO)
-        self.outbox_full = 0
-
-    def emit(self, record: logging.LogRecord) -> None:
-        if SDK_OUTBOX_FULL in record.getMessage():
-            self.outbox_full += 1
 
 
 class _Stream:
@@ -145,9 +133,6 @@ class LiveViewNode(Node):
         self.viewers: dict[int, set[int]] = {}         # client id -> subscribed channel ids
         self._viewers_lock = threading.Lock()
         import foxglove
-        self.sdk_notices = _SdkNotices()
-        logging.getLogger().addHandler(self.sdk_notices)
-        foxglove.set_log_level('INFO')     # the SDK's log goes to Python logging (first call only)
         from foxglove.websocket import Capability
         self._fg = foxglove
         wanted = self._resolve(p['topics'] or [])
@@ -392,11 +377,10 @@ class LiveViewNode(Node):
         with self._viewers_lock:
             viewers = len(self.viewers)
         dropped = self.dropped_frames()
-        values = [('viewers_subscribed', viewers), ('dropped_frames', dropped),
-                  ('sdk_outbox_full_notices', self.sdk_notices.outbox_full)]
+        values = [('viewers_subscribed', viewers), ('dropped_frames', dropped)]
         values += [(f'forwarded {s.name}', s.forwarded) for s in self.streams]
         status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if dropped or self.sdk_notices.outbox_full else DiagnosticStatus.OK,
+            level=DiagnosticStatus.WARN if dropped else DiagnosticStatus.OK,
             name='live_view', hardware_id='foxglove websocket',
             message=f'{viewers} viewer(s) subscribed, {dropped} frame(s) dropped',
             values=[KeyValue(key=k, value=str(v)) for k, v in values])
