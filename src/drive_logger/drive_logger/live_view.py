@@ -52,6 +52,7 @@ import sys
 import threading
 import time
 
+import foxglove
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
@@ -62,6 +63,8 @@ from rclpy.parameter import Parameter as RosParameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from foxglove import Parameter as FoxgloveParameter, ParameterType, StatusLevel
+from foxglove.websocket import Capability
 from rosgraph_msgs.msg import Clock
 
 from drive_common import topics as t
@@ -118,6 +121,11 @@ class LiveViewNode(Node):
         for key in ('qos_depth', 'queue_depth', 'message_backlog_size'):
             if int(p[key]) < 1:
                 raise LiveViewConfigError(f'live_view: parameter {key} = {p[key]} must be >= 1')
+        for key in ('parameter_timeout', 'diagnostics_period'):
+            if not float(p[key]) > 0.0:
+                raise LiveViewConfigError(f'live_view: parameter {key} = {p[key]} s must be > 0')
+        if not 0.0 <= float(p['batch_period']) <= 0.1:
+            raise LiveViewConfigError(f'live_view: parameter batch_period = {p["batch_period"]} s must be in [0, 0.1]')
         if not 0 <= int(p['port']) <= 65535:
             raise LiveViewConfigError(f'live_view: parameter port = {p["port"]} must be in [0, 65535]')
         self.parameter_timeout = float(p['parameter_timeout'])
@@ -132,9 +140,6 @@ class LiveViewNode(Node):
         self.sim_time_ns = 0
         self.viewers: dict[int, set[int]] = {}         # client id -> subscribed channel ids
         self._viewers_lock = threading.Lock()
-        import foxglove
-        from foxglove.websocket import Capability
-        self._fg = foxglove
         wanted = self._resolve(p['topics'] or [])
         self.context_fg = foxglove.Context()
         self.streams: list[_Stream] = []
@@ -351,13 +356,11 @@ class LiveViewNode(Node):
         if values:
             self.server.publish_parameter_values(self._fg_parameters(values))
 
-    def _fg_parameters(self, values: dict[str, object]) -> list:
-        from foxglove import Parameter, ParameterType
-        out = []
-        for name, value in values.items():
-            hint = core.type_hint(value)
-            out.append(Parameter(name, value=value, type=getattr(ParameterType, hint) if hint else None))
-        return out
+    @staticmethod
+    def _fg_parameters(values: dict[str, object]) -> list:
+        return [FoxgloveParameter(name, value=value,
+                                  type=getattr(ParameterType, hint) if (hint := core.type_hint(value)) else None)
+                for name, value in values.items()]
 
     @staticmethod
     def _from_fg(parameter):
@@ -365,7 +368,6 @@ class LiveViewNode(Node):
         return _plain(value) if isinstance(value, (list, tuple)) else value
 
     def _status(self, message: str, level: str) -> None:
-        from foxglove import StatusLevel
         self.get_logger().warning(message)
         self.server.publish_status(message, getattr(StatusLevel, level))
 

@@ -296,3 +296,9 @@ def test_bad_parameters_exit_2_with_the_reason(start_node):
         process = start_node('drive_logger', 'live_view', parameters={'port': 0, **parameters})
         assert process.process.wait(timeout=60) == 2, process.output()
         assert expected in process.output() and 'Traceback' not in process.output(), process.output()
+
+
+def test_run_scenario_live_needs_the_ros_graph(capsys):
+    from drive_bringup.runner_cli import main
+    assert main(['two_phase_six_switch_torque_step', '--live', '--headless']) == 2
+    assert '--live watches the ROS graph' in capsys.readouterr().err
