@@ -37,12 +37,16 @@ Parameters (read at start):
 - ``topic_periods`` (string[], ``['/diagnostics=0']``): per-topic ``name=seconds`` overrides.
 - ``time_period`` (s, 0.001): server-time broadcasts from /clock, at most one per this much sim time.
 - ``host`` ('127.0.0.1'), ``port`` (8765; 0 = any free port; the log says which).
-- ``qos_depth`` (64): depth of the best-effort subscriptions.
+- ``qos_depth`` (1): depth of the best-effort subscriptions to the served
+  topics (/diagnostics: 64). With depth 1 DDS keeps only the newest sample
+  between two wake-ups, so the samples in between cost this process nothing.
 - ``queue_depth`` (256): frames between the receive and the send thread.
 - ``message_backlog_size`` (1024): the SDK's outbox per client.
 - ``parameter_timeout`` (s, 5.0): per ROS parameter service call.
 - ``diagnostics_period`` (s wall, 1.0).
-- ``batch_period`` (s, 0.002): rest after a wake-up that took messages.
+- ``batch_period`` (s wall, 0.005): rest after a wake-up that took messages.
+  Keep it below the decimation period's wall time (at 0.1x real time, 1 ms
+  of sim time lasts 10 ms), or fewer messages than the period allows are served.
 Bad parameters end the node with exit code 2 and a one-line reason.
 """
 from __future__ import annotations
@@ -73,6 +77,7 @@ from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
 
 DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
+DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by the queue depth
 
 
 class LiveViewConfigError(RuntimeError):
@@ -109,12 +114,12 @@ class LiveViewNode(Node):
         self.declare_parameter('time_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))
         self.declare_parameter('host', '127.0.0.1', ro)
         self.declare_parameter('port', 8765, ro)
-        self.declare_parameter('qos_depth', 64, ro)
+        self.declare_parameter('qos_depth', 1, ro)
         self.declare_parameter('queue_depth', 256, ro)
         self.declare_parameter('message_backlog_size', 1024, ro)
         self.declare_parameter('parameter_timeout', 5.0, ParameterDescriptor(read_only=True, description='s'))
         self.declare_parameter('diagnostics_period', 1.0, ParameterDescriptor(read_only=True, description='s wall'))
-        self.declare_parameter('batch_period', 0.002, ParameterDescriptor(read_only=True, description='s wall'))
+        self.declare_parameter('batch_period', 0.005, ParameterDescriptor(read_only=True, description='s wall'))
         p = {name: self.get_parameter(name).value for name in (
             'topics', 'decimation_period', 'topic_periods', 'time_period', 'host', 'port', 'qos_depth',
             'queue_depth', 'message_backlog_size', 'parameter_timeout', 'diagnostics_period', 'batch_period')}
@@ -147,6 +152,8 @@ class LiveViewNode(Node):
                                      namespace=self.get_namespace(), start_parameter_services=False)
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['qos_depth']),
                          reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+        diagnostics_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DIAGNOSTICS_DEPTH,
+                                     reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
         self._stream_subscriptions = []
         for name, (type_name, definition) in wanted.items():
             channel = foxglove.Channel(
@@ -155,11 +162,11 @@ class LiveViewNode(Node):
             stream = _Stream(name, channel, core.Decimator(overrides.get(name, default_period)))
             self.streams.append(stream)
             self._stream_subscriptions.append(self._io.create_subscription(
-                ros_types.message_class(type_name), name, self._receiver_for(stream), qos, raw=True))
+                ros_types.message_class(type_name), name, self._receiver_for(stream),
+                diagnostics_qos if name == t.DIAGNOSTICS else qos, raw=True))
         self._stream_subscriptions.append(self._io.create_subscription(Clock, t.CLOCK, self._on_clock, qos, raw=True))
 
         self.param_clients: dict[str, AsyncParameterClient] = {}
-        self._silent: set[str] = set()        # nodes whose parameter services never answered
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event, 100)
         self._diag_pub = self.create_publisher(DiagnosticArray, t.DIAGNOSTICS, 10)
         self.create_timer(float(p['diagnostics_period']), self.publish_diagnostics)
@@ -284,11 +291,12 @@ class LiveViewNode(Node):
             return None
         return client
 
-    def _wait(self, future, what: str):
+    def _wait(self, future, what: str, timeout: float | None = None):
+        timeout = self.parameter_timeout if timeout is None else timeout
         done = threading.Event()
         future.add_done_callback(lambda _f: done.set())
-        if not done.wait(self.parameter_timeout):
-            raise TimeoutError(f'{what}: no answer within {self.parameter_timeout} s')
+        if not done.wait(timeout):
+            raise TimeoutError(f'{what}: no answer within {timeout} s')
         return future.result()
 
     def graph_nodes(self) -> list[str]:
@@ -297,7 +305,7 @@ class LiveViewNode(Node):
         names = []
         for name, namespace in self.get_node_names_and_namespaces():
             full = namespace.rstrip('/') + '/' + name
-            if full in own or full in self._silent or name.startswith('_'):
+            if full in own or name.startswith('_'):
                 continue
             services = {s for s, _ in self.get_service_names_and_types_by_node(name, namespace)}
             if f'{full}/get_parameters' in services:
@@ -314,12 +322,13 @@ class LiveViewNode(Node):
                 continue
             try:
                 if names is None:
-                    names = list(self._wait(client.list_parameters(), f'{node} list_parameters').result.names)
+                    # a node that does not answer within 1 s is left out (not everyone waits for it)
+                    names = list(self._wait(client.list_parameters(), f'{node} list_parameters',
+                                            min(1.0, self.parameter_timeout)).result.names)
                 response = self._wait(client.get_parameters(names), f'{node} get_parameters')
             except TimeoutError as exc:
                 if not full_names:             # listing everything: leave out a node that does not answer
-                    self._silent.add(node)     # (the recorder takes messages without an executor)
-                    self.get_logger().info(f'{exc}; its parameters are not served')
+                    self.get_logger().info(f'{exc}; its parameters are left out')   # (the recorder: no executor)
                     continue
                 raise
             for name, value in zip(names, response.values):
