@@ -8,6 +8,8 @@
 
 Prints samples per wall second of the Run goals (median of --repeats) and
 the ratios; the goal is 3 ~= 2 (a viewer costs no more than the decimation).
+On a shared machine the wall rates vary a lot; each process's CPU time per
+sample during the Run goals (from /proc/<pid>/stat) varies much less.
 Each variant runs in its own private DDS domain; the live view listens on a
 free port.
 
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import statistics
 import tempfile
@@ -29,6 +32,12 @@ from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.harness import reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (all its threads), s."""
+    fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 class Viewer(threading.Thread):
@@ -85,6 +94,13 @@ class LiveRunner(GraphRunner):
             if not self.viewer.subscribed.wait(30.0):
                 raise RuntimeError('the viewer did not subscribe')
 
+    def _drive(self, node, executor, bag_dir):
+        start = {k: cpu_seconds(p.pid) for k, p in self.processes.items()}
+        result = super()._drive(node, executor, bag_dir)
+        self.cpu_us_per_sample = {k: (cpu_seconds(p.pid) - start[k]) / result.final_step * 1e6
+                                  for k, p in self.processes.items()}
+        return result
+
     def _stop_all(self):
         if self.viewer is not None:
             self.viewer.stop.set()
@@ -92,12 +108,12 @@ class LiveRunner(GraphRunner):
         super()._stop_all()
 
 
-def run_once(scenario, live: bool, viewer: bool) -> tuple[float, int]:
+def run_once(scenario, live: bool, viewer: bool) -> tuple[float, int, dict]:
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as out:
         runner = LiveRunner(scenario, Path(out), domain_id=domain, record=False, live=live,
                             viewer=viewer, progress=lambda _msg: None)
         result = runner.run()
-        return result.samples_per_second, runner.viewer.frames if runner.viewer else 0
+        return result.samples_per_second, runner.viewer.frames if runner.viewer else 0, runner.cpu_us_per_sample
 
 
 def main() -> None:
@@ -112,11 +128,13 @@ def main() -> None:
     variants = {'graph alone': (False, False), 'live_view, no viewer': (True, False),
                 'live_view + reading viewer': (True, True)}
     rates: dict[str, list[float]] = {name: [] for name in variants}
+    cpu: dict[str, list[dict]] = {name: [] for name in variants}
     frames = []
     for _ in range(args.repeats):               # interleaved, so machine load hits every variant alike
         for name, (live, viewer) in variants.items():
-            rate, got = run_once(scenario, live, viewer)
+            rate, got, cpu_us = run_once(scenario, live, viewer)
             rates[name].append(rate)
+            cpu[name].append(cpu_us)
             if viewer:
                 frames.append(got)
     medians = {name: statistics.median(values) for name, values in rates.items()}
@@ -125,6 +143,12 @@ def main() -> None:
     for name, value in medians.items():
         print(f'  {name:28s} {value:8.0f} samples/s  ({value / base:.2f} of the graph alone)  '
               f'runs: {", ".join(f"{v:.0f}" for v in rates[name])}')
+    print('CPU time per sample (us, median), per process:')
+    for name in variants:
+        keys = cpu[name][0]
+        per = {k: statistics.median(run[k] for run in cpu[name]) for k in keys}
+        print(f'  {name:28s} ' + ', '.join(f'{k} {v:.0f}' for k, v in per.items())
+              + f'; total {sum(per.values()):.0f}')
     print(f'  viewer received {statistics.median(frames):.0f} data frames per run (median)')
     ratio = medians['live_view + reading viewer'] / medians['live_view, no viewer']
     print(f'  a reading viewer vs none: {ratio:.2f} (goal: about 1, a viewer costs no more than the decimation)')
