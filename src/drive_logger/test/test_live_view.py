@@ -304,3 +304,30 @@ def test_run_scenario_live_needs_the_ros_graph(capsys):
     from drive_bringup.runner_cli import main
     assert main(['two_phase_six_switch_torque_step', '--live', '--headless']) == 2
     assert '--live watches the ROS graph' in capsys.readouterr().err
+
+
+def test_layout_plots_real_fields_of_the_served_topics():
+    """Every message path of the shipped layout names a field of the topic's message type."""
+    from ament_index_python.packages import get_package_share_directory
+    from drive_logger.graph_topics import known_type
+    from drive_logger.ros_types import message_class
+    layout = json.loads((Path(get_package_share_directory('drive_logger')) / 'layouts' / 'dtc_live.json').read_text())
+    paths = [p['value'] for config in layout['configById'].values()
+             for p in config.get('paths', []) + ([config['xAxisPath']] if 'xAxisPath' in config else [])]
+    assert len(paths) >= 15
+    for path in paths:
+        match = re.fullmatch(r'(/[a-z_/]+)\.([a-z_]+)(?:\[(\d)\])?', path)
+        assert match, path
+        topic, field, index = match.groups()
+        assert topic in _served_by_default(), path
+        fields = message_class(known_type(topic)).get_fields_and_field_types()
+        assert field in fields, path
+        assert (index is not None) == fields[field].startswith('double['), path   # arrays indexed, scalars not
+    assert {'Parameters!params', 'DiagnosticSummary!diag'} <= set(layout['configById'])
+    locus = layout['configById']['Plot!locus']
+    assert locus['xAxisVal'] == 'custom' and locus['xAxisPath']['value'] == '/dtc/status.flux_alpha'
+
+
+def _served_by_default():
+    from drive_logger.live_view import DEFAULT_TOPICS
+    return {'/' + name.lstrip('/') for name in DEFAULT_TOPICS}
