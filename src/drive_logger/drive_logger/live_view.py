@@ -125,14 +125,14 @@ class LiveViewNode(Node):
             'queue_depth', 'message_backlog_size', 'parameter_timeout', 'diagnostics_period', 'batch_period')}
         for key in ('qos_depth', 'queue_depth', 'message_backlog_size'):
             if int(p[key]) < 1:
-                raise LiveViewConfigError(f'live_view: parameter {key} = {p[key]} must be >= 1')
+                raise LiveViewConfigError(f'parameter {key} = {p[key]} must be >= 1')
         for key in ('parameter_timeout', 'diagnostics_period'):
             if not float(p[key]) > 0.0:
-                raise LiveViewConfigError(f'live_view: parameter {key} = {p[key]} s must be > 0')
+                raise LiveViewConfigError(f'parameter {key} = {p[key]} s must be > 0')
         if not 0.0 <= float(p['batch_period']) <= 0.1:
-            raise LiveViewConfigError(f'live_view: parameter batch_period = {p["batch_period"]} s must be in [0, 0.1]')
+            raise LiveViewConfigError(f'parameter batch_period = {p["batch_period"]} s must be in [0, 0.1]')
         if not 0 <= int(p['port']) <= 65535:
-            raise LiveViewConfigError(f'live_view: parameter port = {p["port"]} must be in [0, 65535]')
+            raise LiveViewConfigError(f'parameter port = {p["port"]} must be in [0, 65535]')
         self.parameter_timeout = float(p['parameter_timeout'])
         self.batch_period = float(p['batch_period'])
         try:
@@ -140,7 +140,7 @@ class LiveViewNode(Node):
             self._time_decimator = core.Decimator(core.period_ns(float(p['time_period'])))
             overrides = self._topic_periods(p['topic_periods'] or [])
         except ValueError as exc:
-            raise LiveViewConfigError(f'live_view: {exc}') from exc
+            raise LiveViewConfigError(f'{exc}') from exc
         self.outbox = core.Outbox(int(p['queue_depth']))
         self.sim_time_ns = 0
         self.viewers: dict[int, set[int]] = {}         # client id -> subscribed channel ids
@@ -177,7 +177,7 @@ class LiveViewNode(Node):
                 supported_encodings=['cdr'], context=self.context_fg,
                 message_backlog_size=int(p['message_backlog_size']))
         except Exception as exc:   # the SDK raises its own error type for a port in use
-            raise LiveViewConfigError(f'live_view: cannot serve on {p["host"]}:{p["port"]}: {exc}') from exc
+            raise LiveViewConfigError(f'cannot serve on {p["host"]}:{p["port"]}: {exc}') from exc
         self.get_logger().info(
             f'live view ready: ws://{p["host"]}:{self.server.port} serving {len(self.streams)} topic(s) '
             f'{[s.name for s in self.streams]}')
@@ -201,7 +201,7 @@ class LiveViewNode(Node):
             try:
                 name, type_name = graph_topics.parse_topic_spec(spec)
             except ValueError as exc:
-                raise LiveViewConfigError(f'live_view: topics: {exc}') from exc
+                raise LiveViewConfigError(f'topics: {exc}') from exc
             if type_name is None:
                 raise LiveViewConfigError(
                     f'live_view: topics: unknown type of {name!r}; give it as name:pkg/msg/Type')
@@ -209,7 +209,7 @@ class LiveViewNode(Node):
                 ros_types.message_class(type_name)
                 out[self.resolve_topic_name(name)] = (type_name, type_definition(type_name))
             except (ros_types.UnknownTypeError, DefinitionNotFoundError, ValueError) as exc:
-                raise LiveViewConfigError(f'live_view: topic {name!r}: {exc}') from exc
+                raise LiveViewConfigError(f'topic {name!r}: {exc}') from exc
         return out
 
     # ----------------------------------------------------- receive (ROS side)

@@ -298,6 +298,10 @@ def test_bad_parameters_exit_2_with_the_reason(start_node):
         process = start_node('drive_logger', 'live_view', parameters={'port': 0, **parameters})
         assert process.process.wait(timeout=60) == 2, process.output()
         assert expected in process.output() and 'Traceback' not in process.output(), process.output()
+    _, port = _start_live_view(start_node)
+    taken = start_node('drive_logger', 'live_view', parameters={'port': port}, node_name='live_view_2')
+    assert taken.process.wait(timeout=60) == 2, taken.output()
+    assert f'cannot serve on 127.0.0.1:{port}' in taken.output() and 'Traceback' not in taken.output()
 
 
 def test_run_scenario_live_needs_the_ros_graph(capsys):
