@@ -277,7 +277,14 @@ class LiveViewNode(Node):
             return []
 
     def on_parameters_subscribe(self, param_names) -> None:
-        return None
+        """Send the current values first, so a subscriber starts from the truth (from a thread:
+        the SDK calls this with its own state locked, and the ROS calls may take a while)."""
+        def push() -> None:
+            try:
+                self.server.publish_parameter_values(self._fg_parameters(self.get_ros_parameters(list(param_names))))
+            except Exception as exc:
+                self._status(f'parameter subscription: {exc}', 'Error')
+        threading.Thread(target=push, daemon=True).start()
 
     def on_parameters_unsubscribe(self, param_names) -> None:
         return None

@@ -232,6 +232,19 @@ def test_viewer_lists_subscribes_decodes_and_sets_parameters(start_node, ros_ses
         refusal = next(m for m in viewer.texts if m['op'] == 'status')
         assert 'refused torque_reference' in refusal['message'] and refusal['level'] >= 1
 
+        # a change made through ROS (as `ros2 param set` does) reaches a viewer subscribed to updates
+        def pushed(value):
+            return lambda: any(m.get('op') == 'parameterValues' and 'id' not in m
+                               and m['parameters'] == [{'name': '/dtc_controller.torque_reference',
+                                                        'type': 'float64', 'value': value}] for m in viewer.texts)
+        viewer.request({'op': 'subscribeParameterUpdates', 'parameterNames': ['/dtc_controller.torque_reference']})
+        viewer.pump(pushed(0.8), 30.0, 'the current value pushed on subscription')
+        from rclpy.parameter import Parameter
+        future = client.set_parameters([Parameter('torque_reference', value=0.6)])
+        wait_until(future.done, 30.0, what='set_parameters')
+        assert future.result().results[0].successful
+        viewer.pump(pushed(0.6), 30.0, 'the update pushed to the viewer')
+
         # its own health on /diagnostics, decoded like any other message
         diag_type = message_class('diagnostic_msgs/msg/DiagnosticArray')
         viewer.pump(lambda: any(s.name == 'live_view' for _, p in viewer.messages.get('/diagnostics', [])
