@@ -145,6 +145,7 @@ class GraphRunner:
                             {'output': str(bag_dir), 'topics': record_topics(sc)})
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
+                self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
             plant_params = dict(sc.overrides['plant'])
             plant_params['run_until'] = 0.0
             plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
