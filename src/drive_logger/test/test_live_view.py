@@ -247,8 +247,11 @@ def test_viewer_lists_subscribes_decodes_and_sets_parameters(start_node, ros_ses
 
         # its own health on /diagnostics, decoded like any other message
         diag_type = message_class('diagnostic_msgs/msg/DiagnosticArray')
-        viewer.pump(lambda: any(s.name == 'live_view' for _, p in viewer.messages.get('/diagnostics', [])
-                                for s in deserialize_message(p, diag_type).status), 60.0, 'live_view diagnostics')
+        own = viewer.pump(lambda: next((s for _, p in viewer.messages.get('/diagnostics', [])
+                                        for s in deserialize_message(p, diag_type).status if s.name == 'live_view'),
+                                       None), 60.0, 'live_view diagnostics')
+        values = {kv.key: kv.value for kv in own.values}
+        assert {'dropped_frames', 'viewers_subscribed', 'forwarded /plant/state'} <= set(values), values
     finally:
         viewer.close()
     assert live.alive(), live.output()
