@@ -72,6 +72,7 @@ from foxglove.websocket import Capability
 from rosgraph_msgs.msg import Clock
 
 from drive_common import topics as t
+from drive_common.lockstep_io import DirectReceiver
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
@@ -140,7 +141,7 @@ class LiveViewNode(Node):
             self._time_decimator = core.Decimator(core.period_ns(float(p['time_period'])))
             overrides = self._topic_periods(p['topic_periods'] or [])
         except ValueError as exc:
-            raise LiveViewConfigError(f'{exc}') from exc
+            raise LiveViewConfigError(str(exc)) from exc
         self.outbox = core.Outbox(int(p['queue_depth']))
         self.sim_time_ns = 0
         self.viewers: dict[int, set[int]] = {}         # client id -> subscribed channel ids
@@ -204,7 +205,7 @@ class LiveViewNode(Node):
                 raise LiveViewConfigError(f'topics: {exc}') from exc
             if type_name is None:
                 raise LiveViewConfigError(
-                    f'live_view: topics: unknown type of {name!r}; give it as name:pkg/msg/Type')
+                    f'topics: unknown type of {name!r}; give it as name:pkg/msg/Type')
             try:
                 ros_types.message_class(type_name)
                 out[self.resolve_topic_name(name)] = (type_name, type_definition(type_name))
@@ -233,7 +234,6 @@ class LiveViewNode(Node):
 
     def receive_loop(self, stop: threading.Event) -> None:
         """Take what the subscriptions hold, forward what is due; never waits on a viewer."""
-        from drive_common.lockstep_io import DirectReceiver
         receiver = DirectReceiver(self.context, self._stream_subscriptions)
         while not stop.is_set():
             if receiver.poll(0.1) and self.batch_period > 0.0:
