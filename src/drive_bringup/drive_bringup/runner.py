@@ -74,13 +74,14 @@ class GraphRunner:
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
                  record: bool | None = None, progress: Callable[[str], None] = print,
-                 step_timeout: float = 60.0) -> None:
+                 step_timeout: float = 60.0, live: bool = False) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.domain_id = domain_id
         self.record = scenario.record if record is None else record
         self.progress = progress
         self.step_timeout = step_timeout
+        self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
         self.processes: dict[str, NodeProcess] = {}
         self._crashed = False
         self.log_dir = self.out_dir / 'logs'
@@ -142,6 +143,9 @@ class GraphRunner:
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
                             {'output': str(bag_dir), 'topics': record_topics(sc)})
+            if self.live:
+                self._start('live_view', 'drive_logger', 'live_view', {})
+                self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
             plant_params = dict(sc.overrides['plant'])
             plant_params['run_until'] = 0.0
             plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes

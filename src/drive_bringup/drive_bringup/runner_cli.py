@@ -3,6 +3,7 @@
     run_scenario default                      # bags/default/ (bag, report, figures)
     run_scenario path/to/file.yaml --out bags/mine
     run_scenario default --headless           # same cores stepped in one process, no ROS
+    run_scenario default --live               # and watch it in Foxglove (ws://localhost:8765)
     run_scenario --list
 
 Exit codes: 0 ok, 1 the run failed (message says why), 2 bad scenario or
@@ -63,6 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--isolate', action='store_true',
                         help='run in a private DDS domain (localhost only)')
     parser.add_argument('--duration', type=float, help='override the run length (s)')
+    parser.add_argument('--live', action='store_true',
+                        help='also start drive_logger live_view: watch the run in Foxglove at ws://localhost:8765')
     return parser
 
 
@@ -76,6 +79,9 @@ def main(argv=None) -> int:
         return 0
     if not args.scenario:
         print('run_scenario: name a scenario (or --list)', file=sys.stderr)
+        return 2
+    if args.live and args.headless:
+        print('run_scenario: --live watches the ROS graph; it cannot be combined with --headless', file=sys.stderr)
         return 2
     try:
         scenario = load_scenario(find_scenario(args.scenario))
@@ -107,9 +113,9 @@ def main(argv=None) -> int:
             from drive_common.harness import reserve_domain
             with reserve_domain() as domain:
                 result = GraphRunner(scenario, out, domain_id=domain,
-                                     record=not args.no_record).run()
+                                     record=not args.no_record, live=args.live).run()
         else:
-            result = GraphRunner(scenario, out, record=not args.no_record).run()
+            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)
             print_summary(summary, out)

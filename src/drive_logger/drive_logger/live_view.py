@@ -1,0 +1,454 @@
+"""live_view node: serve the running graph to the Foxglove app over the Foxglove WebSocket protocol.
+
+Built on ``foxglove-sdk`` (its WebSocket server speaks the protocol). Open
+the Foxglove app, "Open connection", ``ws://localhost:8765``, then import
+the layout ``share/drive_logger/layouts/dtc_live.json`` (README).
+
+What it serves:
+- each chosen topic as a channel with its ``ros2msg`` schema (the full
+  concatenated definition, as rosbag2 stores it: message_definitions) and
+  the CDR bytes as received (raw subscription, no re-serialization),
+  decimated by sim time (header stamp), default one message per 1 ms;
+- sim time from ``/clock`` as the server time (Time capability), decimated alike;
+- the graph's parameters (Parameters capability) as ``/node.parameter``:
+  get and set go through each node's ROS parameter services
+  (AsyncParameterClient, the same checks as ``ros2 param set``); a
+  rejected change keeps the old value, is sent back as the value in force
+  and reported as a status message in the app; changes made elsewhere
+  arrive through /parameter_events;
+- its own health on /diagnostics (``live_view``: frames forwarded and dropped).
+
+A viewer never blocks the graph: the subscriptions are best effort with a
+bounded depth (a reliable publisher never waits for a best-effort reader),
+the receive thread hands decimated frames to the send thread through a
+bounded queue (full: the oldest frame is dropped and counted as
+``dropped_frames`` on /diagnostics), and the SDK's send path never waits
+for a client either: ``Channel.log`` puts the frame into each subscribed
+client's bounded outbox (``message_backlog_size``) and, when that is full,
+drops the oldest data frame; a client whose control queue (status, time,
+parameters) overflows is disconnected. foxglove-sdk 0.30.3 does not report
+its per-client drops to Python, so they are not in ``dropped_frames``:
+compare ``forwarded <topic>`` on /diagnostics with what a viewer received.
+
+Parameters (read at start):
+- ``topics`` (string[]): ``name`` or ``name:pkg/msg/Type``; default plant/state,
+  dtc/status, pfc/status, /diagnostics. A topic nobody publishes is still advertised.
+- ``decimation_period`` (s, 0.001): per topic, at most one message per this much sim time (0 = all).
+- ``topic_periods`` (string[], ``['/diagnostics=0']``): per-topic ``name=seconds`` overrides.
+- ``time_period`` (s, 0.001): server-time broadcasts from /clock, at most one per this much sim time.
+- ``host`` ('127.0.0.1'), ``port`` (8765; 0 = any free port; the log says which).
+- ``qos_depth`` (1): depth of the best-effort subscriptions to the served
+  topics (/diagnostics: 64). With depth 1 DDS keeps only the newest sample
+  between two wake-ups, so the samples in between cost this process nothing.
+- ``queue_depth`` (256): frames between the receive and the send thread.
+- ``message_backlog_size`` (1024): the SDK's outbox per client.
+- ``parameter_timeout`` (s, 5.0): per ROS parameter service call.
+- ``diagnostics_period`` (s wall, 1.0).
+- ``batch_period`` (s wall, 0.005): rest after a wake-up that took messages.
+  Keep it below the decimation period's wall time (at 0.1x real time, 1 ms
+  of sim time lasts 10 ms), or fewer messages than the period allows are served.
+Bad parameters end the node with exit code 2 and a one-line reason.
+"""
+from __future__ import annotations
+
+import signal
+import sys
+import threading
+import time
+
+import foxglove
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter as RosParameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+from foxglove import Parameter as FoxgloveParameter, ParameterType, StatusLevel
+from foxglove.websocket import Capability
+from rosgraph_msgs.msg import Clock
+
+from drive_common import topics as t
+from drive_common.lockstep_io import DirectReceiver
+from drive_logger import graph_topics, ros_types
+from drive_logger.core import live_view as core
+from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
+
+DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
+DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by the queue depth
+
+
+class LiveViewConfigError(RuntimeError):
+    """Bad live_view configuration (nothing served)."""
+
+
+def _plain(value):
+    """rclpy parameter value -> plain Python (arrays -> lists)."""
+    if isinstance(value, (str, bytes, bool, int, float)) or value is None:
+        return value
+    return [v.item() if hasattr(v, 'item') else v for v in value]
+
+
+class _Stream:
+    """One served topic: its Foxglove channel and decimator."""
+
+    __slots__ = ('name', 'channel', 'decimator', 'forwarded')
+
+    def __init__(self, name, channel, decimator):
+        self.name, self.channel, self.decimator, self.forwarded = name, channel, decimator, 0
+
+
+class LiveViewNode(Node):
+    """See the module docstring."""
+
+    def __init__(self, **kwargs) -> None:
+        super().__init__('live_view', **kwargs)
+        ro = ParameterDescriptor(read_only=True)
+        self.declare_parameter('topics', list(DEFAULT_TOPICS),
+                               ParameterDescriptor(read_only=True, description='name or name:pkg/msg/Type'))
+        self.declare_parameter('decimation_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))
+        self.declare_parameter('topic_periods', ['/diagnostics=0'],
+                               ParameterDescriptor(read_only=True, description='name=seconds overrides'))
+        self.declare_parameter('time_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))
+        self.declare_parameter('host', '127.0.0.1', ro)
+        self.declare_parameter('port', 8765, ro)
+        self.declare_parameter('qos_depth', 1, ro)
+        self.declare_parameter('queue_depth', 256, ro)
+        self.declare_parameter('message_backlog_size', 1024, ro)
+        self.declare_parameter('parameter_timeout', 5.0, ParameterDescriptor(read_only=True, description='s'))
+        self.declare_parameter('diagnostics_period', 1.0, ParameterDescriptor(read_only=True, description='s wall'))
+        self.declare_parameter('batch_period', 0.005, ParameterDescriptor(read_only=True, description='s wall'))
+        p = {name: self.get_parameter(name).value for name in (
+            'topics', 'decimation_period', 'topic_periods', 'time_period', 'host', 'port', 'qos_depth',
+            'queue_depth', 'message_backlog_size', 'parameter_timeout', 'diagnostics_period', 'batch_period')}
+        for key in ('qos_depth', 'queue_depth', 'message_backlog_size'):
+            if int(p[key]) < 1:
+                raise LiveViewConfigError(f'parameter {key} = {p[key]} must be >= 1')
+        for key in ('parameter_timeout', 'diagnostics_period'):
+            if not float(p[key]) > 0.0:
+                raise LiveViewConfigError(f'parameter {key} = {p[key]} s must be > 0')
+        if not 0.0 <= float(p['batch_period']) <= 0.1:
+            raise LiveViewConfigError(f'parameter batch_period = {p["batch_period"]} s must be in [0, 0.1]')
+        if not 0 <= int(p['port']) <= 65535:
+            raise LiveViewConfigError(f'parameter port = {p["port"]} must be in [0, 65535]')
+        self.parameter_timeout = float(p['parameter_timeout'])
+        self.batch_period = float(p['batch_period'])
+        try:
+            default_period = core.period_ns(float(p['decimation_period']))
+            self._time_decimator = core.Decimator(core.period_ns(float(p['time_period'])))
+            overrides = self._topic_periods(p['topic_periods'] or [])
+        except ValueError as exc:
+            raise LiveViewConfigError(str(exc)) from exc
+        self.outbox = core.Outbox(int(p['queue_depth']))
+        self.sim_time_ns = 0
+        self.viewers: dict[int, set[int]] = {}         # client id -> subscribed channel ids
+        self._viewers_lock = threading.Lock()
+        wanted = self._resolve(p['topics'] or [])
+        self.context_fg = foxglove.Context()
+        self.streams: list[_Stream] = []
+        self._io = rclpy.create_node('live_view_stream', context=self.context,
+                                     namespace=self.get_namespace(), start_parameter_services=False)
+        qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(p['qos_depth']),
+                         reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+        diagnostics_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DIAGNOSTICS_DEPTH,
+                                     reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+        self._stream_subscriptions = []
+        for name, (type_name, definition) in wanted.items():
+            channel = foxglove.Channel(
+                name, message_encoding='cdr', context=self.context_fg,
+                schema=foxglove.Schema(name=type_name, encoding='ros2msg', data=definition.text.encode()))
+            stream = _Stream(name, channel, core.Decimator(overrides.get(name, default_period)))
+            self.streams.append(stream)
+            self._stream_subscriptions.append(self._io.create_subscription(
+                ros_types.message_class(type_name), name, self._receiver_for(stream),
+                diagnostics_qos if name == t.DIAGNOSTICS else qos, raw=True))
+        self._stream_subscriptions.append(self._io.create_subscription(Clock, t.CLOCK, self._on_clock, qos, raw=True))
+
+        self.param_clients: dict[str, AsyncParameterClient] = {}
+        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event, 100)
+        self._diag_pub = self.create_publisher(DiagnosticArray, t.DIAGNOSTICS, 10)
+        self.create_timer(float(p['diagnostics_period']), self.publish_diagnostics)
+        try:
+            self.server = foxglove.start_server(
+                name='drive live view', host=str(p['host']), port=int(p['port']),
+                capabilities=[Capability.Parameters, Capability.Time], server_listener=self,
+                supported_encodings=['cdr'], context=self.context_fg,
+                message_backlog_size=int(p['message_backlog_size']))
+        except Exception as exc:   # the SDK raises its own error type for a port in use
+            raise LiveViewConfigError(f'cannot serve on {p["host"]}:{p["port"]}: {exc}') from exc
+        self.get_logger().info(
+            f'live view ready: ws://{p["host"]}:{self.server.port} serving {len(self.streams)} topic(s) '
+            f'{[s.name for s in self.streams]}')
+
+    # ---------------------------------------------------------------- set-up
+    def _topic_periods(self, specs) -> dict[str, int]:
+        out = {}
+        for spec in specs:
+            name, sep, seconds = spec.partition('=')
+            if not sep or not name.strip():
+                raise ValueError(f'topic_periods entry {spec!r} is not name=seconds')
+            try:
+                out[self.resolve_topic_name(name.strip())] = core.period_ns(float(seconds))
+            except ValueError as exc:
+                raise ValueError(f'topic_periods entry {spec!r}: {exc}') from exc
+        return out
+
+    def _resolve(self, specs) -> dict:
+        out = {}
+        for spec in specs:
+            try:
+                name, type_name = graph_topics.parse_topic_spec(spec)
+            except ValueError as exc:
+                raise LiveViewConfigError(f'topics: {exc}') from exc
+            if type_name is None:
+                raise LiveViewConfigError(
+                    f'topics: unknown type of {name!r}; give it as name:pkg/msg/Type')
+            try:
+                ros_types.message_class(type_name)
+                out[self.resolve_topic_name(name)] = (type_name, type_definition(type_name))
+            except (ros_types.UnknownTypeError, DefinitionNotFoundError, ValueError) as exc:
+                raise LiveViewConfigError(f'topic {name!r}: {exc}') from exc
+        return out
+
+    # ----------------------------------------------------- receive (ROS side)
+    def _receiver_for(self, stream: _Stream):
+        outbox, decimator = self.outbox, stream.decimator
+
+        def on_message(data: bytes) -> None:
+            try:
+                stamp = core.stamp_ns(data)
+            except ValueError:
+                return
+            if decimator.due(stamp):
+                outbox.put((stream, data, stamp))
+        return on_message
+
+    def _on_clock(self, data: bytes) -> None:
+        stamp = core.stamp_ns(data)
+        self.sim_time_ns = stamp
+        if self._time_decimator.due(stamp):
+            self.outbox.put((None, None, stamp))
+
+    def receive_loop(self, stop: threading.Event) -> None:
+        """Take what the subscriptions hold, forward what is due; never waits on a viewer."""
+        receiver = DirectReceiver(self.context, self._stream_subscriptions)
+        while not stop.is_set():
+            if receiver.poll(0.1) and self.batch_period > 0.0:
+                stop.wait(self.batch_period)
+
+    # ------------------------------------------------------ send (SDK side)
+    def send_loop(self, stop: threading.Event) -> None:
+        while not stop.is_set():
+            for stream, data, stamp in self.outbox.take_all(0.1):
+                if stream is None:
+                    self.server.broadcast_time(stamp)
+                else:
+                    stream.channel.log(data, log_time=stamp)
+                    stream.forwarded += 1
+
+    # ------------------------------------------------ Foxglove ServerListener
+    def on_subscribe(self, client, channel) -> None:
+        with self._viewers_lock:
+            self.viewers.setdefault(client.id, set()).add(channel.id)
+
+    def on_unsubscribe(self, client, channel) -> None:
+        with self._viewers_lock:
+            channels = self.viewers.get(client.id, set())
+            channels.discard(channel.id)
+            if not channels:
+                self.viewers.pop(client.id, None)
+
+    def on_get_parameters(self, client, param_names, request_id=None):
+        try:
+            return self._fg_parameters(self.get_ros_parameters(list(param_names)))
+        except Exception as exc:   # the SDK thread must get an answer, not an exception
+            self._status(f'get parameters failed: {exc}', 'Error')
+            return []
+
+    def on_set_parameters(self, client, parameters, request_id=None):
+        try:
+            values = self.set_ros_parameters({p.name: self._from_fg(p) for p in parameters})
+            return self._fg_parameters(values)
+        except Exception as exc:
+            self._status(f'set parameters failed: {exc}', 'Error')
+            return []
+
+    def on_parameters_subscribe(self, param_names) -> None:
+        """Send the current values first, so a subscriber starts from the truth (from a thread:
+        the SDK calls this with its own state locked, and the ROS calls may take a while)."""
+        def push() -> None:
+            try:
+                self.server.publish_parameter_values(self._fg_parameters(self.get_ros_parameters(list(param_names))))
+            except Exception as exc:
+                self._status(f'parameter subscription: {exc}', 'Error')
+        threading.Thread(target=push, daemon=True).start()
+
+    def on_parameters_unsubscribe(self, param_names) -> None:
+        return None
+
+    # ---------------------------------------------- ROS parameter services
+    def _client(self, node: str) -> AsyncParameterClient | None:
+        client = self.param_clients.get(node)
+        if client is None:
+            client = self.param_clients[node] = AsyncParameterClient(self, node)
+        if not client.wait_for_services(timeout_sec=min(1.0, self.parameter_timeout)):
+            return None
+        return client
+
+    def _wait(self, future, what: str, timeout: float | None = None):
+        timeout = self.parameter_timeout if timeout is None else timeout
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout):
+            raise TimeoutError(f'{what}: no answer within {timeout} s')
+        return future.result()
+
+    def graph_nodes(self) -> list[str]:
+        """Fully qualified names of the other nodes that serve parameters."""
+        own = {self.get_fully_qualified_name(), self._io.get_fully_qualified_name()}
+        names = []
+        for name, namespace in self.get_node_names_and_namespaces():
+            full = namespace.rstrip('/') + '/' + name
+            if full in own or name.startswith('_'):
+                continue
+            services = {s for s, _ in self.get_service_names_and_types_by_node(name, namespace)}
+            if f'{full}/get_parameters' in services:
+                names.append(full)
+        return sorted(set(names))
+
+    def get_ros_parameters(self, full_names: list[str]) -> dict[str, object]:
+        """'/node.param' -> value, from the nodes' get_parameters services (all of them if empty)."""
+        wanted = core.by_node(full_names) if full_names else {n: None for n in self.graph_nodes()}
+        values = {}
+        for node, names in wanted.items():
+            client = self._client(node)
+            if client is None:
+                continue
+            try:
+                if names is None:
+                    # a node that does not answer within 1 s is left out (not everyone waits for it)
+                    names = list(self._wait(client.list_parameters(), f'{node} list_parameters',
+                                            min(1.0, self.parameter_timeout)).result.names)
+                response = self._wait(client.get_parameters(names), f'{node} get_parameters')
+            except TimeoutError as exc:
+                if not full_names:             # listing everything: leave out a node that does not answer
+                    self.get_logger().info(f'{exc}; its parameters are left out')   # (the recorder: no executor)
+                    continue
+                raise
+            for name, value in zip(names, response.values):
+                if value.type != 0:                    # PARAMETER_NOT_SET: not declared
+                    values[core.parameter_name(node, name)] = _plain(parameter_value_to_python(value))
+        return values
+
+    def set_ros_parameters(self, changes: dict[str, object]) -> dict[str, object]:
+        """Set through each node's set_parameters service; return the values now in force.
+
+        A value the node refuses keeps the old one; the reason goes to the
+        app as a status message and to this node's log.
+        """
+        current = self.get_ros_parameters(list(changes))
+        for node, names in core.by_node(changes).items():
+            client = self._client(node)
+            if client is None:
+                self._status(f'{node} serves no parameters: {", ".join(names)} not set', 'Error')
+                continue
+            params = [RosParameter(name, value=core.coerce(changes[core.parameter_name(node, name)],
+                                                           current.get(core.parameter_name(node, name))))
+                      for name in names]
+            response = self._wait(client.set_parameters(params), f'{node} set_parameters')
+            for param, result in zip(params, response.results):
+                if not result.successful:
+                    self._status(f'{node} refused {param.name} = {param.value!r}: {result.reason}', 'Warning')
+        return self.get_ros_parameters(list(changes))
+
+    def _on_parameter_event(self, event: ParameterEvent) -> None:
+        if event.node == self.get_fully_qualified_name():
+            return
+        values = {core.parameter_name(event.node, p.name): _plain(parameter_value_to_python(p.value))
+                  for p in (*event.new_parameters, *event.changed_parameters)}
+        if values:
+            self.server.publish_parameter_values(self._fg_parameters(values))
+
+    @staticmethod
+    def _fg_parameters(values: dict[str, object]) -> list:
+        return [FoxgloveParameter(name, value=value,
+                                  type=getattr(ParameterType, hint) if (hint := core.type_hint(value)) else None)
+                for name, value in values.items()]
+
+    @staticmethod
+    def _from_fg(parameter):
+        value = parameter.get_value()
+        return _plain(value) if isinstance(value, (list, tuple)) else value
+
+    def _status(self, message: str, level: str) -> None:
+        self.get_logger().warning(message)
+        self.server.publish_status(message, getattr(StatusLevel, level))
+
+    # ------------------------------------------------------------ diagnostics
+    def dropped_frames(self) -> int:
+        return self.outbox.dropped
+
+    def publish_diagnostics(self) -> None:
+        with self._viewers_lock:
+            viewers = len(self.viewers)
+        dropped = self.dropped_frames()
+        values = [('viewers_subscribed', viewers), ('dropped_frames', dropped)]
+        values += [(f'forwarded {s.name}', s.forwarded) for s in self.streams]
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if dropped else DiagnosticStatus.OK,
+            name='live_view', hardware_id='foxglove websocket',
+            message=f'{viewers} viewer(s) subscribed, {dropped} frame(s) dropped',
+            values=[KeyValue(key=k, value=str(v)) for k, v in values])
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(self.sim_time_ns, 1_000_000_000)
+        self._diag_pub.publish(msg)
+
+    def close(self) -> None:
+        self.outbox.close()
+        self.server.stop()
+        self._io.destroy_node()
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        node = LiveViewNode()
+    except (LiveViewConfigError, ParameterException) as exc:
+        print(f'[live_view] error: {exc}', file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    threads = [threading.Thread(target=node.receive_loop, args=(stop,), daemon=True),
+               threading.Thread(target=node.send_loop, args=(stop,), daemon=True)]
+    for thread in threads:
+        thread.start()
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+    spinner = threading.Thread(target=spin, daemon=True)
+    spinner.start()
+    try:
+        while not stop.wait(0.2):
+            pass
+    finally:
+        for thread in threads:
+            thread.join(timeout=2.0)
+        node.close()
+        executor.shutdown(timeout_sec=1.0)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
