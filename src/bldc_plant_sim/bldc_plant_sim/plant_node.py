@@ -69,6 +69,8 @@ WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for .
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
 STOP_WAIT = 10.0                # s stop() waits for a run to end
+LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
+                   topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
 CONTROLLERS = {'gate': 'dtc_controller (drive/measurement -> drive/gate_command)',
                'duty': 'pfc_controller (pfc/measurement -> pfc/duty_command)'}
 
@@ -94,13 +96,27 @@ class _WaitReporter:
 
 
 class _Inbox:
-    """Latest command per step from one controller (filled by the stepping thread's receiver)."""
+    """Latest command per step from one controller (filled by the stepping thread's receiver).
+
+    One publisher numbers its messages in increasing order; a number that
+    does not increase means a second publisher answers too (two graphs mixed).
+    """
 
     def __init__(self) -> None:
         self.commands: dict[int, Any] = {}
+        self.last_sequence = 0
+        self.mixed = False
 
-    def put(self, msg) -> None:
+    def put(self, msg, info) -> None:
         self.commands[msg.step] = msg
+        sequence = info.get('publication_sequence_number') or 0   # 0: not given by the RMW
+        if 0 < sequence <= self.last_sequence:
+            self.mixed = True
+        self.last_sequence = sequence
+
+    def new_publisher_allowed(self) -> None:
+        """The controller may have been replaced (a new run, or after it fell silent)."""
+        self.last_sequence, self.mixed = 0, False
 
     def take(self, step: int):
         msg = self.commands.pop(step, None)
@@ -120,6 +136,7 @@ class PlantNode(Node):
         self._busy = threading.Lock()        # held by the one run (goal or run_until) at a time
         self._stopping = threading.Event()   # set by stop(): the run ends at the next tick
         self._conflict: str | None = None    # a second graph in the domain: refuse to run
+        self._refused = False
         self._ready: set[str] = set()        # controllers that answered since they last failed
         self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
@@ -145,11 +162,12 @@ class PlantNode(Node):
         self._drive_pub = self.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
         self._pfc_pub = self.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
         self._gates_in, self._duty_in = _Inbox(), _Inbox()
-        self._receiver = DirectReceiver(self.context, [
-            self.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos,
-                                     callback_group=direct),
-            self.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos,
-                                     callback_group=direct)])
+        self._gate_sub = self.create_subscription(GateCommand, topics.GATE_COMMAND,
+                                                  self._gates_in.put, qos, callback_group=direct)
+        self._duty_sub = self.create_subscription(DutyCommand, topics.DUTY_COMMAND,
+                                                  self._duty_in.put, qos, callback_group=direct)
+        self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
+                                        with_info=True)
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
         self._drive_msg = ReusedMessage(DriveMeasurement)
@@ -268,12 +286,17 @@ class PlantNode(Node):
         finally:
             self._busy.release()             # before the client sees the result
 
+    def _graph_conflict(self) -> str | None:
+        return graph_conflict(self, LOCKSTEP_TOPICS)
+
     def _check_graph(self) -> None:
         """A second graph in the domain: stop the run and refuse to go on (exit 2)."""
-        reason = graph_conflict(self, (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT))
+        if self._refused:
+            return
+        reason = self._conflict or self._graph_conflict()
         if reason:
-            self._conflict = reason
-            raise GraphConflict(reason)
+            self._conflict, self._refused = reason, True
+            raise GraphConflict(reason)      # once: run_node reports it and exits 2
 
     def stop(self) -> None:
         """End a run at its next tick and wait for it (before the node is destroyed)."""
@@ -293,12 +316,10 @@ class PlantNode(Node):
         needs = []
         if self.schedule.dtc_ticks:
             needs += [(self._drive_pub.get_subscription_count, 'a subscriber of drive/measurement'),
-                      (lambda: self.count_publishers(topics.GATE_COMMAND),
-                       'a publisher of drive/gate_command')]
+                      (self._gate_sub.get_publisher_count, 'a publisher of drive/gate_command')]
         if self.schedule.pfc_ticks:
             needs += [(self._pfc_pub.get_subscription_count, 'a subscriber of pfc/measurement'),
-                      (lambda: self.count_publishers(topics.DUTY_COMMAND),
-                       'a publisher of pfc/duty_command')]
+                      (self._duty_sub.get_publisher_count, 'a publisher of pfc/duty_command')]
         while True:
             missing = [what for count, what in needs if count() < 1]
             if not missing:
@@ -320,7 +341,10 @@ class PlantNode(Node):
                 self.get_logger().warning('some subscribers were not matched before the run')
                 break
             self._receiver.poll(0.01)
-        return graph_conflict(self, (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT))
+        conflict = self._graph_conflict()
+        if conflict:
+            self._conflict = conflict            # the check timer makes the node exit 2
+        return conflict
 
     def _await(self, inbox: _Inbox, step: int, deadline: float | None):
         """The command for step, waiting until deadline (None: only what has arrived)."""
@@ -373,6 +397,8 @@ class PlantNode(Node):
             scheduled = {'gate'} if self.schedule.dtc_ticks else set()
             scheduled |= {'duty'} if self.schedule.pfc_ticks else set()
             self._startup_pending = scheduled - self._ready
+            self._gates_in.new_publisher_allowed()
+            self._duty_in.new_publisher_allowed()
             for which, reason in self._faulted.items():
                 if reason is not None and which not in self._startup_pending:
                     self._faults.append(f'safe state continues ({which}): {reason}')
@@ -427,6 +453,12 @@ class PlantNode(Node):
                 self._fault(which, reason)
                 self._faulted[which] = reason
             self._ready.discard(which)
+            inbox.new_publisher_allowed()
+            return None
+        if inbox.mixed:
+            self._conflict = (f'plant: {CONTROLLERS[which]}: commands from two publishers in ROS '
+                              f'domain {self.context.get_domain_id()}: refusing to mix two graphs '
+                              '(stop the other one or set another ROS_DOMAIN_ID)')
             return None
         self._ready.add(which)
         if self._faulted[which]:

@@ -100,9 +100,11 @@ class LockstepControllerNode(Node):
                 raise exc
 
     def _check_graph(self) -> None:
-        reason = graph_conflict(self, (self._channels.command_topic,))
+        reason = not self._stop.is_set() and graph_conflict(
+            self, (self._channels.command_topic, self._channels.measurement_topic))
         if reason:
-            raise GraphConflict(reason)
+            self._stop.set()
+            raise GraphConflict(reason)      # once: run_node reports it and exits 2
 
     def stop(self) -> None:
         """End the answering thread and wait for it (before the node is destroyed)."""
