@@ -217,3 +217,46 @@ def test_hand_started_flow_controller_seconds_after_the_plant_makes_a_real_run(
     assert len(patterns) >= 3, patterns                      # the inverter switched
     mean_torque = sum(s.electromagnetic_torque for s in run) / len(run)
     assert 0.4 < mean_torque < 0.6, mean_torque              # T* = 0.5 N m
+
+
+def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_session):
+    """Matching alone does not start sim time: the first measurement must be answered."""
+    from dtc_msgs.msg import DriveMeasurement, GateCommand
+    node = ros_session.node('silent_controller')
+    seen = []
+    node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, seen.append,
+                             topics.LOCKSTEP_QOS)
+    node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+    plant = start_node('bldc_plant_sim', 'plant',
+                       parameters={**PLANT, 'startup_timeout': 3.0, 'run_until': 0.01})
+    wait_until(lambda: 'run_until finished' in plant.output(), 60.0, what='the run to give up')
+    out = plant.output()
+    assert 'did not answer its first measurement (step 0) within startup_timeout = 3 s' in out, out
+    assert seen and all(m.step == 0 for m in seen)        # only step 0 went out (re-sent)
+    assert 'reached t =' not in out and plant.alive()    # sim time never started
+
+
+def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
+        start_node, ros_session):
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+    start_node('dtc_controller', 'dtc_controller',
+               parameters={'backemf_table_path': str(BACKEMF_TABLE), 'torque_reference': 0.5})
+    node = ros_session.node('resender')
+    gates, statuses = [], []
+    pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
+    node.create_subscription(GateCommand, topics.GATE_COMMAND, gates.append, topics.LOCKSTEP_QOS)
+    node.create_subscription(DtcStatus, topics.DTC_STATUS, statuses.append, topics.STREAM_QOS)
+    wait_until(lambda: pub.get_subscription_count() >= 1
+               and node.count_publishers(topics.DTC_STATUS) >= 1, 30.0, what='controller')
+    msg = DriveMeasurement(step=0, dc_link_voltage=56.57, midpoint_voltage=28.28,
+                           encoder_angle=0.3, mechanical_speed=30.0, hall_code=1)
+    msg.phase_current = [2.0, -2.0, 0.0]
+    pub.publish(msg)
+    wait_until(lambda: len(gates) == 1 and len(statuses) == 1, 30.0, what='first answer')
+    pub.publish(msg)                                       # the plant re-sends it
+    wait_until(lambda: len(gates) == 2, 30.0, what='the repeated answer')
+    assert gates[0] == gates[1]
+    msg.step = 1
+    pub.publish(msg)
+    wait_until(lambda: len(statuses) == 2, 30.0, what='answer to step 1')
+    assert [s.step for s in statuses] == [0, 1]           # one core update per step
