@@ -224,9 +224,9 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     from dtc_msgs.msg import DriveMeasurement, GateCommand
     node = ros_session.node('silent_controller')
     seen = []
-    node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, seen.append,
-                             topics.LOCKSTEP_QOS)
-    node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+    sub = node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, seen.append,
+                                   topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
     plant = start_node('bldc_plant_sim', 'plant',
                        parameters={**PLANT, 'startup_timeout': 3.0, 'run_until': 0.01})
     wait_until(lambda: 'run_until finished' in plant.output(), 60.0, what='the run to give up')
@@ -234,6 +234,19 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     assert 'did not answer its first measurement (step 0) within startup_timeout = 3 s' in out, out
     assert seen and all(m.step == 0 for m in seen)        # only step 0 went out (re-sent)
     assert 'reached t =' not in out and plant.alive()    # sim time never started
+    # A real controller later: the next run starts, switching (no safe state left over).
+    node.destroy_subscription(sub)
+    node.destroy_publisher(pub)
+    start_node('drive_common', 'fixed_responder',
+               parameters={'switch_on': [float(s) for s in PATTERN]})
+    states = _states(ros_session, 'state_probe')
+    client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    handle = _done(client.send_goal_async(Run.Goal(target_time=0.002)), 30.0, 'goal response')
+    result = _done(handle.get_result_async(), 120.0, 'result').result
+    assert result.success and result.final_step == 80, result.message
+    wait_until(lambda: states and states[-1].step == 80, 30.0, what='the last state')
+    assert not states[-1].safe_state and list(states[-1].applied_switch_on) == list(PATTERN)
 
 
 def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(

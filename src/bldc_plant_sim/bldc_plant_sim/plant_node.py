@@ -392,8 +392,7 @@ class PlantNode(Node):
             self._startup_report = _WaitReporter(self.get_logger(), timeout)
             reason = self._wait_for_peers(self._run_started + timeout, self._startup_report)
             if reason:
-                self._fault('startup', reason)
-                return False, reason
+                return False, self._startup_failed(reason)
             scheduled = {'gate'} if self.schedule.dtc_ticks else set()
             scheduled |= {'duty'} if self.schedule.pfc_ticks else set()
             self._startup_pending = scheduled - self._ready
@@ -414,8 +413,7 @@ class PlantNode(Node):
                 try:
                     self._tick()
                 except _StartupFailed as exc:
-                    self._fault('startup', str(exc))
-                    return False, str(exc)
+                    return False, self._startup_failed(str(exc))
                 if goal_handle is not None and self.core.step % feedback_every == 0:
                     wall = time.monotonic() - started
                     goal_handle.publish_feedback(Run.Feedback(
@@ -509,6 +507,13 @@ class PlantNode(Node):
         clock_ticks = self.schedule.clock_ticks
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
+
+    def _startup_failed(self, reason: str) -> str:
+        """Sim time did not start (it holds, so no safe state is needed); report why."""
+        self._diagnose(DiagnosticStatus.ERROR, f'run not started: {reason}',
+                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
+        self.get_logger().error(f'run not started: {reason}')
+        return reason
 
     def _fault(self, which: str, reason: str) -> None:
         """Safe state with a diagnostic; the fault is reported in the goal's result."""
