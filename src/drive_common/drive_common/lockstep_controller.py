@@ -153,6 +153,7 @@ def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = Fals
                                  SingleThreadedExecutor)
 
     from rclpy.exceptions import InvalidParameterValueException, ParameterException
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
     rclpy.init(args=args)
     node = None
@@ -170,6 +171,10 @@ def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = Fals
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except _rclpy.RCLError:
+        if rclpy.ok():
+            raise
+        # SIGINT/SIGTERM shut the context down while the executor built its wait set.
     finally:
         if node is not None:
             getattr(node, 'stop', lambda: None)()   # end its threads before it is destroyed
