@@ -12,8 +12,9 @@ it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
 thread receives it directly, no executor hand-off per sample. A repeated
 measurement (the plant re-sends a first measurement it got no answer to) is
 answered with the same command, without a second core update. A second
-node of the same name, or a second publisher of the command topic, in the
-domain makes the node refuse to run (exit code 2, the domain named).
+node of the same name, or a second publisher of the measurement or the
+command topic, in the domain makes the node refuse to run (exit code 2, the
+domain named).
 """
 from __future__ import annotations
 
