@@ -21,9 +21,10 @@ controller that stops answering during a run.
 
 One goal at a time: a ``plant/run`` goal (or ``run_until``) that arrives
 while another run holds the plant's time is rejected, and the plant logs
-why. A second graph in the domain (a second node named ``plant``, or a
-second publisher of the measurements) makes the plant refuse to run: it
-exits with code 2 and a one-line error naming the domain.
+why. A second graph in the domain (a second node named ``plant``, a second
+publisher of a lockstep topic, or one controller's commands coming from two
+publishers) makes the plant refuse to run: the run ends unsuccessful and
+the node exits with code 2 and a one-line error naming the domain.
 
 Threading: the lockstep publishers and subscriptions are the node's own
 (``ros2 node info /plant`` lists them), but the command subscriptions are in
@@ -367,7 +368,7 @@ class PlantNode(Node):
         its cache, without a second core update).
         """
         timeout = self.parameters['startup_timeout']
-        deadline = time.monotonic() + max(0.0, timeout - (time.monotonic() - self._run_started))
+        deadline = self._run_started + timeout      # the whole start-up shares one timeout
         report = self._startup_report
         while True:
             msg = self._await(inbox, k, min(deadline, time.monotonic() + FIRST_ANSWER_RESEND))
