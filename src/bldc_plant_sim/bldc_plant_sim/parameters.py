@@ -63,8 +63,9 @@ PLANT_SPECS = (
        runtime=False),
     _S('command_timeout', 5.0, 'wall-clock wait for a due command before the safe state', 's',
        1e-3, 600.0),
-    _S('startup_timeout', 30.0, 'wall-clock wait for the controllers to match at start', 's',
-       0.0, 3600.0),
+    _S('startup_timeout', 120.0, 'wall-clock wait, at the start of a run, for each controller '
+       'due in it to match and answer its first measurement (then the run fails)', 's',
+       1e-3, 3600.0),
     _S('run_until', 0.0, 'advance to this sim time at start-up without a Run goal (0 = wait)', 's',
        0.0, 1e6),
     # ---- motor (held) ----

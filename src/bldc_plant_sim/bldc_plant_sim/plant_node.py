@@ -13,11 +13,27 @@ through the diodes) without waiting for the silent controller again until
 it answers a due sample, and the goal then ends unsuccessful with the
 reason. The node keeps serving its action, services and parameters.
 
-Threading: the lockstep publishers and subscriptions live on a private
-child node that no executor spins; the stepping thread waits on the command
-subscriptions directly (:class:`drive_common.lockstep_io.DirectReceiver`,
-no executor hand-off per sample); the action server, services and
-parameters are served by the node's own executor in other threads.
+Start-up: sim time starts only when every controller due in the run is
+matched and ready, i.e. has answered its first measurement (the plant logs
+what it waits for every few seconds and gives up after ``startup_timeout``
+with the reason). ``command_timeout`` and the safe state are for a
+controller that stops answering during a run.
+
+One goal at a time: a ``plant/run`` goal (or ``run_until``) that arrives
+while another run holds the plant's time is rejected, and the plant logs
+why. A second graph in the domain (a second node named ``plant``, a second
+publisher of a lockstep topic, or one controller's commands coming from two
+publishers) makes the plant refuse to run: the run ends unsuccessful and
+the node exits with code 2 and a one-line error naming the domain.
+
+Threading: the lockstep publishers and subscriptions are the node's own
+(``ros2 node info /plant`` lists them), but the command subscriptions are in
+a :class:`~drive_common.lockstep_io.DirectCallbackGroup` that no executor
+takes from: only the stepping thread receives them, waiting directly
+(:class:`~drive_common.lockstep_io.DirectReceiver`, no executor hand-off
+per sample). The action server, services and parameters are served by the
+node's executor in other threads. :meth:`PlantNode.stop` ends a run and
+waits for it before the node is destroyed (Ctrl-C at any moment).
 """
 from __future__ import annotations
 
@@ -39,7 +55,8 @@ from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import ReusedMessage, time_msg
 from drive_common.lockstep_controller import run_node
-from drive_common.lockstep_io import DirectReceiver
+from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
+                                      graph_conflict)
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
 from dtc_msgs.action import Run
@@ -49,16 +66,58 @@ from dtc_msgs.srv import ResetProtection
 
 COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
 AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
+WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
+FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
+GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
+STOP_WAIT = 10.0                # s stop() waits for a run to end
+LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
+                   topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
+CONTROLLERS = {'gate': 'dtc_controller (drive/measurement -> drive/gate_command)',
+               'duty': 'pfc_controller (pfc/measurement -> pfc/duty_command)'}
+
+
+class _StartupFailed(Exception):
+    """A controller due in the run did not become ready within startup_timeout."""
+
+
+class _WaitReporter:
+    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s."""
+
+    def __init__(self, logger, timeout: float) -> None:
+        self._logger, self._timeout = logger, timeout
+        self._start = time.monotonic()
+        self._next = self._start + WAIT_LOG_FIRST
+
+    def report(self, what: str) -> None:
+        now = time.monotonic()
+        if now >= self._next:
+            self._next = now + WAIT_LOG_PERIOD
+            self._logger.info(f'waiting {now - self._start:.0f} s of startup_timeout = '
+                              f'{self._timeout:g} s for {what}')
 
 
 class _Inbox:
-    """Latest command per step from one controller (filled by the stepping thread's receiver)."""
+    """Latest command per step from one controller (filled by the stepping thread's receiver).
+
+    One publisher numbers its messages in increasing order; a number that
+    does not increase means a second publisher answers too (two graphs mixed).
+    """
 
     def __init__(self) -> None:
         self.commands: dict[int, Any] = {}
+        self.last_sequence = 0
+        self.mixed = False
 
-    def put(self, msg) -> None:
+    def put(self, msg, info) -> None:
         self.commands[msg.step] = msg
+        sequence = info.get('publication_sequence_number') or 0   # 0: not given by the RMW
+        if 0 < sequence <= self.last_sequence:
+            self.mixed = True
+        self.last_sequence = sequence
+
+    def new_publisher_allowed(self) -> None:
+        """The controller may have been replaced (a new run, or after it fell silent)."""
+        self.last_sequence, self.mixed = 0, False
 
     def take(self, step: int):
         msg = self.commands.pop(step, None)
@@ -75,6 +134,12 @@ class PlantNode(Node):
     def __init__(self, **kwargs) -> None:
         super().__init__('plant', **kwargs)
         self._running = False
+        self._busy = threading.Lock()        # held by the one run (goal or run_until) at a time
+        self._stopping = threading.Event()   # set by stop(): the run ends at the next tick
+        self._conflict: str | None = None    # a second graph in the domain: refuse to run
+        self._refused = False
+        self._ready: set[str] = set()        # controllers that answered since they last failed
+        self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
@@ -93,30 +158,31 @@ class PlantNode(Node):
         # ... and a later motor.file change brings the file's values with it, atomically.
         self.add_pre_set_parameters_callback(self._with_motor_file_values)
 
-        # Lockstep side: private node + executor, spun only by the stepping thread.
-        self._io = rclpy.create_node('plant_lockstep', context=self.context,
-                                     namespace=self.get_namespace(),
-                                     start_parameter_services=False)
-        qos = topics.LOCKSTEP_QOS
-        self._drive_pub = self._io.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
-        self._pfc_pub = self._io.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
+        # Lockstep side: the commands are received only by the stepping thread.
+        qos, direct = topics.LOCKSTEP_QOS, DirectCallbackGroup()
+        self._drive_pub = self.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
+        self._pfc_pub = self.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
         self._gates_in, self._duty_in = _Inbox(), _Inbox()
-        self._receiver = DirectReceiver(self.context, [
-            self._io.create_subscription(GateCommand, topics.GATE_COMMAND, self._gates_in.put, qos),
-            self._io.create_subscription(DutyCommand, topics.DUTY_COMMAND, self._duty_in.put, qos)])
+        self._gate_sub = self.create_subscription(GateCommand, topics.GATE_COMMAND,
+                                                  self._gates_in.put, qos, callback_group=direct)
+        self._duty_sub = self.create_subscription(DutyCommand, topics.DUTY_COMMAND,
+                                                  self._duty_in.put, qos, callback_group=direct)
+        self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
+                                        with_info=True)
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
         self._drive_msg = ReusedMessage(DriveMeasurement)
         self._pfc_msg = ReusedMessage(PfcMeasurement)
+        self._resend_drive = lambda: self._drive_pub.publish(self._drive_msg.msg)
+        self._resend_pfc = lambda: self._pfc_pub.publish(self._pfc_msg.msg)
         self._state_msg = ReusedMessage(PlantState)
         self._state_lock = threading.Lock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
 
-        self._run_group = MutuallyExclusiveCallbackGroup()
         self._action = ActionServer(self, Run, topics.RUN_ACTION, execute_callback=self._execute,
                                     goal_callback=self._accept_goal,
                                     cancel_callback=lambda _: CancelResponse.ACCEPT,
-                                    callback_group=self._run_group)
+                                    callback_group=MutuallyExclusiveCallbackGroup())
         self.create_service(ResetProtection, topics.RESET_PROTECTION_SERVICE, self._reset,
                             callback_group=ReentrantCallbackGroup())
         self._state_sent_step = -1   # step of the last plant/state sent (never twice)
@@ -125,7 +191,9 @@ class PlantNode(Node):
             # Give discovery a moment, so subscribers started before the plant
             # (recorders, monitors) are in the graph when sample 0 goes out.
             self._autorun_timer = self.create_timer(AUTORUN_DISCOVERY_DELAY, self._autorun,
-                                                    callback_group=self._run_group)
+                                                    callback_group=MutuallyExclusiveCallbackGroup())
+        self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph,
+                          callback_group=MutuallyExclusiveCallbackGroup())
 
     # --- parameters -------------------------------------------------------
     def _set_atomically(self, values: dict[str, Any]) -> None:
@@ -174,94 +242,179 @@ class PlantNode(Node):
 
     # --- action -----------------------------------------------------------
     def _accept_goal(self, goal) -> GoalResponse:
+        """Policy: one run at a time; a goal arriving while another runs is rejected."""
         target = goal.target_time
         if not (target == target) or target < 0.0:  # NaN or negative
             self.get_logger().warning(f'Run goal rejected: target_time {target} must be >= 0')
+            return GoalResponse.REJECT
+        if self._stopping.is_set() or self._conflict:
+            self.get_logger().warning('Run goal rejected: the plant is stopping')
+            return GoalResponse.REJECT
+        if not self._busy.acquire(blocking=False):   # released when the goal's run ends
+            self.get_logger().warning(
+                f'Run goal rejected: another run holds the plant (t = {self.core.time:.6f} s); '
+                'the plant executes one plant/run goal at a time')
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
     def _autorun(self) -> None:
         self._autorun_timer.cancel()
-        ok, message = self.run_to(self.core.step_of(self.parameters['run_until']))
-        self.get_logger().info(f'run_until finished: {message}')
+        if not self._busy.acquire(blocking=False):
+            self.get_logger().warning('run_until not started: a plant/run goal holds the plant')
+            return
+        try:
+            ok, message = self.run_to(self.core.step_of(self.parameters['run_until']))
+        finally:
+            self._busy.release()
+        log = self.get_logger().info if ok else self.get_logger().error
+        log(f'run_until finished: {message}')
 
     def _execute(self, goal_handle):
-        goal = goal_handle.request
-        target_time = goal.target_time + (self.core.time if goal.relative else 0.0)
-        target_step = self.core.step_of(target_time)
-        ok, message = self.run_to(target_step, goal_handle)
-        result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
-                            message=message)
-        if goal_handle.is_cancel_requested:
-            goal_handle.canceled()
-        elif ok:
-            goal_handle.succeed()
-        else:
-            goal_handle.abort()
-        return result
+        try:
+            goal = goal_handle.request
+            target_time = goal.target_time + (self.core.time if goal.relative else 0.0)
+            target_step = self.core.step_of(target_time)
+            ok, message = self.run_to(target_step, goal_handle)
+            result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
+                                message=message)
+            if goal_handle.is_cancel_requested:
+                goal_handle.canceled()
+            elif ok:
+                goal_handle.succeed()
+            else:
+                goal_handle.abort()
+            return result
+        finally:
+            self._busy.release()             # before the client sees the result
+
+    def _graph_conflict(self) -> str | None:
+        return graph_conflict(self, LOCKSTEP_TOPICS)
+
+    def _check_graph(self) -> None:
+        """A second graph in the domain: stop the run and refuse to go on (exit 2)."""
+        if self._refused:
+            return
+        reason = self._conflict or self._graph_conflict()
+        if reason:
+            self._conflict, self._refused = reason, True
+            raise GraphConflict(reason)      # once: run_node reports it and exits 2
+
+    def stop(self) -> None:
+        """End a run at its next tick and wait for it (before the node is destroyed)."""
+        self._stopping.set()
+        if self._busy.acquire(timeout=STOP_WAIT):
+            self._busy.release()
 
     # --- stepping ---------------------------------------------------------
-    def _wait_for_peers(self, timeout: float) -> str | None:
+    def _halted(self) -> str | None:
+        """Why the run must end now (stop, shutdown, a second graph), or None."""
+        if self._stopping.is_set() or not rclpy.ok(context=self.context):
+            return 'plant shutting down'
+        return self._conflict
+
+    def _wait_for_peers(self, deadline: float, report: _WaitReporter) -> str | None:
         """Wait until every required controller is matched; None or the reason it failed."""
-        deadline = time.monotonic() + timeout
         needs = []
         if self.schedule.dtc_ticks:
-            needs += [(self._drive_pub.get_subscription_count, 'dtc_controller on drive/measurement'),
-                      (lambda: self._io.count_publishers(topics.GATE_COMMAND), 'dtc_controller on drive/gate_command')]
+            needs += [(self._drive_pub.get_subscription_count, 'a subscriber of drive/measurement'),
+                      (self._gate_sub.get_publisher_count, 'a publisher of drive/gate_command')]
         if self.schedule.pfc_ticks:
-            needs += [(self._pfc_pub.get_subscription_count, 'pfc_controller on pfc/measurement'),
-                      (lambda: self._io.count_publishers(topics.DUTY_COMMAND), 'pfc_controller on pfc/duty_command')]
+            needs += [(self._pfc_pub.get_subscription_count, 'a subscriber of pfc/measurement'),
+                      (self._duty_sub.get_publisher_count, 'a publisher of pfc/duty_command')]
         while True:
             missing = [what for count, what in needs if count() < 1]
             if not missing:
                 break
+            halted = self._halted()
+            if halted:
+                return halted
             if time.monotonic() > deadline:
-                return 'no controller matched: ' + ', '.join(missing)
+                return (f'no controller matched within startup_timeout = '
+                        f'{self.parameters["startup_timeout"]:g} s: missing ' + ', '.join(missing))
+            report.report('the controllers to start: missing ' + ', '.join(missing))
             self._receiver.poll(0.01)
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples.
-        outputs = [(self._drive_pub, self._io), (self._pfc_pub, self._io), (self._state_pub, self)]
-        while any(pub.get_subscription_count() < node.count_subscribers(pub.topic_name)
-                  for pub, node in outputs):
-            if time.monotonic() > deadline:
+        outputs = [self._drive_pub, self._pfc_pub, self._state_pub]
+        while any(pub.get_subscription_count() < self.count_subscribers(pub.topic_name)
+                  for pub in outputs):
+            if time.monotonic() > deadline or self._halted():
                 self.get_logger().warning('some subscribers were not matched before the run')
                 break
             self._receiver.poll(0.01)
-        return None
+        conflict = self._graph_conflict()
+        if conflict:
+            self._conflict = conflict            # the check timer makes the node exit 2
+        return conflict
 
     def _await(self, inbox: _Inbox, step: int, deadline: float | None):
         """The command for step, waiting until deadline (None: only what has arrived)."""
         msg = inbox.take(step)
         while msg is None:
             remaining = 0.0 if deadline is None else deadline - time.monotonic()
-            if remaining <= 0.0:
+            if remaining <= 0.0 or self._halted():
                 self._receiver.poll(0.0)
                 return inbox.take(step)
             self._receiver.poll(min(remaining, 0.05))
             msg = inbox.take(step)
         return msg
 
+    def _first_answer(self, which: str, inbox: _Inbox, k: int, resend) -> Any:
+        """Wait up to startup_timeout for a controller's first answer (readiness).
+
+        A measurement published just before the controller's reader matched the
+        plant's writer can be lost, so an unanswered one is re-sent every
+        FIRST_ANSWER_RESEND s (a controller answers a repeated measurement from
+        its cache, without a second core update).
+        """
+        timeout = self.parameters['startup_timeout']
+        deadline = self._run_started + timeout      # the whole start-up shares one timeout
+        report = self._startup_report
+        while True:
+            msg = self._await(inbox, k, min(deadline, time.monotonic() + FIRST_ANSWER_RESEND))
+            if msg is not None:
+                return msg
+            halted = self._halted()
+            if halted:
+                raise _StartupFailed(halted)
+            if time.monotonic() >= deadline:
+                raise _StartupFailed(f'{CONTROLLERS[which]} did not answer its first measurement '
+                                     f'(step {k}) within startup_timeout = {timeout:g} s')
+            report.report(f'{CONTROLLERS[which]} to answer its first measurement (step {k})')
+            resend()
+
     def run_to(self, target_step: int, goal_handle=None) -> tuple[bool, str]:
         """Advance to target_step (held there); (success, message)."""
         self._running = True
         self._faults: list[str] = []
         try:
-            reason = self._wait_for_peers(self.parameters['startup_timeout'])
+            self._run_started = time.monotonic()
+            timeout = self.parameters['startup_timeout']
+            self._startup_report = _WaitReporter(self.get_logger(), timeout)
+            reason = self._wait_for_peers(self._run_started + timeout, self._startup_report)
             if reason:
-                self._fault('startup', reason)
-                return False, reason
+                return False, self._startup_failed(reason)
+            scheduled = {'gate'} if self.schedule.dtc_ticks else set()
+            scheduled |= {'duty'} if self.schedule.pfc_ticks else set()
+            self._startup_pending = scheduled - self._ready
+            self._gates_in.new_publisher_allowed()
+            self._duty_in.new_publisher_allowed()
             for which, reason in self._faulted.items():
-                if reason is not None:   # faulted in an earlier goal and not answered since
+                if reason is not None and which not in self._startup_pending:
                     self._faults.append(f'safe state continues ({which}): {reason}')
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
             while self.core.step < target_step:
                 if goal_handle is not None and goal_handle.is_cancel_requested:
                     return False, f'cancelled at t = {self.core.time:.6f} s'
-                if not rclpy.ok(context=self.context):
-                    return False, 'plant shutting down'
+                halted = self._halted()
+                if halted:
+                    return False, f'{halted} at t = {self.core.time:.6f} s'
                 self._apply_pending()
-                self._tick()
+                try:
+                    self._tick()
+                except _StartupFailed as exc:
+                    return False, self._startup_failed(str(exc))
                 if goal_handle is not None and self.core.step % feedback_every == 0:
                     wall = time.monotonic() - started
                     goal_handle.publish_feedback(Run.Feedback(
@@ -276,15 +429,21 @@ class PlantNode(Node):
             self._running = False
 
     def _command(self, which: str, inbox: _Inbox, k: int, deadline: float,
-                 invalid=lambda msg: None):
+                 invalid=lambda msg: None, resend=None):
         """The due, valid command of one controller, or None (safe state).
 
-        A controller that stays silent past the deadline, or sends a command
-        the plant cannot apply (``invalid(msg)`` returns the reason), is
-        faulted once: safe state, diagnostic, and no more waiting for it
-        until it sends a valid command for a due sample again.
+        A controller's first due sample in a run, until it has answered once,
+        waits for its readiness (:meth:`_first_answer`). Later, a controller
+        that stays silent past the deadline, or sends a command the plant
+        cannot apply (``invalid(msg)`` returns the reason), is faulted once:
+        safe state, diagnostic, and no more waiting for it until it sends a
+        valid command for a due sample again.
         """
-        msg = self._await(inbox, k, None if self._faulted[which] else deadline)
+        if which in self._startup_pending:
+            msg = self._first_answer(which, inbox, k, resend)
+            self._startup_pending.discard(which)
+        else:
+            msg = self._await(inbox, k, None if self._faulted[which] else deadline)
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
                   if msg is None else invalid(msg))
         if reason is not None:
@@ -292,7 +451,15 @@ class PlantNode(Node):
             if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
                 self._fault(which, reason)
                 self._faulted[which] = reason
+            self._ready.discard(which)
+            inbox.new_publisher_allowed()
             return None
+        if inbox.mixed:
+            self._conflict = (f'plant: {CONTROLLERS[which]}: commands from two publishers in ROS '
+                              f'domain {self.context.get_domain_id()}: refusing to mix two graphs '
+                              '(stop the other one or set another ROS_DOMAIN_ID)')
+            return None
+        self._ready.add(which)
         if self._faulted[which]:
             self._faulted[which] = None
             if not any(self._faulted.values()):
@@ -318,11 +485,12 @@ class PlantNode(Node):
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
         if due_dtc:
-            msg = self._command('gate', self._gates_in, k, deadline, self._wrong_topology)
+            msg = self._command('gate', self._gates_in, k, deadline, self._wrong_topology,
+                                self._resend_drive)
             if msg is not None:
                 self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
         if due_pfc:
-            msg = self._command('duty', self._duty_in, k, deadline)
+            msg = self._command('duty', self._duty_in, k, deadline, resend=self._resend_pfc)
             if msg is not None:
                 self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
         self.core.advance()
@@ -340,6 +508,13 @@ class PlantNode(Node):
         clock_ticks = self.schedule.clock_ticks
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
+
+    def _startup_failed(self, reason: str) -> str:
+        """Sim time did not start (it holds, so no safe state is needed); report why."""
+        self._diagnose(DiagnosticStatus.ERROR, f'run not started: {reason}',
+                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
+        self.get_logger().error(f'run not started: {reason}')
+        return reason
 
     def _fault(self, which: str, reason: str) -> None:
         """Safe state with a diagnostic; the fault is reported in the goal's result."""
@@ -367,7 +542,7 @@ class PlantNode(Node):
         return response
 
     def destroy_node(self) -> None:
-        self._io.destroy_node()
+        self.stop()
         super().destroy_node()
 
 

@@ -6,6 +6,15 @@ ROS-agnostic core object with ``update(sample) -> (command, status)`` and
 ``reconfigure(params)``; this class only converts messages, declares the
 node's parameter schema and swaps accepted parameter changes in at the next
 sample boundary.
+
+The measurement subscription is the node's own (``ros2 node info`` lists
+it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
+thread receives it directly, no executor hand-off per sample. A repeated
+measurement (the plant re-sends a first measurement it got no answer to) is
+answered with the same command, without a second core update. A second
+node of the same name, or a second publisher of the measurement or the
+command topic, in the domain makes the node refuse to run (exit code 2, the
+domain named).
 """
 from __future__ import annotations
 
@@ -16,10 +25,15 @@ from typing import Any, Callable
 from rclpy.node import Node
 
 from drive_common.conversions import ReusedMessage, from_message
-from drive_common.lockstep_io import DirectReceiver
+from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
+                                      graph_conflict)
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
+
+
+GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
+STOP_WAIT = 5.0            # s stop() waits for the answering thread
 
 
 @dataclass(frozen=True)
@@ -67,16 +81,13 @@ class LockstepControllerNode(Node):
                                                   STREAM_QOS) if channels.status_type else None)
         self._command_msg = ReusedMessage(channels.command_type)
         self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
-        # The measurement subscription lives on a private node that no executor
-        # spins: a thread waits on it directly (lockstep_io) and answers each
-        # sample; parameters and services stay on this node's executor.
-        import rclpy
-        self._io = rclpy.create_node(f'{node_name}_lockstep', context=self.context,
-                                     namespace=self.get_namespace(),
-                                     start_parameter_services=False)
-        self._receiver = DirectReceiver(self.context, [self._io.create_subscription(
+        self._last_step, self._last_measurement, self._last_command = -1, None, None
+        # A thread waits on the measurement subscription directly (lockstep_io) and
+        # answers each sample; parameters and services stay on this node's executor.
+        self._receiver = DirectReceiver(self.context, [self.create_subscription(
             channels.measurement_type, channels.measurement_topic, self._on_measurement,
-            LOCKSTEP_QOS)])
+            LOCKSTEP_QOS, callback_group=DirectCallbackGroup())])
+        self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._answer_samples, daemon=True,
                                         name=f'{node_name}_lockstep')
@@ -92,10 +103,20 @@ class LockstepControllerNode(Node):
                     return
                 raise exc
 
-    def destroy_node(self) -> None:
+    def _check_graph(self) -> None:
+        reason = not self._stop.is_set() and graph_conflict(
+            self, (self._channels.command_topic, self._channels.measurement_topic))
+        if reason:
+            self._stop.set()
+            raise GraphConflict(reason)      # once: run_node reports it and exits 2
+
+    def stop(self) -> None:
+        """End the answering thread and wait for it (before the node is destroyed)."""
         self._stop.set()
-        self._thread.join(timeout=2.0)
-        self._io.destroy_node()
+        self._thread.join(timeout=STOP_WAIT)
+
+    def destroy_node(self) -> None:
+        self.stop()
         super().destroy_node()
 
     def _on_parameters(self, snapshot: dict[str, Any]) -> None:
@@ -108,6 +129,9 @@ class LockstepControllerNode(Node):
             self._pending = snapshot
 
     def _on_measurement(self, msg) -> None:
+        if msg.step == self._last_step and msg == self._last_measurement:
+            self._command_pub.publish(self._last_command)   # a re-sent sample: same answer
+            return
         with self._lock:
             pending, self._pending = self._pending, None
         if pending is not None:
@@ -115,7 +139,9 @@ class LockstepControllerNode(Node):
         sample = from_message(msg, self._channels.sample_type)
         command, status = self.core.update(sample)
         stamp = msg.header.stamp
-        self._command_pub.publish(self._command_msg.fill(command, stamp=stamp))
+        self._last_command = self._command_msg.fill(command, stamp=stamp)
+        self._command_pub.publish(self._last_command)
+        self._last_step, self._last_measurement = msg.step, msg
         if self._status_pub is not None:
             self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
         self.samples_answered += 1
@@ -130,6 +156,7 @@ def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = Fals
                                  SingleThreadedExecutor)
 
     from rclpy.exceptions import InvalidParameterValueException, ParameterException
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
     rclpy.init(args=args)
     node = None
@@ -147,8 +174,13 @@ def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = Fals
         return 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except _rclpy.RCLError:
+        if rclpy.ok():
+            raise
+        # SIGINT/SIGTERM shut the context down while the executor built its wait set.
     finally:
         if node is not None:
+            getattr(node, 'stop', lambda: None)()   # end its threads before it is destroyed
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

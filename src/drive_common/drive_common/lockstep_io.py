@@ -1,20 +1,54 @@
-"""Direct receive for the lockstep hot path: wait on a few subscriptions, no executor.
+"""Direct receive for the lockstep hot path, and the one-graph-per-domain check.
 
 An executor's ``spin_once`` rebuilds its wait set and task bookkeeping on
 every call, which in rclpy costs more than the rest of a lockstep sample.
-The lockstep subscriptions therefore live on a private node that no
-executor spins, and :class:`DirectReceiver` waits on them with one
-persistent rcl wait set and hands each message to the subscription's
-callback, the way rclpy's own ``wait_for_message`` does. Services,
-parameters and actions stay on the node's normal executor.
+The lockstep subscriptions therefore live on the node itself (so ``ros2
+node info`` shows them) but in a :class:`DirectCallbackGroup`, which no
+executor ever waits on or takes from; :class:`DirectReceiver` waits on them
+with one persistent rcl wait set and hands each message to the
+subscription's callback, the way rclpy's own ``wait_for_message`` does.
+Services, parameters and actions stay on the node's normal executor.
+
+:func:`graph_conflict` finds a second graph in the node's DDS domain (a
+second node of the same name, a second publisher of a topic only this node
+may publish): the lockstep protocol matches commands by step only, so two
+graphs in one domain would silently answer each other's samples.
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
+
+from rclpy.callback_groups import CallbackGroup
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+from drive_common.parameters import ParameterError
+
+
+class DirectCallbackGroup(CallbackGroup):
+    """Entities no executor runs: rclpy's executors skip a group whose ``can_execute`` is False.
+
+    Subscriptions in this group are received only by a :class:`DirectReceiver`,
+    so each message is taken by exactly one thread.
+    """
+
+    def can_execute(self, entity) -> bool:
+        return False
+
+    def beginning_execution(self, entity) -> bool:
+        return False
+
+    def ending_execution(self, entity) -> None:
+        pass
 
 
 class DirectReceiver:
-    """Wait on subscriptions of an un-spun node and dispatch what arrives."""
+    """Wait on subscriptions and dispatch what arrives.
+
+    The subscriptions must be in a :class:`DirectCallbackGroup` (or on a node
+    no executor spins), or an executor would take their messages too. Only
+    one thread may call :meth:`poll` (the wait set is not shared), and the
+    node must not be destroyed while it does (stop and join that thread first).
+    """
 
     def __init__(self, context, subscriptions, with_info: bool = False) -> None:
         """with_info: call ``callback(msg, message_info)`` (timestamps), else ``callback(msg)``."""
@@ -25,10 +59,14 @@ class DirectReceiver:
     def poll(self, timeout: float) -> int:
         """Wait up to timeout s (0: only what has arrived); dispatch every message; count them."""
         wait_set = self._wait_set
-        wait_set.clear_entities()
-        for sub in self._subscriptions:
-            wait_set.add_subscription(sub.handle)
-        wait_set.wait(max(0, int(timeout * 1e9)))
+        with ExitStack() as held:
+            # Hold the handles while rcl waits on them: a destroy meanwhile is deferred.
+            for sub in self._subscriptions:
+                held.enter_context(sub.handle)
+            wait_set.clear_entities()
+            for sub in self._subscriptions:
+                wait_set.add_subscription(sub.handle)
+            wait_set.wait(max(0, int(timeout * 1e9)))
         ready = wait_set.get_ready_entities('subscription')
         dispatched = 0
         for sub in self._subscriptions:
@@ -45,3 +83,28 @@ class DirectReceiver:
                     sub.callback(taken[0])
                 dispatched += 1
         return dispatched
+
+
+class GraphConflict(ParameterError):
+    """A second graph shares this node's domain; the node refuses to run (exit code 2)."""
+
+
+def graph_conflict(node, sole_publisher_of=()) -> str | None:
+    """Why node must not run in its domain (a second graph is there), or None.
+
+    sole_publisher_of: topics this node publishes that no other node may
+    (the plant's measurements, a controller's commands).
+    """
+    domain = node.context.get_domain_id()
+    me = (node.get_name(), node.get_namespace())
+    namesakes = node.get_node_names_and_namespaces().count(me)
+    if namesakes > 1:
+        where = me[1].rstrip('/') + '/' + me[0]
+        return (f'{node.get_name()}: {namesakes} nodes named {where} in ROS domain {domain}: '
+                'refusing to mix two graphs (stop the other one or set another ROS_DOMAIN_ID)')
+    for topic in sole_publisher_of:
+        count = node.count_publishers(topic)
+        if count > 1:
+            return (f'{node.get_name()}: {count} publishers of {topic} in ROS domain {domain}: '
+                    'refusing to mix two graphs (stop the other one or set another ROS_DOMAIN_ID)')
+    return None

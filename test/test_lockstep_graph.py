@@ -1,0 +1,275 @@
+"""The lockstep graph as ROS users see it (issue 13, items 3, 8 and 9).
+
+- ``node list``/``node info`` show /plant and the controllers with their
+  real lockstep publishers and subscriptions (no helper nodes).
+- One ``plant/run`` goal at a time: goals from two clients at once leave the
+  plant up and its trajectory equal to a single client's (the headless
+  co-simulation); a goal sent while a run is under way is rejected.
+- Two graphs in one domain: every node refuses with a one-line error naming
+  the domain (exit 2); a run under way is never finished as a success.
+- The README's hand-started flow: the plant started first with ``run_until``,
+  the controller seconds later: a real run (switching, torque at its
+  reference), not the safe state.
+"""
+from pathlib import Path
+
+import pytest
+from rclpy.action import ActionClient
+
+from bldc_plant_sim.core.cosim import CoSimulation
+from bldc_plant_sim.core.plant import PlantCore
+from drive_common import topics
+from drive_common.fixed_commands import FixedGateCore
+from drive_common.harness import wait_until
+from dtc_msgs.action import Run
+from dtc_msgs.msg import PlantState
+
+pytestmark = pytest.mark.ros
+
+PATTERN = (True, False, False, True, False, False)
+PLANT = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'motor.initial_speed': 20.0,
+         'load.torque': 0.2, 'command_timeout': 10.0}
+BACKEMF_TABLE = (Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' / 'motors'
+                 / 'ozturk_bldc_backemf.csv')
+
+
+def _done(future, timeout: float, what: str):
+    wait_until(future.done, timeout, what=what)
+    return future.result()
+
+
+def _states(session, name: str) -> list:
+    """plant/state as received by a new test node, once its subscription matched the plant."""
+    states: list = []
+    sub = session.node(name).create_subscription(PlantState, topics.PLANT_STATE, states.append,
+                                                 topics.STREAM_QOS)
+    wait_until(lambda: sub.get_publisher_count() >= 1, 30.0, what='plant/state matched')
+    return states
+
+
+def _start_pair(start_node, **kwargs):
+    responder = start_node('drive_common', 'fixed_responder',
+                           parameters={'switch_on': [float(s) for s in PATTERN]}, **kwargs)
+    plant = start_node('bldc_plant_sim', 'plant', parameters=PLANT, **kwargs)
+    return plant, responder
+
+
+def test_node_info_shows_the_lockstep_topics_on_the_real_nodes(start_node, ros_session):
+    _start_pair(start_node)
+    node = ros_session.node('graph_probe')
+
+    def names():
+        return {name for name, _ in node.get_node_names_and_namespaces()}
+
+    wait_until(lambda: {'plant', 'fixed_responder'} <= names(), 30.0, what='both nodes')
+
+    def topics_of(kind, name):
+        found = getattr(node, f'get_{kind}_names_and_types_by_node')(name, '/')
+        return {topic for topic, _ in found}
+
+    wait_until(lambda: {'/drive/gate_command', '/pfc/duty_command'} <= topics_of('subscriber', 'plant')
+               and '/drive/measurement' in topics_of('subscriber', 'fixed_responder'), 30.0,
+               what='lockstep subscriptions on /plant and /fixed_responder')
+    assert {'/drive/measurement', '/pfc/measurement', '/plant/state', '/clock'} <= \
+        topics_of('publisher', 'plant')
+    assert '/drive/gate_command' in topics_of('publisher', 'fixed_responder')
+    assert not [n for n in names() if 'lockstep' in n], names()
+    # The graph still works: the executor does not take the directly received messages.
+    client = ActionClient(node, Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    handle = _done(client.send_goal_async(Run.Goal(target_time=0.002)), 30.0, 'acceptance')
+    result = _done(handle.get_result_async(), 120.0, 'result').result
+    assert result.success and result.final_step == 80, result.message
+
+
+def test_concurrent_goals_run_one_at_a_time_and_the_trajectory_is_a_single_clients(
+        start_node, ros_session):
+    plant, _ = _start_pair(start_node)
+    states = _states(ros_session, 'state_probe')
+    clients = [ActionClient(ros_session.node(f'client_{i}'), Run, topics.RUN_ACTION)
+               for i in range(2)]
+    for client in clients:
+        wait_until(client.server_is_ready, 30.0, what='plant/run')
+    # Both clients at once, each asking for the same absolute time.
+    sent = [client.send_goal_async(Run.Goal(target_time=0.01)) for client in clients]
+    handles = [_done(future, 30.0, 'goal response') for future in sent]
+    accepted = [h for h in handles if h.accepted]
+    assert accepted, 'no goal accepted'
+    results = [_done(h.get_result_async(), 120.0, 'result').result for h in accepted]
+    assert all(r.success and r.final_step == 400 for r in results), [r.message for r in results]
+    # A goal sent while a run is under way is rejected (the stated policy), and the
+    # plant logs why.
+    long_run = _done(clients[0].send_goal_async(Run.Goal(target_time=0.1)), 30.0, 'long goal')
+    assert long_run.accepted
+    wait_until(lambda: states and states[-1].step > 420, 60.0, what='long run under way')
+    third = _done(clients[1].send_goal_async(Run.Goal(target_time=0.02)), 30.0, 'third goal')
+    assert not third.accepted
+    assert _done(long_run.cancel_goal_async(), 30.0, 'cancel').goals_canceling
+    assert not _done(long_run.get_result_async(), 120.0, 'cancelled result').result.success
+    assert plant.alive(), plant.output()[-2000:]
+    wait_until(lambda: 'another run holds the plant' in plant.output(), 10.0,
+               what='the rejection reason in the plant log')
+
+    trajectory = CoSimulation(PlantCore(PLANT), FixedGateCore(PATTERN), record_every=1).run(steps=400)
+    by_step = {s.step: s for s in states if s.step <= 400}
+    assert set(range(0, 401)) <= set(by_step), 'a ground-truth sample is missing'
+    for step, truth in zip(trajectory.steps, trajectory.states):
+        assert list(by_step[step].phase_current) == list(truth.phase_current), step
+        assert by_step[step].electromagnetic_torque == truth.electromagnetic_torque, step
+
+
+def _refused_with_domain(process, domain: int) -> bool:
+    """Exited 2 with a one-line error naming the domain, no traceback."""
+    out = process.output()
+    return (process.process.returncode == 2 and f'in ROS domain {domain}:' in out
+            and 'Traceback' not in out)
+
+
+def _headless_equal(states, steps: int) -> int:
+    """Compare received plant/state with the headless co-simulation; the number compared."""
+    trajectory = CoSimulation(PlantCore(PLANT), FixedGateCore(PATTERN), record_every=1).run(steps=steps)
+    by_step = {s.step: s for s in states}
+    compared = 0
+    for step, truth in zip(trajectory.steps, trajectory.states):
+        if step in by_step:
+            assert list(by_step[step].phase_current) == list(truth.phase_current), step
+            compared += 1
+    return compared
+
+
+def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
+        start_node, ros_session, ros_domain, tmp_path):
+    plant_a, responder_a = _start_pair(start_node)
+    states = _states(ros_session, 'state_probe')
+    client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    handle = _done(client.send_goal_async(Run.Goal(target_time=0.2)), 30.0, 'goal response')
+    assert handle.accepted
+    result = handle.get_result_async()
+    wait_until(lambda: states and states[-1].step > 100, 60.0, what='run of graph A under way')
+    plant_b, responder_b = _start_pair(start_node, log_dir=tmp_path / 'graph_b')  # same domain
+    processes = (plant_a, responder_a, plant_b, responder_b)
+
+    # Settled: A's run ended (or its plant refused), and at most one node of each name is left.
+    wait_until(lambda: result.done() or not plant_a.alive(), 120.0, what='run of graph A to end')
+    probe = ros_session.node('name_probe')
+
+    def settled() -> bool:
+        """At most one live process per node name, and its node (only) in the graph."""
+        names = [n for n, _ in probe.get_node_names_and_namespaces()]
+        alive = {'plant': sum(p.alive() for p in (plant_a, plant_b)),
+                 'fixed_responder': sum(p.alive() for p in (responder_a, responder_b))}
+        return all(count <= 1 and names.count(name) == count for name, count in alive.items())
+
+    wait_until(settled, 60.0, what='one graph left in the domain')
+    refused = [p for p in processes if not p.alive()]
+    assert refused, 'nobody noticed the second graph'
+    for process in refused:
+        process.process.wait(timeout=10)
+        assert _refused_with_domain(process, ros_domain), process.output()[-2000:]
+    # Never a silent wrong result: a run that succeeded equals a single graph's run.
+    if result.done() and result.result().result.success:
+        assert _headless_equal([s for s in states if s.step <= 8000], 8000) > 7000
+    # What is left of the two graphs runs correctly, or fails: never a wrong success.
+    if plant_b.alive():
+        states_b: list = []
+        sub = ros_session.node('state_probe_b').create_subscription(
+            PlantState, topics.PLANT_STATE, states_b.append, topics.STREAM_QOS)
+        wait_until(lambda: sub.get_publisher_count() >= 1 or not plant_b.alive(), 30.0)
+        client_b = ActionClient(ros_session.node('client_b'), Run, topics.RUN_ACTION)
+        wait_until(lambda: client_b.server_is_ready() or not plant_b.alive(), 30.0)
+        sent = client_b.send_goal_async(Run.Goal(target_time=0.002))
+        wait_until(lambda: sent.done() or not plant_b.alive(), 60.0, what='goal response from B')
+        if sent.done() and sent.result().accepted:
+            answer = sent.result().get_result_async()
+            wait_until(lambda: answer.done() or not plant_b.alive(), 120.0, what='result from B')
+            if answer.done() and answer.result().result.success:
+                wait_until(lambda: states_b and states_b[-1].step == 80, 30.0, what='B at 80')
+                assert _headless_equal(states_b, 80) >= 1
+        if not plant_b.alive():
+            plant_b.process.wait(timeout=10)
+            assert _refused_with_domain(plant_b, ros_domain), plant_b.output()[-2000:]
+
+
+def test_hand_started_flow_controller_seconds_after_the_plant_makes_a_real_run(
+        start_node, ros_session):
+    """README: terminal 1 starts the plant with run_until, terminal 2 the controller later."""
+    states = []
+    ros_session.node('state_probe').create_subscription(PlantState, topics.PLANT_STATE,
+                                                        states.append, topics.STREAM_QOS)
+    plant = start_node('bldc_plant_sim', 'plant',
+                       parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 56.57,
+                                   'run_until': 0.05})
+    # The plant waits, and says for what, until the controller is there (several seconds:
+    # its second "waiting" line comes WAIT_LOG_PERIOD after the first).
+    wait_until(lambda: plant.output().count('waiting') >= 2, 60.0, what='plant waiting for 6 s')
+    assert 'drive/gate_command' in plant.output() and plant.alive()
+    start_node('dtc_controller', 'dtc_controller',
+               parameters={'mode': 'two_phase_six_switch', 'backemf_table_path': str(BACKEMF_TABLE),
+                           'torque_reference': 0.5})
+    wait_until(lambda: 'run_until finished' in plant.output(), 180.0, what='the run to finish')
+    out = plant.output()
+    assert 'safe state' not in out and 'reached t = 0.050000 s' in out, out[-3000:]
+    wait_until(lambda: states and states[-1].step == 2000, 30.0, what='the last state')
+    run = [s for s in states if s.step >= 1000]             # the second half of the run
+    assert not any(s.safe_state for s in states)
+    patterns = {tuple(s.applied_switch_on) for s in run}
+    assert len(patterns) >= 3, patterns                      # the inverter switched
+    mean_torque = sum(s.electromagnetic_torque for s in run) / len(run)
+    assert 0.4 < mean_torque < 0.6, mean_torque              # T* = 0.5 N m
+
+
+def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_session):
+    """Matching alone does not start sim time: the first measurement must be answered."""
+    from dtc_msgs.msg import DriveMeasurement, GateCommand
+    node = ros_session.node('silent_controller')
+    seen = []
+    sub = node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, seen.append,
+                                   topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+    plant = start_node('bldc_plant_sim', 'plant',
+                       parameters={**PLANT, 'startup_timeout': 3.0, 'run_until': 0.01})
+    wait_until(lambda: 'run_until finished' in plant.output(), 60.0, what='the run to give up')
+    out = plant.output()
+    assert 'did not answer its first measurement (step 0) within startup_timeout = 3 s' in out, out
+    assert seen and all(m.step == 0 for m in seen)        # only step 0 went out (re-sent)
+    assert 'reached t =' not in out and plant.alive()    # sim time never started
+    # A real controller later: the next run starts, switching (no safe state left over).
+    node.destroy_subscription(sub)
+    node.destroy_publisher(pub)
+    start_node('drive_common', 'fixed_responder',
+               parameters={'switch_on': [float(s) for s in PATTERN]})
+    states = _states(ros_session, 'state_probe')
+    client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    handle = _done(client.send_goal_async(Run.Goal(target_time=0.002)), 30.0, 'goal response')
+    result = _done(handle.get_result_async(), 120.0, 'result').result
+    assert result.success and result.final_step == 80, result.message
+    wait_until(lambda: states and states[-1].step == 80, 30.0, what='the last state')
+    assert not states[-1].safe_state and list(states[-1].applied_switch_on) == list(PATTERN)
+
+
+def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
+        start_node, ros_session):
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+    start_node('dtc_controller', 'dtc_controller',
+               parameters={'backemf_table_path': str(BACKEMF_TABLE), 'torque_reference': 0.5})
+    node = ros_session.node('resender')
+    gates, statuses = [], []
+    pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
+    node.create_subscription(GateCommand, topics.GATE_COMMAND, gates.append, topics.LOCKSTEP_QOS)
+    node.create_subscription(DtcStatus, topics.DTC_STATUS, statuses.append, topics.STREAM_QOS)
+    wait_until(lambda: pub.get_subscription_count() >= 1
+               and node.count_publishers(topics.DTC_STATUS) >= 1, 30.0, what='controller')
+    msg = DriveMeasurement(step=0, dc_link_voltage=56.57, midpoint_voltage=28.28,
+                           encoder_angle=0.3, mechanical_speed=30.0, hall_code=1)
+    msg.phase_current = [2.0, -2.0, 0.0]
+    pub.publish(msg)
+    wait_until(lambda: len(gates) == 1 and len(statuses) == 1, 30.0, what='first answer')
+    pub.publish(msg)                                       # the plant re-sends it
+    wait_until(lambda: len(gates) == 2, 30.0, what='the repeated answer')
+    assert gates[0] == gates[1]
+    msg.step = 1
+    pub.publish(msg)
+    wait_until(lambda: len(statuses) == 2, 30.0, what='answer to step 1')
+    assert [s.step for s in statuses] == [0, 1]           # one core update per step
