@@ -1,0 +1,142 @@
+"""The node graph split across hosts (issue 17): hardware-in-the-loop on one machine.
+
+The plant, the dtc_controller and the recorder (with the runner's client)
+run in three network namespaces joined by a bridge (drive_common.netns) —
+three hosts as far as DDS can tell, every lockstep message crosses the link
+as UDP. Checked:
+
+- the split run records the same message data, byte for byte, as the
+  single-host run of the same scenario (the lockstep is deterministic);
+- pulling the controller host's cable mid-run puts the plant in the safe
+  state with a diagnostic, and the run ends with the plant's reason
+  instead of hanging;
+- the virtual hosts are removed after use, after an exception, and after a
+  creator that was SIGKILLed.
+
+Needs root for network namespaces (CI runs as root); skipped otherwise,
+with that reason. As root without iproute2's ``ip`` the tests fail.
+"""
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from drive_common.netns import PREFIX, VirtualHosts, remove_stale, unavailable_reason
+from drive_logger.bag_reader import BagReader
+
+pytestmark = [pytest.mark.ros,
+              pytest.mark.skipif(os.geteuid() != 0,
+                                 reason='network namespaces need root (CI runs as root)')]
+
+SCENARIO = 'two_phase_six_switch_torque_step'
+DURATION = 0.012          # s: covers the torque step at 9.4 ms
+CUT_AT = 0.004            # s: the controller host's link goes down here
+LOCKSTEP_TOPICS = ('/drive/measurement', '/drive/gate_command', '/dtc/status', '/plant/state')
+
+
+def run_module(module, *args, timeout=300):
+    return subprocess.run([sys.executable, '-m', module, *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def bag_data(bag_dir) -> dict[str, list[bytes]]:
+    out: dict[str, list[bytes]] = {}
+    for msg in BagReader(bag_dir).messages():
+        out.setdefault(msg.topic, []).append(msg.data)
+    return out
+
+
+def our_namespaces() -> list[str]:
+    listing = subprocess.run(['ip', 'netns', 'list'], capture_output=True, text=True).stdout
+    return [line.split(' ')[0] for line in listing.splitlines() if line.startswith(PREFIX + '-')]
+
+
+def test_namespaces_can_be_made_here():
+    """As root the hosts must be possible: a missing `ip` fails here, not skips."""
+    assert unavailable_reason() is None
+
+
+@pytest.fixture(scope='module')
+def single_host_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp('single') / 'out'
+    result = run_module('drive_bringup.runner_cli', SCENARIO, '--duration', str(DURATION),
+                        '--isolate', '--out', str(out))
+    assert result.returncode == 0, result.stdout + result.stderr
+    return out
+
+
+@pytest.fixture(scope='module')
+def split_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp('split') / 'out'
+    result = run_module('drive_bringup.split_hosts', SCENARIO, '--duration', str(DURATION),
+                        '--out', str(out))
+    assert result.returncode == 0, result.stdout + result.stderr
+    return out, result
+
+
+def test_split_run_records_the_single_host_message_data(split_run, single_host_run):
+    out, result = split_run
+    assert 'host plant: 10.213.0.1' in result.stdout
+    assert 'host controller: 10.213.0.2' in result.stdout
+    split, single = bag_data(out / 'bag'), bag_data(single_host_run / 'bag')
+    samples = round(DURATION * 30000)
+    assert len(split['/drive/gate_command']) == samples
+    for topic in LOCKSTEP_TOPICS:
+        assert split[topic] == single[topic], f'{topic} differs between split and single host'
+
+
+def test_link_cut_puts_the_plant_in_the_safe_state(tmp_path):
+    out = tmp_path / 'cut'
+    result = run_module('drive_bringup.split_hosts', SCENARIO, '--duration', str(DURATION),
+                        '--cut-controller-at', str(CUT_AT), '--out', str(out))
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert 'controller host link down' in result.stdout
+    assert 'safe state' in result.stderr and 'no gate command for step' in result.stderr, \
+        result.stderr
+    reader = BagReader(out / 'bag')
+    errors = [m.status[0].message for _, m in reader.decoded_messages(['/diagnostics'])
+              if m.status[0].level in (2, b'\x02')]
+    assert any(e.startswith('safe state: no gate command') for e in errors), errors
+    states = [m for _, m in reader.decoded_messages(['/plant/state'])]
+    cut_step = round(CUT_AT * 30000)
+    before = [s for s in states if s.step <= cut_step]
+    after = [s for s in states if s.step > cut_step + 1]
+    assert before and not any(s.safe_state for s in before)
+    # The plant ran on to its goal's target with the switches off (not hung at the cut).
+    assert after and f'(step {after[-1].step}) with faults' in result.stderr
+    assert all(s.safe_state and not any(s.applied_switch_on) for s in after)
+    assert all(s.protection & 8 for s in after)       # PROTECTION_COMMAND_TIMEOUT
+
+
+def test_hosts_are_removed_after_an_exception():
+    with pytest.raises(RuntimeError, match='boom'):
+        with VirtualHosts(('a', 'b')) as hosts:
+            names = [*hosts.namespaces.values(), hosts.switch]
+            assert set(names) <= set(our_namespaces())
+            # The link carries traffic between the two hosts only.
+            ping = hosts.exec('a', [sys.executable, '-c', textwrap.dedent(f'''
+                import socket
+                s = socket.create_connection(('{hosts.addresses['b']}', 9), timeout=5)
+                ''')], capture_output=True, text=True)
+            assert 'refused' in ping.stderr      # b answered (RST): reachable over the link
+            raise RuntimeError('boom')
+    assert not set(names) & set(our_namespaces())
+
+
+def test_hosts_of_a_killed_creator_are_removed():
+    child = subprocess.Popen([sys.executable, '-c', textwrap.dedent('''
+        import sys, time
+        from drive_common.netns import VirtualHosts
+        hosts = VirtualHosts(('a', 'b')).create()
+        print(hosts.run_id, flush=True)
+        time.sleep(600)
+        ''')], stdout=subprocess.PIPE, text=True)
+    run_id = child.stdout.readline().strip()
+    child.kill()
+    child.wait()
+    assert run_id and any(n.startswith(run_id) for n in our_namespaces())
+    removed = remove_stale()
+    assert any(n.startswith(run_id) for n in removed)
+    assert not any(n.startswith(run_id) for n in our_namespaces())
