@@ -67,11 +67,13 @@ def single_host_run(tmp_path_factory):
     return out
 
 
-@pytest.fixture(scope='module')
-def split_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp('split') / 'out'
+@pytest.fixture(scope='module', params=['multicast', 'static_peers'])
+def split_run(request, tmp_path_factory):
+    """Discovery by SUBNET multicast, or by ROS_STATIC_PEERS on a link without multicast."""
+    out = tmp_path_factory.mktemp(request.param) / 'out'
+    options = ['--static-peers'] if request.param == 'static_peers' else []
     result = run_module('drive_bringup.split_hosts', SCENARIO, '--duration', str(DURATION),
-                        '--out', str(out))
+                        *options, '--out', str(out))
     assert result.returncode == 0, result.stdout + result.stderr
     return out, result
 
@@ -123,6 +125,26 @@ def test_hosts_are_removed_after_an_exception():
             assert 'refused' in ping.stderr      # b answered (RST): reachable over the link
             raise RuntimeError('boom')
     assert not set(names) & set(our_namespaces())
+
+
+MULTICAST_SEND = textwrap.dedent('''
+    import socket
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        s.sendto(b'x', ('239.255.0.1', 7400))
+        print('sent')
+    except OSError as exc:
+        print(exc.strerror)
+    ''')
+
+
+@pytest.mark.parametrize('multicast', [True, False])
+def test_multicast_reaches_the_link_only_when_enabled(multicast):
+    """The static-peers run's link carries no multicast (so its discovery is unicast)."""
+    with VirtualHosts(('a', 'b'), multicast=multicast) as hosts:
+        result = hosts.exec('a', [sys.executable, '-c', MULTICAST_SEND],
+                            capture_output=True, text=True)
+    assert result.stdout.strip() == ('sent' if multicast else 'Network is unreachable'), result
 
 
 def test_hosts_of_a_killed_creator_are_removed():

@@ -9,7 +9,8 @@ runs dtc_controller (and pfc_controller), ``supervisor`` runs the recorder
 and this runner's action/parameter client. Every node is started as
 ``ip netns exec <host> <program> --ros-args ...`` with the same
 ROS_DOMAIN_ID and ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast
-discovery; ``--static-peers`` adds unicast ``ROS_STATIC_PEERS``), so every
+discovery; ``--static-peers``: a link without multicast, discovery by
+``ROS_STATIC_PEERS`` with range LOCALHOST), so every
 lockstep message crosses the link as UDP. ``--cut-controller-at T`` runs to
 sim time T, takes the controller host's link down and runs on: the plant
 must go to the safe state with a diagnostic (exit code 1, the plant's
@@ -116,7 +117,8 @@ def build_parser():
     parser.prog = 'split_hosts'
     parser.description = __doc__.split('\n')[0]
     parser.add_argument('--static-peers', action='store_true',
-                        help='unicast discovery: ROS_STATIC_PEERS = the other hosts')
+                        help='unicast discovery on a link without multicast: '
+                             'ROS_STATIC_PEERS = the other hosts')
     parser.add_argument('--cut-controller-at', type=float, metavar='T',
                         help='take the controller host link down at sim time T (s)')
     parser.add_argument('--domain', type=int,
@@ -151,7 +153,7 @@ def main(argv=None) -> int:
         return 2
 
     def run_in(domain: int) -> int:
-        with VirtualHosts(HOSTS) as hosts:
+        with VirtualHosts(HOSTS, multicast=not args.static_peers) as hosts:
             hosts.enter(RUNNER_HOST)
             # This process's own ROS client discovers like the nodes in its host.
             env = hosts.env(RUNNER_HOST, domain, static_peers=args.static_peers)

@@ -37,6 +37,9 @@ PREFIX = 'dtcvh'          # every namespace made here starts with this
 SUBNET = '10.213.0'       # /24 inside the bridge; only ever routed inside our namespaces
 _NETNS_DIR = Path('/run/netns')
 _CLONE_NEWNET = 0x40000000
+# Fast DDS profile for a graph across hosts: larger socket receive buffers and a
+# 20 ms heartbeat, so a datagram lost in a burst is repaired at once (see the file).
+FASTDDS_PROFILE = Path(__file__).with_name('fastdds_network.xml')
 
 
 class HostsUnavailable(RuntimeError):
@@ -102,13 +105,16 @@ class VirtualHosts:
     """Named hosts as network namespaces on one bridged link; a context manager.
 
     ``hosts`` are short labels (``'plant'``, ``'controller'``); host i gets
-    address ``10.213.0.<i+1>``.
+    address ``10.213.0.<i+1>``. ``multicast=False``: no multicast route, so
+    only unicast discovery (static peers) can work, as on a network that
+    does not carry multicast.
     """
 
-    def __init__(self, hosts: Sequence[str] = ('a', 'b')) -> None:
+    def __init__(self, hosts: Sequence[str] = ('a', 'b'), multicast: bool = True) -> None:
         if len(set(hosts)) != len(hosts) or not hosts or len(hosts) > 250:
             raise ValueError(f'host labels must be 1..250 distinct names, got {list(hosts)}')
         self.labels = list(hosts)
+        self.multicast = multicast
         self.run_id = f'{PREFIX}-{os.getpid()}-{secrets.token_hex(3)}'
         self.namespaces = {label: f'{self.run_id}-h{i}' for i, label in enumerate(self.labels)}
         self.switch = f'{self.run_id}-sw'
@@ -145,11 +151,12 @@ class VirtualHosts:
         _ip('netns', 'add', name)
         self._made.append(name)
 
-    @staticmethod
-    def _route_multicast(ns: str) -> None:
+    def _route_multicast(self, ns: str) -> None:
         # DDS discovery (SPDP) goes to 239.255.0.1: without a default route the
-        # kernel needs a multicast route to send it out of eth0.
-        _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
+        # kernel needs a multicast route to send it out of eth0. Without it
+        # (multicast=False) the hosts are on a network without multicast.
+        if self.multicast:
+            _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
 
     def close(self) -> None:
         """Kill what still runs in the hosts and delete every namespace made."""
@@ -172,7 +179,8 @@ class VirtualHosts:
             static_peers: bool = False) -> dict[str, str]:
         """ROS environment for a node in host: the shared domain and how to discover.
 
-        Default: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast SPDP on
+        Fast DDS loads :data:`FASTDDS_PROFILE` unless the base environment
+        names a profile file already. Default: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast SPDP on
         the link). ``static_peers``: unicast only, as on a network without
         multicast: range ``LOCALHOST`` plus every other host's address in
         ``ROS_STATIC_PEERS`` (ROS 2 "Improved Dynamic Discovery": hosts that
@@ -187,6 +195,7 @@ class VirtualHosts:
         else:
             env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
             env.pop('ROS_STATIC_PEERS', None)
+        env.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(FASTDDS_PROFILE))
         env['PYTHONUNBUFFERED'] = '1'
         return env
 
