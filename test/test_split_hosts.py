@@ -7,9 +7,10 @@ as UDP. Checked:
 
 - the split run records the same message data, byte for byte, as the
   single-host run of the same scenario (the lockstep is deterministic);
-- pulling the controller host's cable mid-run puts the plant in the safe
-  state with a diagnostic, and the run ends with the plant's reason
-  instead of hanging;
+- pulling the controller host's cable (``ip link set eth0 down``) between
+  two goals (at an exact sim time) or from outside while a goal runs puts
+  the plant in the safe state with a diagnostic, and the run ends with the
+  plant's reason instead of hanging;
 - the virtual hosts are removed after use, after an exception, and after a
   creator that was SIGKILLed.
 
@@ -17,6 +18,7 @@ Needs root for network namespaces (CI runs as root); skipped otherwise,
 with that reason. As root without iproute2's ``ip`` the tests fail.
 """
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -110,6 +112,35 @@ def test_link_cut_puts_the_plant_in_the_safe_state(tmp_path):
     assert after and f'(step {after[-1].step}) with faults' in result.stderr
     assert all(s.safe_state and not any(s.applied_switch_on) for s in after)
     assert all(s.protection & 8 for s in after)       # PROTECTION_COMMAND_TIMEOUT
+
+
+def test_cable_pulled_during_a_run_goal_puts_the_plant_in_the_safe_state(tmp_path):
+    """The controller host's eth0 goes down from outside while the plant is stepping."""
+    out = tmp_path / 'pulled'
+    duration = 0.5      # s sim: several seconds of wall time, so the cut lands mid-goal
+    process = subprocess.Popen([sys.executable, '-u', '-m', 'drive_bringup.split_hosts', SCENARIO,
+                                '--duration', str(duration), '--out', str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in process.stdout:          # progress lines come while a goal runs
+            if '] sim ' in line:
+                break
+        controller = [n for n in our_namespaces() if n.startswith(f'{PREFIX}-{process.pid}-')
+                      and n.endswith('-h1')]
+        assert len(controller) == 1, our_namespaces()
+        subprocess.run(['ip', '-n', controller[0], 'link', 'set', 'eth0', 'down'], check=True)
+        rest, stderr = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 1, rest + stderr
+    fault = re.search(r'safe state at t = ([0-9.]+) s: no gate command for step (\d+)', stderr)
+    assert fault, stderr
+    assert 0.0 < float(fault.group(1)) < duration
+    steps = [m.step for _, m in BagReader(out / 'bag').decoded_messages(['/plant/state'])
+             if m.safe_state]
+    assert steps and steps[0] == int(fault.group(2)) + 1 and steps[-1] == round(duration * 30000)
 
 
 def test_hosts_are_removed_after_an_exception():

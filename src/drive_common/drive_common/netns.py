@@ -3,8 +3,9 @@
 Each host is a network namespace with its loopback up and one interface
 ``eth0`` (a veth pair whose other end sits on a bridge in a separate
 "switch" namespace), an address ``10.213.0.<n>/24`` and a multicast route
-on ``eth0``. DDS in two such namespaces sees two machines on one LAN: the
-hosts have different interface addresses, so Fast DDS computes different
+on ``eth0`` (none with ``multicast=False``). DDS in two such namespaces
+sees two machines on one LAN: the hosts have different interface
+addresses, so Fast DDS computes different
 host ids and sends everything over UDP on the link (no shared memory), and
 SPDP multicast discovery works across the bridge (IGMP snooping off).
 Nothing touches the root namespace's interfaces or routes; traffic stays
