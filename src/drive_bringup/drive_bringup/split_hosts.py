@@ -22,9 +22,11 @@ virtual hosts here (not root), 130 interrupted.
 """
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
 from drive_common import topics
@@ -111,11 +113,13 @@ class SplitHostRunner(GraphRunner):
         return super()._run_goal(executor, target, started)
 
 
-def build_parser():
-    from drive_bringup.runner_cli import build_parser as scenario_parser
-    parser = scenario_parser()
-    parser.prog = 'split_hosts'
-    parser.description = __doc__.split('\n')[0]
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog='split_hosts', description=__doc__.split('\n')[0])
+    parser.add_argument('scenario', help='scenario name (run_scenario --list) or YAML path')
+    parser.add_argument('--duration', type=float, help='override the run length (s)')
+    parser.add_argument('--out', type=Path, help='output directory (default bags/<name>)')
+    parser.add_argument('--overwrite', action='store_true', help='replace an existing --out')
+    parser.add_argument('--no-record', action='store_true', help='do not record a bag')
     parser.add_argument('--static-peers', action='store_true',
                         help='unicast discovery on a link without multicast: '
                              'ROS_STATIC_PEERS = the other hosts')
@@ -132,13 +136,6 @@ def main(argv=None) -> int:
     from drive_bringup.scenario import ScenarioError
     from drive_common.netns import unavailable_reason
     args = build_parser().parse_args(argv)
-    if args.list or args.headless or args.isolate:
-        print('split_hosts: --list, --headless and --isolate are run_scenario options',
-              file=sys.stderr)
-        return 2
-    if not args.scenario:
-        print('split_hosts: name a scenario', file=sys.stderr)
-        return 2
     reason = unavailable_reason()
     if reason:
         print(f'split_hosts: cannot make virtual hosts: {reason}', file=sys.stderr)
