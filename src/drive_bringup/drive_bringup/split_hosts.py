@@ -55,7 +55,7 @@ class SplitHostRunner(GraphRunner):
 
     def _start(self, key: str, package: str, executable: str, parameters: dict):
         from drive_common.harness import NodeProcess
-        host = PLACEMENT[key]
+        host = PLACEMENT.get(key, RUNNER_HOST)     # helpers (e.g. a live view) beside the runner
         process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
                               env=self.hosts.env(host, self.domain_id,
                                                  static_peers=self.static_peers),
