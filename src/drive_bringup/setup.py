@@ -26,6 +26,7 @@ setup(
             'run_scenario = drive_bringup.runner_cli:main',
             'reproduce = drive_bringup.reproduce:main',
             'study = drive_bringup.study_cli:main',
+            'split_hosts = drive_bringup.split_hosts:main',
         ],
     },
 )

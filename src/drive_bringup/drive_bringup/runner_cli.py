@@ -69,6 +69,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def prepare_run(args) -> tuple:
+    """(scenario, fresh output dir) from the parsed scenario, --duration, --out, --overwrite."""
+    scenario = load_scenario(find_scenario(args.scenario))
+    if args.duration is not None:
+        if args.duration <= 0:
+            raise ScenarioError('--duration must be > 0')
+        scenario.duration = args.duration
+        scenario.events = [e for e in scenario.events if e.time < args.duration]
+    return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.list:
@@ -84,13 +95,7 @@ def main(argv=None) -> int:
         print('run_scenario: --live watches the ROS graph; it cannot be combined with --headless', file=sys.stderr)
         return 2
     try:
-        scenario = load_scenario(find_scenario(args.scenario))
-        if args.duration is not None:
-            if args.duration <= 0:
-                raise ScenarioError('--duration must be > 0')
-            scenario.duration = args.duration
-            scenario.events = [e for e in scenario.events if e.time < args.duration]
-        out = _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
+        scenario, out = prepare_run(args)
     except ScenarioError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2

@@ -141,11 +141,13 @@ class NodeProcess:
                  node_name: str | None = None,
                  env: Mapping[str, str] | None = None,
                  extra_args: Sequence[str] = (),
-                 log_dir: str | os.PathLike | None = None) -> None:
+                 log_dir: str | os.PathLike | None = None,
+                 prefix: Sequence[str] = ()) -> None:
+        """prefix runs the program through a wrapper, e.g. ``ip netns exec NAME``."""
         self.package = package
         self.executable = executable
         path = executable_path(package, executable)
-        self.command = [str(path), *extra_args, *ros_arguments(parameters, remappings, node_name)]
+        self.command = [*prefix, str(path), *extra_args, *ros_arguments(parameters, remappings, node_name)]
         log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f'{node_name or executable}.log'

@@ -1,0 +1,230 @@
+"""Virtual hosts on one machine: Linux network namespaces joined by a bridge.
+
+Each host is a network namespace with its loopback up and one interface
+``eth0`` (a veth pair whose other end sits on a bridge in a separate
+"switch" namespace), an address ``10.213.0.<n>/24`` and a multicast route
+on ``eth0`` (none with ``multicast=False``). DDS in two such namespaces
+sees two machines on one LAN: the hosts have different interface
+addresses, so Fast DDS computes different
+host ids and sends everything over UDP on the link (no shared memory), and
+SPDP multicast discovery works across the bridge (IGMP snooping off).
+Nothing touches the root namespace's interfaces or routes; traffic stays
+between the namespaces made here.
+
+:class:`VirtualHosts` creates them (unique names, so parallel runs never
+collide), gives the command prefix that runs a program in a host
+(``ip netns exec <name>``), the ROS environment for a host, cuts and
+restores a host's link (``ip link set eth0 down``), and always tears
+everything down: it kills what still runs inside, deletes the namespaces,
+and also removes namespaces left behind by a run that was SIGKILLed
+(their creator's pid is in the name).
+
+Needs root (CAP_SYS_ADMIN, CAP_NET_ADMIN) and iproute2's ``ip``; see
+docs/multi_host.md and ``drive_bringup.split_hosts`` (a scenario run split
+across such hosts).
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import secrets
+import shutil
+import signal
+import subprocess
+from pathlib import Path
+from typing import Mapping, Sequence
+
+PREFIX = 'dtcvh'          # every namespace made here starts with this
+SUBNET = '10.213.0'       # /24 inside the bridge; only ever routed inside our namespaces
+_NETNS_DIR = Path('/run/netns')
+_CLONE_NEWNET = 0x40000000
+# Fast DDS profile for a graph across hosts: larger socket receive buffers and a
+# 20 ms heartbeat, so a datagram lost in a burst is repaired at once (see the file).
+FASTDDS_PROFILE = Path(__file__).with_name('fastdds_network.xml')
+
+
+class HostsUnavailable(RuntimeError):
+    """Network namespaces cannot be made here (not root, or no ``ip``)."""
+
+
+def unavailable_reason() -> str | None:
+    """Why virtual hosts cannot be created on this machine, or None when they can."""
+    if os.geteuid() != 0:
+        return 'network namespaces need root (CAP_SYS_ADMIN/CAP_NET_ADMIN); CI runs as root'
+    if shutil.which('ip') is None:
+        return "iproute2's `ip` is not installed (apt-get install iproute2)"
+    return None
+
+
+def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+    result = subprocess.run(['ip', *args], capture_output=True, text=True)
+    if check and result.returncode != 0:
+        raise RuntimeError(f'ip {" ".join(args)}: {result.stderr.strip()}')
+    return result
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _kill_inside(namespace: str) -> None:
+    """SIGKILL every process still running in namespace (but this one, see enter())."""
+    pids = {int(p) for p in _ip('netns', 'pids', namespace, check=False).stdout.split()}
+    for pid in pids - {os.getpid()}:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+def _delete(namespace: str) -> None:
+    _kill_inside(namespace)
+    _ip('netns', 'delete', namespace, check=False)
+
+
+def remove_stale() -> list[str]:
+    """Delete namespaces of this module whose creating process is gone; their names."""
+    removed = []
+    names = _ip('netns', 'list', check=False).stdout.split('\n')
+    for line in names:
+        name = line.split(' ')[0]
+        parts = name.split('-')
+        if len(parts) >= 3 and parts[0] == PREFIX and parts[1].isdigit() \
+                and not _pid_alive(int(parts[1])):
+            _delete(name)
+            removed.append(name)
+    return removed
+
+
+class VirtualHosts:
+    """Named hosts as network namespaces on one bridged link; a context manager.
+
+    ``hosts`` are short labels (``'plant'``, ``'controller'``); host i gets
+    address ``10.213.0.<i+1>``. ``multicast=False``: no multicast route, so
+    only unicast discovery (static peers) can work, as on a network that
+    does not carry multicast.
+    """
+
+    def __init__(self, hosts: Sequence[str] = ('a', 'b'), multicast: bool = True) -> None:
+        if len(set(hosts)) != len(hosts) or not hosts or len(hosts) > 250:
+            raise ValueError(f'host labels must be 1..250 distinct names, got {list(hosts)}')
+        self.labels = list(hosts)
+        self.multicast = multicast
+        self.run_id = f'{PREFIX}-{os.getpid()}-{secrets.token_hex(3)}'
+        self.namespaces = {label: f'{self.run_id}-h{i}' for i, label in enumerate(self.labels)}
+        self.switch = f'{self.run_id}-sw'
+        self.addresses = {label: f'{SUBNET}.{i + 1}' for i, label in enumerate(self.labels)}
+        self._made: list[str] = []
+
+    # --- life cycle -----------------------------------------------------------
+    def create(self) -> 'VirtualHosts':
+        reason = unavailable_reason()
+        if reason:
+            raise HostsUnavailable(reason)
+        remove_stale()
+        try:
+            self._add_namespace(self.switch)
+            _ip('-n', self.switch, 'link', 'add', 'br0', 'type', 'bridge', 'mcast_snooping', '0')
+            _ip('-n', self.switch, 'link', 'set', 'br0', 'up')
+            for i, label in enumerate(self.labels):
+                ns = self.namespaces[label]
+                self._add_namespace(ns)
+                port = f'p{i}'
+                _ip('link', 'add', 'eth0', 'netns', ns, 'type', 'veth',
+                    'peer', 'name', port, 'netns', self.switch)
+                _ip('-n', self.switch, 'link', 'set', port, 'master', 'br0', 'up')
+                _ip('-n', ns, 'link', 'set', 'lo', 'up')
+                _ip('-n', ns, 'addr', 'add', f'{self.addresses[label]}/24', 'dev', 'eth0')
+                _ip('-n', ns, 'link', 'set', 'eth0', 'up')
+                self._route_multicast(ns)
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def _add_namespace(self, name: str) -> None:
+        _ip('netns', 'add', name)
+        self._made.append(name)
+
+    def _route_multicast(self, ns: str) -> None:
+        # DDS discovery (SPDP) goes to 239.255.0.1: without a default route the
+        # kernel needs a multicast route to send it out of eth0. Without it
+        # (multicast=False) the hosts are on a network without multicast.
+        if self.multicast:
+            _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
+
+    def close(self) -> None:
+        """Kill what still runs in the hosts and delete every namespace made."""
+        for name in reversed(self._made):
+            _delete(name)
+        self._made.clear()
+
+    def __enter__(self) -> 'VirtualHosts':
+        return self.create()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # --- using the hosts ----------------------------------------------------------
+    def prefix(self, host: str) -> list[str]:
+        """Command prefix running a program in host (as root: ``ip netns exec NAME``)."""
+        return ['ip', 'netns', 'exec', self.namespaces[host]]
+
+    def env(self, host: str, domain_id: int, base: Mapping[str, str] | None = None,
+            static_peers: bool = False) -> dict[str, str]:
+        """ROS environment for a node in host: the shared domain and how to discover.
+
+        Fast DDS loads :data:`FASTDDS_PROFILE` unless the base environment
+        names a profile file already. Default: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast SPDP on
+        the link). ``static_peers``: unicast only, as on a network without
+        multicast: range ``LOCALHOST`` plus every other host's address in
+        ``ROS_STATIC_PEERS`` (ROS 2 "Improved Dynamic Discovery": hosts that
+        name each other as static peers discover each other).
+        """
+        env = dict(os.environ if base is None else base)
+        env['ROS_DOMAIN_ID'] = str(domain_id)
+        env.pop('ROS_LOCALHOST_ONLY', None)
+        if static_peers:
+            env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+            env['ROS_STATIC_PEERS'] = ';'.join(a for h, a in self.addresses.items() if h != host)
+        else:
+            env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
+            env.pop('ROS_STATIC_PEERS', None)
+        env.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(FASTDDS_PROFILE))
+        env['PYTHONUNBUFFERED'] = '1'
+        return env
+
+    def exec(self, host: str, command: Sequence[str], **kwargs) -> subprocess.CompletedProcess:
+        """Run command in host to completion (subprocess.run keyword arguments)."""
+        return subprocess.run([*self.prefix(host), *command], **kwargs)
+
+    def enter(self, host: str) -> None:
+        """Move this process into host's network namespace (setns(2)).
+
+        Call it before any thread is started (the DDS threads of rclpy
+        inherit the namespace of the thread that makes them).
+        """
+        libc = ctypes.CDLL(None, use_errno=True)
+        fd = os.open(_NETNS_DIR / self.namespaces[host], os.O_RDONLY)
+        try:
+            if libc.setns(fd, _CLONE_NEWNET) != 0:
+                errno = ctypes.get_errno()
+                raise OSError(errno, f'setns into {self.namespaces[host]}: {os.strerror(errno)}')
+        finally:
+            os.close(fd)
+
+    def cut(self, host: str) -> None:
+        """Pull host's cable: its eth0 goes down (loopback stays up)."""
+        _ip('-n', self.namespaces[host], 'link', 'set', 'eth0', 'down')
+
+    def restore(self, host: str) -> None:
+        """Plug host's cable back in (link up, multicast route again)."""
+        ns = self.namespaces[host]
+        _ip('-n', ns, 'link', 'set', 'eth0', 'up')
+        self._route_multicast(ns)
