@@ -44,8 +44,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--duration', type=float, default=1.0, help='sim seconds (default 1.0)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(SCENARIO))
-    scenario.duration = args.duration
+    scenario = load_scenario(find_scenario(SCENARIO)).shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         runner = MeasuredRunner(scenario, Path(tmp) / 'run', domain_id=domain,
                                 progress=lambda m: None)

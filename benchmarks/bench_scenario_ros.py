@@ -56,9 +56,7 @@ def main() -> None:
                         help='sim seconds (default 0.2 s: 6000 samples of the default scenario)')
     parser.add_argument('--repeats', type=int, default=3, help='runs of each variant (median)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(args.scenario))
-    scenario.duration = args.duration
-    scenario.events = [e for e in scenario.events if e.time < args.duration]
+    scenario = load_scenario(find_scenario(args.scenario)).shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=domain)

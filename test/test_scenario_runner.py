@@ -21,6 +21,7 @@ from mcap.reader import make_reader
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.harness import isolated_env, processes_with_env
+from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -71,8 +72,7 @@ def test_ros_graph_and_headless_loop_give_the_same_trajectory(recorded_run):
     from drive_logger.analysis.data import load_columns
     out, _ = recorded_run
     ros = load_columns(str(out / 'bag'))['/plant/state']
-    scenario = load_scenario(find_scenario(SCENARIO))
-    scenario.duration = DURATION
+    scenario = load_scenario(find_scenario(SCENARIO)).shortened(DURATION)
     headless = run_headless(scenario).arrays()
     assert np.array_equal(ros['step'], headless['plant/state.step'])
     for name in ('phase_current', 'electromagnetic_torque', 'mechanical_speed', 'rotor_angle',
@@ -110,10 +110,11 @@ def test_ctrl_c_stops_every_node(tmp_path):
                                 '--isolate', '--out', str(out)], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, env=env)
     try:
-        deadline = time.monotonic() + 120
-        while not (out / 'logs').exists() or len(list((out / 'logs').glob('*.log'))) < 3:
-            assert time.monotonic() < deadline and process.poll() is None
-            time.sleep(0.2)
+        def graph_started() -> bool:
+            assert process.poll() is None, 'the runner ended early'
+            return (out / 'logs').exists() and len(list((out / 'logs').glob('*.log'))) >= 3
+
+        wait_until(graph_started, 120.0, 0.2, 'the node processes')
         time.sleep(4.0)   # the run is under way
         process.send_signal(signal.SIGINT)
         _, stderr = process.communicate(timeout=120)
@@ -164,9 +165,7 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
     result = run_cli(name, '--duration', str(duration), '--isolate', '--out', str(out))
     assert result.returncode == 0, result.stdout + result.stderr
     columns = load_columns(str(out / 'bag'))
-    scenario = load_scenario(find_scenario(name))
-    scenario.duration = duration
-    scenario.events = [e for e in scenario.events if e.time < duration]
+    scenario = load_scenario(find_scenario(name)).shortened(duration)
     headless = run_headless(scenario).arrays()
     state = columns['/plant/state']
     assert np.array_equal(state['step'], headless['plant/state.step'])

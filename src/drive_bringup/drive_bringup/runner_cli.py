@@ -62,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--no-record', action='store_true', help='do not record a bag')
     parser.add_argument('--isolate', action='store_true',
                         help='run in a private DDS domain (localhost only)')
-    parser.add_argument('--duration', type=float, help='override the run length (s)')
+    parser.add_argument('--duration', type=float, help='run only the first DURATION s of the scenario')
     return parser
 
 
@@ -80,10 +80,7 @@ def main(argv=None) -> int:
     try:
         scenario = load_scenario(find_scenario(args.scenario))
         if args.duration is not None:
-            if args.duration <= 0:
-                raise ScenarioError('--duration must be > 0')
-            scenario.duration = args.duration
-            scenario.events = [e for e in scenario.events if e.time < args.duration]
+            scenario = scenario.shortened(args.duration)
         out = _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
     except ScenarioError as exc:
         print(f'error: {exc}', file=sys.stderr)

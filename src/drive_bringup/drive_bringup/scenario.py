@@ -36,7 +36,7 @@ from __future__ import annotations
 import importlib
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +142,14 @@ class Scenario:
     @property
     def nodes(self) -> list[str]:
         return list(self.node_parameters)
+
+    def shortened(self, duration: float) -> 'Scenario':
+        """A copy that ends at ``duration`` s (0 < duration <= self.duration); events at or
+        after the new end are dropped (an event at the end time would never apply)."""
+        if not 0.0 < duration <= self.duration:
+            raise ScenarioError(f'{self.path}: duration: {duration} s is outside '
+                                f'(0, {self.duration} s]')
+        return replace(self, duration=duration, events=[e for e in self.events if e.time < duration])
 
 
 TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')

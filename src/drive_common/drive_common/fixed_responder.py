@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from drive_common import topics
 from drive_common.fixed_commands import FixedGateCore
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.samples import DriveSample
 

@@ -8,7 +8,7 @@
   down (SIGINT, then SIGTERM, then SIGKILL).
 - :class:`RosSession` is an in-process rclpy context in a given domain with a
   background executor, for test nodes (injected ``context`` and overrides).
-- :func:`wait_until` and the ``wait_for_*`` helpers poll with timeouts.
+- the ``wait_for_*`` helpers wait for graph matching (:func:`drive_common.waiting.wait_until`).
 """
 from __future__ import annotations
 
@@ -23,15 +23,13 @@ import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Iterator, Mapping, Sequence
+
+from drive_common.waiting import wait_until
 
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
 _LOCK_DIR = Path(tempfile.gettempdir()) / 'dtc_drive_ros_domains'
-
-
-class HarnessTimeout(TimeoutError):
-    """A waited-for condition did not happen in time."""
 
 
 @contextmanager
@@ -141,11 +139,14 @@ class NodeProcess:
                  node_name: str | None = None,
                  env: Mapping[str, str] | None = None,
                  extra_args: Sequence[str] = (),
-                 log_dir: str | os.PathLike | None = None) -> None:
+                 log_dir: str | os.PathLike | None = None,
+                 argv: Sequence[str] | None = None) -> None:
+        """argv: run this command line instead of the installed executable
+        (package and executable then only name the process in logs)."""
         self.package = package
         self.executable = executable
-        path = executable_path(package, executable)
-        self.command = [str(path), *extra_args, *ros_arguments(parameters, remappings, node_name)]
+        program = list(argv) if argv else [str(executable_path(package, executable))]
+        self.command = [*program, *extra_args, *ros_arguments(parameters, remappings, node_name)]
         log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f'{node_name or executable}.log'
@@ -212,19 +213,6 @@ def processes_with_env(marker: str) -> list[int]:
             except OSError:
                 continue
     return found
-
-
-def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
-               what: str = 'condition') -> Any:
-    """Poll predicate until it returns a truthy value; raise HarnessTimeout after timeout s."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise HarnessTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
-        time.sleep(interval)
 
 
 class RosSession:

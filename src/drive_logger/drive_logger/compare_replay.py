@@ -20,9 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 from dataclasses import asdict, dataclass, field
@@ -31,8 +29,13 @@ from pathlib import Path
 import yaml
 
 from drive_common.harness import NodeProcess, ros_arguments
+from drive_common.waiting import wait_until
 from drive_logger.bag_reader import BagReader
 from drive_logger.replay_node import clock_cdr, header_stamp_ns
+
+
+class ControllerExited(RuntimeError):
+    """The re-driven controller process ended before the comparison did."""
 
 
 @dataclass
@@ -50,20 +53,6 @@ class ComparisonReport:
     @property
     def identical(self) -> bool:
         return self.steps_compared > 0 and self.mismatch_count == 0 and not self.missing_replies
-
-
-class CommandProcess(NodeProcess):
-    """A node started from an arbitrary command line (+ --ros-args), torn down like NodeProcess."""
-
-    def __init__(self, argv, *, parameters=None, remappings=None, env=None, log_dir=None) -> None:
-        self.package, self.executable = 'command', Path(argv[0]).name
-        self.command = [*argv, *ros_arguments(parameters, remappings)]
-        log_dir = Path(log_dir or tempfile.mkdtemp(prefix='dtc_node_'))
-        log_dir.mkdir(parents=True, exist_ok=True)
-        self.log_path = log_dir / f'{self.executable}.log'
-        self._log = open(self.log_path, 'wb')
-        self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
-                                        env=dict(env) if env is not None else None, start_new_session=True)
 
 
 def compare_fields(recorded: dict, replayed: dict) -> bool:
@@ -158,14 +147,14 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     spinner.start()
     report = ComparisonReport()
     try:
-        deadline = time.monotonic() + match_timeout
-        while meas_pub.get_subscription_count() < 1 or node.count_publishers(command_topic) < 1:
+        def matched() -> bool:
             if controller is not None and not controller.alive():
-                raise RuntimeError(f'controller exited (code {controller.process.returncode}):\n{controller.output()[-2000:]}')
-            if time.monotonic() > deadline:
-                raise TimeoutError(f'controller did not subscribe to {measurement_topic} and publish '
-                                   f'{command_topic} within {match_timeout} s')
-            time.sleep(0.02)
+                raise ControllerExited(f'controller exited (code {controller.process.returncode}):\n'
+                                       f'{controller.output()[-2000:]}')
+            return meas_pub.get_subscription_count() >= 1 and node.count_publishers(command_topic) >= 1
+
+        wait_until(matched, match_timeout, 0.02,
+                   f'the controller to subscribe to {measurement_topic} and publish {command_topic}')
         time.sleep(0.2)  # let discovery settle in both directions
         if params is not None and not params.wait_for_services(timeout_sec=match_timeout):
             raise TimeoutError(f'{controller_node} parameter services not available')
@@ -240,7 +229,8 @@ def main(argv=None) -> int:
     remaps = dict(r.split(':=', 1) for r in args.remap)
     env = dict(os.environ)
     if args.command:
-        controller = CommandProcess(args.command, parameters=params, remappings=remaps, env=env)
+        controller = NodeProcess('command', Path(args.command[0]).name, argv=args.command,
+                                 parameters=params, remappings=remaps, env=env)
     else:
         controller = NodeProcess(args.package, args.executable, parameters=params, remappings=remaps, env=env)
     import rclpy

@@ -9,11 +9,12 @@ import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
-from drive_common.harness import isolated_env, wait_until
+from drive_common.harness import NodeProcess, isolated_env
+from drive_common.waiting import wait_until
 from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter
-from drive_logger.compare_replay import CommandProcess, replay_and_compare
+from drive_logger.compare_replay import replay_and_compare
 from drive_logger.message_definitions import type_definition
 from drive_logger.readiness import wait_for_recorder
 from dtc_msgs.msg import DriveMeasurement, GateCommand
@@ -70,7 +71,7 @@ def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
     """A stand-in plant drives the responder step by step while the recorder records."""
     recorder = start_node('drive_logger', 'recorder', parameters={
         'output': str(bag), 'topics': [DRIVE_MEASUREMENT, GATE_COMMAND]})
-    responder = CommandProcess(RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=bag.parent / 'nodes')
+    responder = NodeProcess('test', 'responder', argv=RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=bag.parent / 'nodes')
     try:
         node = ros_session.node('plant_standin')
         replies = {}
@@ -103,7 +104,7 @@ def test_replay_into_fresh_controller_reproduces_gate_commands(ros_session, star
     bag = tmp_path / 'run'
     _record_lockstep_run(ros_session, start_node, bag, measurement_factory)
 
-    fresh = CommandProcess(RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=tmp_path / 'fresh')
+    fresh = NodeProcess('test', 'responder', argv=RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=tmp_path / 'fresh')
     try:
         report = replay_and_compare(str(bag), fresh, context=ros_session.context)
     finally:
