@@ -51,7 +51,7 @@ def main() -> int:
     import rclpy
     from dtc_msgs.msg import PlantState
 
-    from drive_common.harness import isolated_env, reserve_domain
+    from drive_testing.harness import isolated_env, reserve_domain
     from drive_common.topics import STREAM_QOS
     from drive_common.waiting import wait_until
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import reserve_domain
+from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import BagReader
 
 SCENARIO = 'two_phase_six_switch_nonideal_torque'

@@ -24,8 +24,8 @@ import rclpy
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.ceiling import measure_round_trips
-from drive_common.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.ceiling import measure_round_trips
+from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
 
@@ -61,7 +61,7 @@ def main() -> None:
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=domain)
         try:
-            with NodeProcess('drive_common', 'raw_responder', env=isolated_env(domain)):
+            with NodeProcess('drive_testing', 'raw_responder', env=isolated_env(domain)):
                 ceiling = measure_round_trips(context, 4000)
         finally:
             rclpy.try_shutdown(context=context)

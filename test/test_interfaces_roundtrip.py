@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from rosidl_parser.definition import (AbstractNestedType, BasicType, NamespacedType)
 
-from drive_common.harness import wait_for_subscribers, wait_until
-from drive_common.message_echo import MESSAGE_TYPES, message_class
+from drive_testing.harness import wait_for_subscribers
+from drive_common.waiting import wait_until
+from drive_testing.message_echo import MESSAGE_TYPES, message_class
 from drive_common.topics import LOCKSTEP_QOS
 
 pytestmark = pytest.mark.ros
@@ -83,7 +84,7 @@ def test_every_interface_file_is_covered():
 
 
 def test_every_message_type_round_trips_between_processes(start_node, ros_session):
-    start_node('drive_common', 'message_echo')
+    start_node('drive_testing', 'message_echo')
     node = ros_session.node('roundtrip_probe')
     received = {name: [] for name in MESSAGE_TYPES}
     publishers = {}

@@ -20,7 +20,7 @@ from mcap.reader import make_reader
 
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import isolated_env, processes_with_env
+from drive_testing.harness import isolated_env, processes_with_env
 from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros

@@ -26,7 +26,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from drive_bringup.scenario import Scenario
 from drive_common import topics
-from drive_common.harness import NodeProcess, isolated_env
+from drive_common.processes import NodeProcess, isolated_env
 from drive_common.waiting import WaitTimeout, wait_until
 from dtc_msgs.action import Run
 

@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     def run() -> int:
         domain = None
         if args.isolate:
-            from drive_common.harness import reserve_domain
+            from drive_common.processes import reserve_domain
             with reserve_domain() as domain:
                 result = GraphRunner(scenario, out, domain_id=domain,
                                      record=not args.no_record).run()

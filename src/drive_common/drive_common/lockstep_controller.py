@@ -1,7 +1,7 @@
 """ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller).
 
 A controller node answers each measurement of step k with a command of the
-same step and publishes its status (DESIGN.md §3). All control lives in a
+same step and publishes its status (docs/architecture.md, "Time and lockstep"). All control lives in a
 ROS-agnostic core object with ``update(sample) -> (command, status)`` and
 ``reconfigure(params)``; this class only converts messages, declares the
 node's parameter schema and swaps accepted parameter changes in at the next

@@ -84,7 +84,7 @@ def main(argv=None) -> int:
         print(USAGE)
         return 0
     if argv[0] == 'run' and len(argv) >= 3:
-        from drive_common.harness import executable_path
+        from drive_common.processes import executable_path
         try:
             path = executable_path(argv[1], argv[2])
         except FileNotFoundError as exc:

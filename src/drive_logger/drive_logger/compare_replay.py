@@ -28,7 +28,7 @@ from pathlib import Path
 
 import yaml
 
-from drive_common.harness import NodeProcess, ros_arguments
+from drive_common.processes import NodeProcess, ros_arguments
 from drive_common.waiting import wait_until
 from drive_logger.bag_reader import BagReader
 from drive_logger.replay_node import clock_cdr, header_stamp_ns

@@ -1,5 +1,4 @@
-#!/usr/bin/env python3
-"""Deterministic stand-in controller for the replay regression tests.
+"""replay_responder: deterministic stand-in controller for the replay regression tests.
 
 Answers every drive/measurement with a GateCommand of the same step whose
 switches depend on the measurement (hall code and current signs) and on an
