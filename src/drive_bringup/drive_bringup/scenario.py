@@ -43,6 +43,7 @@ from typing import Any
 import yaml
 
 from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.uris import resolve_path
 
 NODE_SCHEMAS = {
     'plant': ('bldc_plant_sim.parameters', 'PLANT_NODE_SCHEMA'),
@@ -58,22 +59,11 @@ class ScenarioError(ValueError):
 
 
 def resolve_package_path(value: str) -> str:
-    """``package://<pkg>/<path>`` -> an absolute file path (share dir, else the source tree).
-
-    Scenario files name shipped data (motor back-EMF tables) this way so they
-    work from a source checkout and from an installed workspace alike.
-    """
-    if not value.startswith('package://'):
-        return value
-    package, _, rel = value[len('package://'):].partition('/')
-    source = Path(__file__).resolve().parents[2] / package / rel
-    if source.exists():
-        return str(source)
+    """``package://<pkg>/<path>`` -> an absolute file path (:func:`drive_common.uris.resolve_path`)."""
     try:
-        from ament_index_python.packages import get_package_share_directory
-        return str(Path(get_package_share_directory(package)) / rel)
-    except Exception as exc:  # noqa: BLE001 - report as a scenario error below
-        raise ScenarioError(f'cannot resolve {value}: {exc}') from exc
+        return resolve_path(value)
+    except FileNotFoundError as exc:
+        raise ScenarioError(str(exc)) from exc
 
 
 def _resolve_paths(params: dict) -> dict:
@@ -142,6 +132,33 @@ class Scenario:
     @property
     def nodes(self) -> list[str]:
         return list(self.node_parameters)
+
+    def with_parameters(self, source: str, sections: dict[str, dict[str, Any]]) -> 'Scenario':
+        """A copy whose nodes also take the values of a ROS 2 parameter file.
+
+        sections: :func:`drive_common.parameter_files.read_params_file` of
+        ``source``; a wildcard (``/**``) value applies to the nodes that have
+        the parameter, a node's own section must name its parameters.
+        """
+        from drive_common.parameter_files import WILDCARDS
+        unknown = [k for k in sections if k not in WILDCARDS and k.lstrip('/').split('/')[-1] not in self.nodes]
+        if unknown:
+            raise ScenarioError(f'{source}: {unknown[0]}: not a node of scenario {self.name} '
+                                f'({", ".join(self.nodes)})')
+        overrides, snapshots = dict(self.overrides), dict(self.node_parameters)
+        for node in self.nodes:
+            schema = node_schema(node)
+            values = {k: v for key in WILDCARDS for k, v in sections.get(key, {}).items() if k in schema}
+            for key, section in sections.items():
+                if key not in WILDCARDS and key.lstrip('/').split('/')[-1] == node:
+                    values.update(section)
+            merged = dict(self.overrides[node], **values)
+            try:
+                snapshots[node] = schema.resolve(merged)
+            except ParameterError as exc:
+                raise ScenarioError(f'{source}: {node}: {exc}') from exc
+            overrides[node] = {k: snapshots[node][k] for k in merged}   # typed, paths resolved
+        return replace(self, overrides=overrides, node_parameters=snapshots)
 
     def shortened(self, duration: float) -> 'Scenario':
         """A copy that ends at ``duration`` s (0 < duration <= self.duration); events at or

@@ -18,6 +18,7 @@ from typing import Callable
 
 from rclpy.callback_groups import CallbackGroup
 
+from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
 
 
@@ -65,6 +66,11 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
                                  SingleThreadedExecutor)
     from rclpy.signals import SignalHandlerOptions
 
+    try:
+        for path in params_files_in(sys.argv if args is None else args):
+            read_params_file(path)
+    except ParameterFileError as exc:
+        return fail(exc)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())

@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
 
+from drive_common.uris import resolve_path
+
 ValueType = type  # one of bool, int, float, str, list (of float / str)
 
 
@@ -85,7 +87,10 @@ class ParameterSpec:
         if want is str:
             if not isinstance(value, str):
                 raise ParameterError(f'{self.name}: expected a string, got {value!r}')
-            return value
+            try:
+                return resolve_path(value)      # package://<pkg>/<path>: the file it names
+            except FileNotFoundError as exc:
+                raise ParameterError(f'{self.name}: {exc}') from None
         if want is list:
             # array.array: what rclpy's parameter service delivers for double arrays
             if not isinstance(value, (list, tuple, array.array)):

@@ -109,9 +109,12 @@ def _yaml_value(value: Any) -> str:
 def ros_arguments(parameters: Mapping[str, Any] | None = None,
                   remappings: Mapping[str, str] | None = None,
                   node_name: str | None = None,
-                  log_level: str | None = None) -> list[str]:
-    """``--ros-args`` list as ``ros2 run`` takes it (-p name:=value, -r from:=to)."""
+                  log_level: str | None = None,
+                  params_files: Sequence[str] = ()) -> list[str]:
+    """``--ros-args`` list as ``ros2 run`` takes it (--params-file f, -p name:=value, -r from:=to)."""
     args = ['--ros-args']
+    for path in params_files:            # before -p: a -p value overrides the file's
+        args += ['--params-file', str(path)]
     if node_name:
         args += ['-r', f'__node:={node_name}']
     for name, value in (parameters or {}).items():
@@ -137,13 +140,15 @@ class NodeProcess:
                  env: Mapping[str, str] | None = None,
                  extra_args: Sequence[str] = (),
                  log_dir: str | os.PathLike | None = None,
-                 argv: Sequence[str] | None = None) -> None:
+                 argv: Sequence[str] | None = None,
+                 params_files: Sequence[str] = ()) -> None:
         """argv: run this command line instead of the installed executable
         (package and executable then only name the process in logs)."""
         self.package = package
         self.executable = executable
         program = list(argv) if argv else [str(executable_path(package, executable))]
-        self.command = [*program, *extra_args, *ros_arguments(parameters, remappings, node_name)]
+        self.command = [*program, *extra_args,
+                        *ros_arguments(parameters, remappings, node_name, params_files=params_files)]
         log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f'{node_name or executable}.log'
