@@ -182,3 +182,33 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
         assert recorded.sum() == len(headless['pfc/status.step'])
         assert np.array_equal(pfc['duty'][recorded], headless['pfc/status.duty'])
         assert np.ptp(state['inductor_current']) > 0.5
+
+
+def _node_seen_while_running(argv, domain: int) -> bool:
+    """Run run_scenario with ROS_DOMAIN_ID=domain; True if a /plant node showed up there."""
+    import rclpy
+    env = isolated_env(domain)
+    process = subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli', *argv],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain)
+    node = rclpy.create_node('domain_probe', context=context)
+    try:
+        wait_until(lambda: 'plant' in node.get_node_names() or process.poll() is not None,
+                   300.0, 0.05, 'the plant or the end of the run')
+        seen = 'plant' in node.get_node_names()
+        _, stderr = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+    assert process.returncode == 0, stderr
+    return seen
+
+
+def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ros_domain):
+    base = [SCENARIO, '--duration', '0.003', '--no-record']
+    assert not _node_seen_while_running(base + ['--out', str(tmp_path / 'private')], ros_domain)
+    assert _node_seen_while_running(base + ['--out', str(tmp_path / 'joined'), '--join-domain'],
+                                    ros_domain)
