@@ -37,14 +37,10 @@ class NotSpun(CallbackGroup):
         pass
 
 
-def program_name() -> str:
-    return os.path.basename(sys.argv[0]) or 'node'
-
-
 def fail(reason: object, code: int = 2) -> int:
     """Print ``[program] error: reason`` on one line (stderr); return code."""
     text = ' '.join(str(reason).split())
-    print(f'[{program_name()}] error: {text}', file=sys.stderr, flush=True)
+    print(f'[{os.path.basename(sys.argv[0]) or "node"}] error: {text}', file=sys.stderr, flush=True)
     return code
 
 

@@ -50,15 +50,21 @@ def read_params_file(path: str | Path) -> dict[str, dict[str, Any]]:
     return sections
 
 
-def parameters_for(node_name: str, sections: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    """The values a node named node_name takes: the wildcard section, then its own."""
-    values: dict[str, Any] = {}
-    for key in WILDCARDS:
-        values.update(sections.get(key, {}))
+def parameters_for(node_name: str, sections: dict[str, dict[str, Any]],
+                   known=None) -> dict[str, Any]:
+    """The values a node named node_name takes: the wildcard section (only the names in
+    ``known``, when given, as rcl ignores undeclared ones), then its own section."""
+    values = {k: v for key in WILDCARDS for k, v in sections.get(key, {}).items()
+              if known is None or k in known}
     for key, section in sections.items():
-        if key not in WILDCARDS and key.lstrip('/').split('/')[-1] == node_name.lstrip('/'):
+        if key not in WILDCARDS and node_of(key) == node_name.lstrip('/'):
             values.update(section)
     return values
+
+
+def node_of(key: str) -> str:
+    """The node name of a section key (``/ns/plant`` -> ``plant``)."""
+    return key.lstrip('/').split('/')[-1]
 
 
 def params_files_in(args) -> list[str]:

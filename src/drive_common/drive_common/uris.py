@@ -25,10 +25,7 @@ def resolve_path(value: str) -> str:
     source = Path(__file__).resolve().parents[2] / package / rel
     if source.exists():
         return str(source)
-    try:
-        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-    except ImportError as exc:  # no ament index: source tree only
-        raise FileNotFoundError(f'cannot resolve {value}: no such file in the source tree') from exc
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
     try:
         return str(Path(get_package_share_directory(package)) / rel)
     except PackageNotFoundError:
