@@ -136,7 +136,7 @@ def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_ru
     out, _ = recorded_run
     scenario = load_scenario(find_scenario(SCENARIO))
     params = tmp_path / 'dtc.yaml'
-    params.write_text(yaml.safe_dump(scenario.overrides['dtc_controller']))
+    params.write_text(yaml.safe_dump({'dtc_controller': {'ros__parameters': scenario.overrides['dtc_controller']}}))
     report = tmp_path / 'compare.json'
     result = subprocess.run(
         [sys.executable, '-m', 'drive_logger.compare_replay', str(out / 'bag'),
@@ -184,31 +184,41 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
         assert np.ptp(state['inductor_current']) > 0.5
 
 
-def _node_seen_while_running(argv, domain: int) -> bool:
-    """Run run_scenario with ROS_DOMAIN_ID=domain; True if a /plant node showed up there."""
-    import rclpy
-    env = isolated_env(domain)
+def _node_domains(argv, domain: int) -> set[str]:
+    """Run run_scenario with ROS_DOMAIN_ID=domain; the ROS_DOMAIN_IDs its node processes got."""
+    marker = f'DTC_TEST_MARKER=domain_{os.getpid()}_{time.monotonic_ns()}'
+    env = dict(isolated_env(domain), DTC_TEST_MARKER=marker.split('=', 1)[1])
     process = subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli', *argv],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=domain)
-    node = rclpy.create_node('domain_probe', context=context)
+    domains: set[str] = set()
+
+    def nodes_seen():
+        for pid in processes_with_env(marker):
+            if pid == process.pid:
+                continue
+            try:
+                environ = Path(f'/proc/{pid}/environ').read_bytes().split(b'\0')
+            except OSError:
+                continue
+            domains.update(v.split(b'=', 1)[1].decode() for v in environ
+                           if v.startswith(b'ROS_DOMAIN_ID='))
+        return process.poll() is not None
+
     try:
-        wait_until(lambda: 'plant' in node.get_node_names() or process.poll() is not None,
-                   300.0, 0.05, 'the plant or the end of the run')
-        seen = 'plant' in node.get_node_names()
-        _, stderr = process.communicate(timeout=300)
+        wait_until(nodes_seen, 300.0, 0.02, 'the end of the run')
+        _, stderr = process.communicate(timeout=60)
     finally:
         if process.poll() is None:
             process.kill()
-        node.destroy_node()
-        rclpy.try_shutdown(context=context)
     assert process.returncode == 0, stderr
-    return seen
+    return domains
 
 
 def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ros_domain):
-    base = [SCENARIO, '--duration', '0.003', '--no-record']
-    assert not _node_seen_while_running(base + ['--out', str(tmp_path / 'private')], ros_domain)
-    assert _node_seen_while_running(base + ['--out', str(tmp_path / 'joined'), '--join-domain'],
-                                    ros_domain)
+    base = ['two_phase_six_switch_flux_control', '--duration', '0.05', '--no-record']
+    private = _node_domains(base + ['--out', str(tmp_path / 'private')], ros_domain)
+    assert private and str(ros_domain) not in private
+    assert _node_domains(base + ['--out', str(tmp_path / 'joined'), '--join-domain'],
+                         ros_domain) == {str(ros_domain)}
+    assert _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
+                         ros_domain + 1 if ros_domain < 200 else 1) == {str(ros_domain)}
