@@ -218,7 +218,8 @@ def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ro
     base = ['two_phase_six_switch_flux_control', '--duration', '0.05', '--no-record']
     private = _node_domains(base + ['--out', str(tmp_path / 'private')], ros_domain)
     assert private and str(ros_domain) not in private
-    assert _node_domains(base + ['--out', str(tmp_path / 'joined'), '--join-domain'],
-                         ros_domain) == {str(ros_domain)}
-    assert _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
-                         ros_domain + 1 if ros_domain < 200 else 1) == {str(ros_domain)}
+    joined = _node_domains(base + ['--out', str(tmp_path / 'joined'), '--join-domain'], ros_domain)
+    assert joined == {str(ros_domain)}, joined
+    given = _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
+                          ros_domain % 100 + 101)     # the caller's own domain: another one
+    assert given == {str(ros_domain)}, given
