@@ -4,4 +4,4 @@ import os
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
-pytest_plugins = ['drive_common.pytest_fixtures']
+pytest_plugins = ['drive_testing.pytest_fixtures']

@@ -99,7 +99,7 @@ def main() -> int:
     from rclpy.serialization import serialize_message
 
     from drive_common.conversions import ReusedMessage
-    from drive_common.harness import isolated_env, reserve_domain
+    from drive_testing.harness import isolated_env, reserve_domain
     from drive_common.telemetry_blocks import BlockPacker
     from drive_common.topics import STREAM_QOS
     from dtc_msgs.msg import DtcStatus, DtcStatusBlock, PlantState, PlantStateBlock

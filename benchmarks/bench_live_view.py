@@ -29,7 +29,7 @@ from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import reserve_domain
+from drive_testing.harness import reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
 

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant
 from bldc_plant_sim.core.cosim import CoSimulation  # noqa: E402
 from bldc_plant_sim.core.plant import PlantCore  # noqa: E402
 from bldc_plant_sim.parameters import plant_params  # noqa: E402
-from drive_common.fixed_commands import FixedGateCore  # noqa: E402
+from drive_testing.fixed_commands import FixedGateCore  # noqa: E402
 from plant_test_helpers import SixStepChopper  # noqa: E402
 from timing import best_of  # benchmarks/timing.py
 

@@ -2,7 +2,7 @@
 
 Both measured in the same run, same message types, private DDS domain:
 1. ceiling: raw_responder answers DriveMeasurement with GateCommand and a
-   probe publishes/awaits one at a time (drive_common.ceiling);
+   probe publishes/awaits one at a time (drive_testing.ceiling);
 2. plant: the plant node (six-switch BLDC, T_s = 25 us) driven by a Run goal
    against fixed_responder (a real lockstep controller with a trivial core).
 Prints samples per wall second for both and the ratio (goal >= 0.7).
@@ -18,15 +18,16 @@ import rclpy
 from rclpy.action import ActionClient
 
 from drive_common import topics
-from drive_common.ceiling import measure_round_trips
-from drive_common.harness import NodeProcess, isolated_env, reserve_domain, wait_until
+from drive_testing.ceiling import measure_round_trips
+from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 
 TS = 25e-6
 
 
 def plant_rate(context, env, samples: int, state_period: float) -> float:
-    with NodeProcess('drive_common', 'fixed_responder', env=env), \
+    with NodeProcess('drive_testing', 'fixed_responder', env=env), \
             NodeProcess('bldc_plant_sim', 'plant', env=env,
                         parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
                                     'state_period': state_period}):
@@ -60,7 +61,7 @@ def main() -> None:
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=domain)
         try:
-            with NodeProcess('drive_common', 'raw_responder', env=env):
+            with NodeProcess('drive_testing', 'raw_responder', env=env):
                 ceiling = measure_round_trips(context, args.samples)
             every = plant_rate(context, env, args.samples, TS)
             print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')

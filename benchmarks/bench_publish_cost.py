@@ -51,8 +51,9 @@ def main() -> int:
     import rclpy
     from dtc_msgs.msg import PlantState
 
-    from drive_common.harness import isolated_env, reserve_domain
+    from drive_testing.harness import isolated_env, reserve_domain
     from drive_common.topics import STREAM_QOS
+    from drive_common.waiting import wait_until
 
     with reserve_domain() as domain:
         context = rclpy.Context()
@@ -67,12 +68,10 @@ def main() -> int:
                 while len(subscribers) < wanted:
                     subscribers.append(subprocess.Popen([sys.executable, '-c', SUBSCRIBER],
                                                         env=isolated_env(domain)))
-                deadline = time.monotonic() + 30.0
-                while publisher.get_subscription_count() < wanted:
-                    if time.monotonic() > deadline:
-                        print(f'no match with {wanted} subscriber(s) within 30 s', file=sys.stderr)
-                        return 1
-                    time.sleep(0.05)
+                if not wait_until(lambda: publisher.get_subscription_count() >= wanted, 30.0, 0.05,
+                                  raise_timeout=False):
+                    print(f'no match with {wanted} subscriber(s) within 30 s', file=sys.stderr)
+                    return 1
                 rows.append(cpu_per_message_us(publisher, msg, args.messages))
             # The idle pace itself (sleep wake-ups) costs CPU too; subtract it.
             pace = cpu_per_message_us(type('Idle', (), {'publish': staticmethod(lambda m: None)}),

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import reserve_domain
+from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import BagReader
 
 SCENARIO = 'two_phase_six_switch_nonideal_torque'
@@ -44,8 +44,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--duration', type=float, default=1.0, help='sim seconds (default 1.0)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(SCENARIO))
-    scenario.duration = args.duration
+    scenario = load_scenario(find_scenario(SCENARIO)).shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         runner = MeasuredRunner(scenario, Path(tmp) / 'run', domain_id=domain,
                                 progress=lambda m: None)

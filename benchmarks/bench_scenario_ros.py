@@ -24,8 +24,8 @@ import rclpy
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.ceiling import measure_round_trips
-from drive_common.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.ceiling import measure_round_trips
+from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
 
@@ -56,14 +56,12 @@ def main() -> None:
                         help='sim seconds (default 0.2 s: 6000 samples of the default scenario)')
     parser.add_argument('--repeats', type=int, default=3, help='runs of each variant (median)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(args.scenario))
-    scenario.duration = args.duration
-    scenario.events = [e for e in scenario.events if e.time < args.duration]
+    scenario = load_scenario(find_scenario(args.scenario)).shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
         rclpy.init(context=context, domain_id=domain)
         try:
-            with NodeProcess('drive_common', 'raw_responder', env=isolated_env(domain)):
+            with NodeProcess('drive_testing', 'raw_responder', env=isolated_env(domain)):
                 ceiling = measure_round_trips(context, 4000)
         finally:
             rclpy.try_shutdown(context=context)

@@ -16,7 +16,8 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
 from drive_common import topics
-from drive_common.harness import wait_for_subscribers, wait_until
+from drive_testing.harness import wait_for_subscribers
+from drive_common.waiting import wait_until
 from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
 
 pytestmark = pytest.mark.ros

@@ -2,7 +2,7 @@
 
 The test process publishes each message type, filled with seeded random
 values in every field (NaN included where a float may be NaN), to a
-``message_echo`` node started as ``ros2 run drive_common message_echo``
+``message_echo`` node started as ``ros2 run drive_testing message_echo``
 would; the echo comes back from the other process and must equal what was
 sent, field for field (NaN == NaN by bit pattern).
 """
@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from rosidl_parser.definition import (AbstractNestedType, BasicType, NamespacedType)
 
-from drive_common.harness import wait_for_subscribers, wait_until
-from drive_common.message_echo import MESSAGE_TYPES, message_class
+from drive_testing.harness import wait_for_subscribers
+from drive_common.waiting import wait_until
+from drive_testing.message_echo import MESSAGE_TYPES, message_class
 from drive_common.topics import LOCKSTEP_QOS
 
 pytestmark = pytest.mark.ros
@@ -84,7 +85,7 @@ def test_every_interface_file_is_covered():
 
 
 def test_every_message_type_round_trips_between_processes(start_node, ros_session):
-    start_node('drive_common', 'message_echo')
+    start_node('drive_testing', 'message_echo')
     node = ros_session.node('roundtrip_probe')
     received = {name: [] for name in MESSAGE_TYPES}
     publishers = {}

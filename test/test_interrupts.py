@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from drive_common import topics
-from drive_common.harness import wait_until
+from drive_testing.harness import wait_until
 from drive_logger.bag_reader import BagReader
 from dtc_msgs.msg import PlantState
 

@@ -19,8 +19,8 @@ from rclpy.action import ActionClient
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
 from drive_common import topics
-from drive_common.fixed_commands import FixedGateCore
-from drive_common.harness import wait_until
+from drive_testing.fixed_commands import FixedGateCore
+from drive_testing.harness import wait_until
 from dtc_msgs.action import Run
 from dtc_msgs.msg import PlantState
 
@@ -48,7 +48,7 @@ def _states(session, name: str) -> list:
 
 
 def _start_pair(start_node, **kwargs):
-    responder = start_node('drive_common', 'fixed_responder',
+    responder = start_node('drive_testing', 'fixed_responder',
                            parameters={'switch_on': [float(s) for s in PATTERN]}, **kwargs)
     plant = start_node('bldc_plant_sim', 'plant', parameters=PLANT, **kwargs)
     return plant, responder
@@ -237,7 +237,7 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     # A real controller later: the next run starts, switching (no safe state left over).
     node.destroy_subscription(sub)
     node.destroy_publisher(pub)
-    start_node('drive_common', 'fixed_responder',
+    start_node('drive_testing', 'fixed_responder',
                parameters={'switch_on': [float(s) for s in PATTERN]})
     states = _states(ros_session, 'state_probe')
     client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)

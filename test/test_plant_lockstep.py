@@ -18,8 +18,8 @@ from rclpy.parameter_client import AsyncParameterClient
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
 from drive_common import topics
-from drive_common.fixed_commands import FixedGateCore
-from drive_common.harness import wait_until
+from drive_testing.fixed_commands import FixedGateCore
+from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 from dtc_msgs.msg import PlantState
 
@@ -68,7 +68,7 @@ class PlantClient:
 
 
 def _start_graph(start_node, plant_overrides=None):
-    responder = start_node('drive_common', 'fixed_responder',
+    responder = start_node('drive_testing', 'fixed_responder',
                            parameters={'switch_on': [float(s) for s in PATTERN]})
     plant = start_node('bldc_plant_sim', 'plant', parameters={**PLANT, **(plant_overrides or {})})
     return responder, plant
@@ -151,7 +151,7 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
 
 
 def test_gate_command_for_the_wrong_inverter_is_refused_with_safe_state(start_node, ros_session):
-    start_node('drive_common', 'fixed_responder',
+    start_node('drive_testing', 'fixed_responder',
                parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0], 'topology': 4})
     start_node('bldc_plant_sim', 'plant', parameters=PLANT)
     client = PlantClient(ros_session)
@@ -230,7 +230,7 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
 def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):
     """What `ros2 param get` shows is what the plant uses: the file's values, explicit overrides
     on top, and a later motor.file change brings the new file's values with it."""
-    start_node('drive_common', 'fixed_responder')
+    start_node('drive_testing', 'fixed_responder')
     start_node('bldc_plant_sim', 'plant', parameters={'motor.file': 'fstp_pm_blac',
                                                       'motor.inertia': 1e-3})
     client = PlantClient(ros_session)

@@ -20,7 +20,8 @@ from mcap.reader import make_reader
 
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import isolated_env, processes_with_env
+from drive_testing.harness import isolated_env, processes_with_env
+from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -71,8 +72,7 @@ def test_ros_graph_and_headless_loop_give_the_same_trajectory(recorded_run):
     from drive_analysis.bag_columns import load_columns
     out, _ = recorded_run
     ros = load_columns(str(out / 'bag'))['/plant/state']
-    scenario = load_scenario(find_scenario(SCENARIO))
-    scenario.duration = DURATION
+    scenario = load_scenario(find_scenario(SCENARIO)).shortened(DURATION)
     headless = run_headless(scenario).arrays()
     assert np.array_equal(ros['step'], headless['plant/state.step'])
     for name in ('phase_current', 'electromagnetic_torque', 'mechanical_speed', 'rotor_angle',
@@ -110,10 +110,11 @@ def test_ctrl_c_stops_every_node(tmp_path):
                                 '--isolate', '--out', str(out)], stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True, env=env)
     try:
-        deadline = time.monotonic() + 120
-        while not (out / 'logs').exists() or len(list((out / 'logs').glob('*.log'))) < 3:
-            assert time.monotonic() < deadline and process.poll() is None
-            time.sleep(0.2)
+        def graph_started() -> bool:
+            assert process.poll() is None, 'the runner ended early'
+            return (out / 'logs').exists() and len(list((out / 'logs').glob('*.log'))) >= 3
+
+        wait_until(graph_started, 120.0, 0.2, 'the node processes')
         time.sleep(4.0)   # the run is under way
         process.send_signal(signal.SIGINT)
         _, stderr = process.communicate(timeout=120)
@@ -135,7 +136,7 @@ def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_ru
     out, _ = recorded_run
     scenario = load_scenario(find_scenario(SCENARIO))
     params = tmp_path / 'dtc.yaml'
-    params.write_text(yaml.safe_dump(scenario.overrides['dtc_controller']))
+    params.write_text(yaml.safe_dump({'dtc_controller': {'ros__parameters': scenario.overrides['dtc_controller']}}))
     report = tmp_path / 'compare.json'
     result = subprocess.run(
         [sys.executable, '-m', 'drive_logger.compare_replay', str(out / 'bag'),
@@ -164,9 +165,7 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
     result = run_cli(name, '--duration', str(duration), '--isolate', '--out', str(out))
     assert result.returncode == 0, result.stdout + result.stderr
     columns = load_columns(str(out / 'bag'))
-    scenario = load_scenario(find_scenario(name))
-    scenario.duration = duration
-    scenario.events = [e for e in scenario.events if e.time < duration]
+    scenario = load_scenario(find_scenario(name)).shortened(duration)
     headless = run_headless(scenario).arrays()
     state = columns['/plant/state']
     assert np.array_equal(state['step'], headless['plant/state.step'])
@@ -183,3 +182,44 @@ def test_every_inverter_and_conduction_mode_runs_the_same_through_ros(name, tmp_
         assert recorded.sum() == len(headless['pfc/status.step'])
         assert np.array_equal(pfc['duty'][recorded], headless['pfc/status.duty'])
         assert np.ptp(state['inductor_current']) > 0.5
+
+
+def _node_domains(argv, domain: int) -> set[str]:
+    """Run run_scenario with ROS_DOMAIN_ID=domain; the ROS_DOMAIN_IDs its node processes got."""
+    marker = f'DTC_TEST_MARKER=domain_{os.getpid()}_{time.monotonic_ns()}'
+    env = dict(isolated_env(domain), DTC_TEST_MARKER=marker.split('=', 1)[1])
+    process = subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli', *argv],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    domains: set[str] = set()
+
+    def nodes_seen():
+        for pid in processes_with_env(marker):
+            if pid == process.pid:
+                continue
+            try:
+                environ = Path(f'/proc/{pid}/environ').read_bytes().split(b'\0')
+            except OSError:
+                continue
+            domains.update(v.split(b'=', 1)[1].decode() for v in environ
+                           if v.startswith(b'ROS_DOMAIN_ID='))
+        return process.poll() is not None
+
+    try:
+        wait_until(nodes_seen, 300.0, 0.02, 'the end of the run')
+        _, stderr = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, stderr
+    return domains
+
+
+def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ros_domain):
+    base = ['two_phase_six_switch_flux_control', '--duration', '0.05', '--no-record']
+    private = _node_domains(base + ['--out', str(tmp_path / 'private')], ros_domain)
+    assert private and str(ros_domain) not in private
+    joined = _node_domains(base + ['--out', str(tmp_path / 'joined'), '--join-domain'], ros_domain)
+    assert joined == {str(ros_domain)}, joined
+    given = _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
+                          ros_domain % 100 + 101)     # the caller's own domain: another one
+    assert given == {str(ros_domain)}, given

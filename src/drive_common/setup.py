@@ -15,12 +15,7 @@ setup(
     zip_safe=True,
     maintainer='DTC drive stack maintainers',
     maintainer_email='maintainers@dtc-drive-stack.org',
-    description='Parameter schema, lockstep QoS and the launch-free test harness of the DTC drive stack.',
+    description='Runtime shared by the DTC drive stack nodes: parameter schema, node main, lockstep I/O, topics.',
     license='Apache-2.0',
     tests_require=['pytest'],
-    entry_points={'console_scripts': [
-        'message_echo = drive_common.message_echo:main',
-        'fixed_responder = drive_common.fixed_responder:main',
-        'raw_responder = drive_common.ceiling:main',
-    ]},
 )

@@ -38,10 +38,7 @@ def load(name: str):
 @functools.lru_cache(maxsize=None)
 def run_reduced(name: str, duration: float):
     """(scenario, arrays, wall seconds) of scenario `name` run for `duration` s of sim time."""
-    sc = load(name)
-    assert duration <= sc.duration
-    sc.duration = duration
-    sc.events = [e for e in sc.events if e.time < duration]
+    sc = load(name).shortened(duration)
     t0 = time.perf_counter()
     result = run_headless(sc)
     wall = time.perf_counter() - t0

@@ -27,8 +27,8 @@ PFC_SCENARIOS = ('pfc_without_pfc_fig_3_4', 'pfc_no_load_fig_3_5', 'pfc_load_fig
 @functools.lru_cache(maxsize=None)
 def _run(name: str, duration: float, events: tuple = (), metrics: tuple = ()):
     """Scenario `name` shortened to `duration` with `events` instead of its own; metric values."""
-    sc = load_scenario(find_scenario(name))
-    sc = dataclasses.replace(sc, duration=duration, events=[Event(t, node, dict(params)) for t, node, params in events],
+    sc = load_scenario(find_scenario(name)).shortened(duration)
+    sc = dataclasses.replace(sc, events=[Event(t, node, dict(params)) for t, node, params in events],
                              metrics={k: dict(v) for k, v in metrics}, checks=[])
     result = run_headless(sc)
     arrays = result.arrays()

@@ -31,8 +31,9 @@ PSI_M_001 = 0.0928                    # Wb, 001 Table VIII
 
 
 def _run(name: str, duration: float, events=None) -> dict:
-    sc = load_scenario(find_scenario(name))
-    sc = dataclasses.replace(sc, duration=duration, events=sc.events if events is None else events)
+    sc = load_scenario(find_scenario(name)).shortened(duration)
+    if events is not None:
+        sc = dataclasses.replace(sc, events=events)
     return run_headless(sc).arrays()
 
 

@@ -54,9 +54,9 @@ from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import ReusedMessage, time_msg
-from drive_common.lockstep_controller import run_node
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
+from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
 from dtc_msgs.action import Run

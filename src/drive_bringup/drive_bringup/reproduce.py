@@ -31,7 +31,7 @@ def run_one(path: str, ros: bool, bag_root: str) -> tuple[list[dict], float, str
         if ros:
             from drive_analysis.arrays import flatten_columns
             from drive_bringup.runner import GraphRunner
-            from drive_common.harness import reserve_domain
+            from drive_common.processes import reserve_domain
             from drive_analysis.bag_columns import load_columns
             out = Path(bag_root) / scenario.name
             if out.exists():

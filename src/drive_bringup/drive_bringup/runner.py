@@ -26,7 +26,8 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from drive_bringup.scenario import Scenario
 from drive_common import topics
-from drive_common.harness import NodeProcess, isolated_env
+from drive_common.processes import NodeProcess, isolated_env
+from drive_common.waiting import WaitTimeout, wait_until
 from dtc_msgs.action import Run
 
 NODE_PROGRAMS = {
@@ -124,13 +125,19 @@ class GraphRunner:
                 process.stop()
 
     # --- ROS client side ----------------------------------------------------------
-    def _spin_until(self, executor, future, timeout: float, what: str):
-        deadline = time.monotonic() + timeout
-        while not future.done():
-            executor.spin_once(timeout_sec=0.05)
+    def _spin_while_waiting(self, executor, predicate, timeout: float, what: str):
+        """Spin executor until predicate holds; RunFailed if a node dies or timeout s pass."""
+        def ready():
             self._check_alive()
-            if time.monotonic() > deadline:
-                raise RunFailed(f'timed out after {timeout:.0f} s waiting for {what}')
+            return predicate()
+        try:
+            return wait_until(ready, timeout, 0.05, what,
+                              pause=lambda s: executor.spin_once(timeout_sec=s))
+        except WaitTimeout as exc:
+            raise RunFailed(str(exc)) from exc
+
+    def _spin_until(self, executor, future, timeout: float, what: str):
+        self._spin_while_waiting(executor, future.done, timeout, what)
         return future.result()
 
     def run(self) -> RunResult:
@@ -167,11 +174,7 @@ class GraphRunner:
 
     def _wait_ready(self, node, executor, action) -> None:
         deadline = time.monotonic() + 60.0
-        while not action.server_is_ready():
-            executor.spin_once(timeout_sec=0.05)
-            self._check_alive()
-            if time.monotonic() > deadline:
-                raise RunFailed('the plant action server did not come up within 60 s')
+        self._spin_while_waiting(executor, action.server_is_ready, 60.0, 'the plant action server')
         if self.record:
             from drive_logger.readiness import wait_for_recorder
             try:
@@ -201,12 +204,9 @@ class GraphRunner:
                                            topics.STREAM_QOS, raw=True)
                   for t in wanted]
         try:
-            while any(p.get_publisher_count() < 1 for p in probes):
-                executor.spin_once(timeout_sec=0.05)
-                self._check_alive()
-                if time.monotonic() > deadline:
-                    missing = [p.topic_name for p in probes if p.get_publisher_count() < 1]
-                    raise RunFailed(f'no publisher matched on {missing} within 60 s')
+            self._spin_while_waiting(
+                executor, lambda: all(p.get_publisher_count() >= 1 for p in probes),
+                max(0.0, deadline - time.monotonic()), f'publishers matched on {wanted}')
         finally:
             for probe in probes:
                 node.destroy_subscription(probe)
@@ -227,13 +227,9 @@ class GraphRunner:
                       'pfc_controller': '/pfc_controller'}
         self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
         self._wait_ready(node, executor, self._action)
-        deadline = time.monotonic() + 30.0
-        for key, client in self._param_clients.items():
-            while not client.services_are_ready():
-                executor.spin_once(timeout_sec=0.05)
-                self._check_alive()
-                if time.monotonic() > deadline:
-                    raise RunFailed(f'{key} parameter services not available within 30 s')
+        self._spin_while_waiting(
+            executor, lambda: all(c.services_are_ready() for c in self._param_clients.values()),
+            30.0, 'the parameter services of ' + ', '.join(self._param_clients))
         self.progress(f'[{sc.name}] graph up: {", ".join(sc.nodes)}'
                       + (f' + recorder -> {bag_dir}' if self.record else ''))
         started = time.monotonic()

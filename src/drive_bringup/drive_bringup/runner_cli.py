@@ -5,6 +5,8 @@
     run_scenario default --headless           # same cores stepped in one process, no ROS
     run_scenario default --live               # and watch it in Foxglove (ws://localhost:8765)
     run_scenario --list
+    run_scenario default --join-domain        # in your ROS_DOMAIN_ID (default: a private one)
+    run_scenario default --params-file p.yaml # standard ROS 2 parameter file over the scenario
 
 Exit codes: 0 ok, 1 the run failed (message says why), 2 bad scenario or
 arguments, 130 interrupted (all nodes stopped).
@@ -12,16 +14,17 @@ arguments, 130 interrupted (all nodes stopped).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
+from drive_common.parameter_files import ParameterFileError, read_params_file
 
 
 def default_out_dir(name: str) -> Path:
     """bags/<name> under the workspace root (or the current directory)."""
-    import os
     root = Path(os.environ.get('DTC_WORKSPACE', Path.cwd()))
     return root / 'bags' / name
 
@@ -61,22 +64,33 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--headless', action='store_true',
                         help='step the cores directly in this process (no ROS)')
     parser.add_argument('--no-record', action='store_true', help='do not record a bag')
-    parser.add_argument('--isolate', action='store_true',
-                        help='run in a private DDS domain (localhost only)')
-    parser.add_argument('--duration', type=float, help='override the run length (s)')
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument('--isolate', action='store_true',
+                       help='run in a private DDS domain, localhost only (the default)')
+    where.add_argument('--domain-id', type=int, metavar='N',
+                       help='run in DDS domain N (e.g. to watch with ros2 tools) instead of a private one')
+    where.add_argument('--join-domain', action='store_true',
+                       help="run in the current ROS_DOMAIN_ID instead of a private one")
+    parser.add_argument('--params-file', type=Path,
+                        help='ROS 2 parameter file (node: {ros__parameters: ...} or /**:) over the '
+                        "scenario's node parameters")
+    parser.add_argument('--duration', type=float, help='run only the first DURATION s of the scenario')
     parser.add_argument('--live', action='store_true',
                         help='also start drive_logger live_view: watch the run in Foxglove at ws://localhost:8765')
     return parser
 
 
 def prepare_run(args) -> tuple:
-    """(scenario, fresh output dir) from the parsed scenario, --duration, --out, --overwrite."""
+    """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite."""
     scenario = load_scenario(find_scenario(args.scenario))
     if args.duration is not None:
-        if args.duration <= 0:
-            raise ScenarioError('--duration must be > 0')
-        scenario.duration = args.duration
-        scenario.events = [e for e in scenario.events if e.time < args.duration]
+        scenario = scenario.shortened(args.duration)
+    params_file = getattr(args, 'params_file', None)
+    if params_file is not None:
+        scenario = scenario.with_parameters(str(params_file), read_params_file(params_file))
+    domain_id = getattr(args, 'domain_id', None)
+    if domain_id is not None and not 0 <= domain_id <= 232:
+        raise ScenarioError(f'--domain-id {domain_id}: must be in 0..232')
     return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
 
 
@@ -96,8 +110,8 @@ def main(argv=None) -> int:
         return 2
     try:
         scenario, out = prepare_run(args)
-    except ScenarioError as exc:
-        print(f'error: {exc}', file=sys.stderr)
+    except (ScenarioError, ParameterFileError) as exc:
+        print(f'[run_scenario] error: {exc}', file=sys.stderr)
         return 2
     if args.headless:
         from drive_bringup.headless import run_headless
@@ -113,14 +127,15 @@ def main(argv=None) -> int:
     from drive_bringup.runner import GraphRunner, main_guard
 
     def run() -> int:
-        domain = None
-        if args.isolate:
-            from drive_common.harness import reserve_domain
+        if args.domain_id is not None or args.join_domain:
+            if args.domain_id is not None:
+                os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
+            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live).run()
+        else:   # default: a private domain, so two runs never mix their graphs
+            from drive_common.processes import reserve_domain
             with reserve_domain() as domain:
                 result = GraphRunner(scenario, out, domain_id=domain,
                                      record=not args.no_record, live=args.live).run()
-        else:
-            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)
             print_summary(summary, out)

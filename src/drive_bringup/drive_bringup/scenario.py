@@ -36,13 +36,14 @@ from __future__ import annotations
 import importlib
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.uris import resolve_path
 
 NODE_SCHEMAS = {
     'plant': ('bldc_plant_sim.parameters', 'PLANT_NODE_SCHEMA'),
@@ -57,27 +58,12 @@ class ScenarioError(ValueError):
     """A scenario file is malformed; the message names file, key and reason."""
 
 
-def resolve_package_path(value: str) -> str:
-    """``package://<pkg>/<path>`` -> an absolute file path (share dir, else the source tree).
-
-    Scenario files name shipped data (motor back-EMF tables) this way so they
-    work from a source checkout and from an installed workspace alike.
-    """
-    if not value.startswith('package://'):
-        return value
-    package, _, rel = value[len('package://'):].partition('/')
-    source = Path(__file__).resolve().parents[2] / package / rel
-    if source.exists():
-        return str(source)
-    try:
-        from ament_index_python.packages import get_package_share_directory
-        return str(Path(get_package_share_directory(package)) / rel)
-    except Exception as exc:  # noqa: BLE001 - report as a scenario error below
-        raise ScenarioError(f'cannot resolve {value}: {exc}') from exc
-
-
 def _resolve_paths(params: dict) -> dict:
-    return {k: resolve_package_path(v) if isinstance(v, str) else v for k, v in params.items()}
+    """package:// values as file paths (:func:`drive_common.uris.resolve_path`)."""
+    try:
+        return {k: resolve_path(v) if isinstance(v, str) else v for k, v in params.items()}
+    except FileNotFoundError as exc:
+        raise ScenarioError(str(exc)) from exc
 
 
 def node_schema(node: str) -> ParameterSchema:
@@ -142,6 +128,38 @@ class Scenario:
     @property
     def nodes(self) -> list[str]:
         return list(self.node_parameters)
+
+    def with_parameters(self, source: str, sections: dict[str, dict[str, Any]]) -> 'Scenario':
+        """A copy whose nodes also take the values of a ROS 2 parameter file.
+
+        sections: :func:`drive_common.parameter_files.read_params_file` of
+        ``source``; a wildcard (``/**``) value applies to the nodes that have
+        the parameter, a node's own section must name its parameters.
+        """
+        from drive_common.parameter_files import WILDCARDS, node_of, parameters_for
+        unknown = [k for k in sections if k not in WILDCARDS and node_of(k) not in self.nodes]
+        if unknown:
+            raise ScenarioError(f'{source}: {unknown[0]}: not a node of scenario {self.name} '
+                                f'({", ".join(self.nodes)})')
+        overrides, snapshots = dict(self.overrides), dict(self.node_parameters)
+        for node in self.nodes:
+            schema = node_schema(node)
+            values = parameters_for(node, sections, known=schema)
+            merged = dict(self.overrides[node], **values)
+            try:
+                snapshots[node] = schema.resolve(merged)
+            except ParameterError as exc:
+                raise ScenarioError(f'{source}: {node}: {exc}') from exc
+            overrides[node] = {k: snapshots[node][k] for k in merged}   # typed, paths resolved
+        return replace(self, overrides=overrides, node_parameters=snapshots)
+
+    def shortened(self, duration: float) -> 'Scenario':
+        """A copy that ends at ``duration`` s (0 < duration <= self.duration); events at or
+        after the new end are dropped (an event at the end time would never apply)."""
+        if not 0.0 < duration <= self.duration:
+            raise ScenarioError(f'{self.path}: duration: {duration} s is outside '
+                                f'(0, {self.duration} s]')
+        return replace(self, duration=duration, events=[e for e in self.events if e.time < duration])
 
 
 TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')

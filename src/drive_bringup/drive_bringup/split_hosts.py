@@ -54,7 +54,7 @@ class SplitHostRunner(GraphRunner):
         self.cut_controller_at = cut_controller_at
 
     def _start(self, key: str, package: str, executable: str, parameters: dict):
-        from drive_common.harness import NodeProcess
+        from drive_common.processes import NodeProcess
         host = PLACEMENT.get(key, RUNNER_HOST)     # helpers (e.g. a live view) beside the runner
         process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
                               env=self.hosts.env(host, self.domain_id,
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
     def run() -> int:
         if args.domain is not None:
             return run_in(args.domain)
-        from drive_common.harness import reserve_domain
+        from drive_common.processes import reserve_domain
         with reserve_domain() as domain:
             return run_in(domain)
 

@@ -66,9 +66,10 @@ import yaml
 from drive_analysis.registry import lookup as metric_function   # the one metric registry
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
-                                    load_scenario, node_schema, resolve_package_path)
+                                    load_scenario, node_schema)
 from drive_bringup.scenario import _mapping, _number  # the same value checks as scenarios
 from drive_common.parameters import ParameterError
+from drive_common.uris import resolve_path as resolve_package_path
 
 TOP_KEYS = {'name', 'description', 'scenario', 'duration', 'set', 'parameters', 'sampling',
             'samples', 'seed', 'repeats', 'repeat_seed', 'metrics', 'timeout'}

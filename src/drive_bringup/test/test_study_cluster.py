@@ -15,7 +15,7 @@ import pytest
 
 from drive_bringup.dask_programs import DaskPrograms
 from drive_bringup.study import JOURNAL, load_study
-from drive_common.harness import wait_until
+from drive_testing.harness import wait_until
 
 STUDY = '''
     name: cluster_probe

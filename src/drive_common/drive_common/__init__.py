@@ -1,1 +1,1 @@
-"""Shared pieces of the DTC drive stack (parameter schema, lockstep QoS, test harness)."""
+"""Runtime shared by the DTC drive stack nodes (parameter schema, node main, lockstep I/O, topics)."""

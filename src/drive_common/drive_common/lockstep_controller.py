@@ -1,7 +1,7 @@
 """ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller).
 
 A controller node answers each measurement of step k with a command of the
-same step and publishes its status (DESIGN.md §3). All control lives in a
+same step and publishes its status (docs/architecture.md, "Time and lockstep"). All control lives in a
 ROS-agnostic core object with ``update(sample) -> (command, status)`` and
 ``reconfigure(params)``; this class only converts messages, declares the
 node's parameter schema and swaps accepted parameter changes in at the next
@@ -72,7 +72,7 @@ class LockstepControllerNode(Node):
             self.core = make_core(dict(self.parameters.values))
         except (ParameterError, ValueError, OSError) as exc:
             # Do not start half-configured: the caller (main) reports and exits.
-            raise ParameterError(f'{node_name}: cannot start: {exc}') from exc
+            raise ParameterError(str(exc)) from exc
         self._check = check or make_core
         self.samples_answered = 0
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
@@ -145,42 +145,3 @@ class LockstepControllerNode(Node):
         if self._status_pub is not None:
             self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
         self.samples_answered += 1
-
-
-def run_node(factory: Callable[..., Node], args=None, multithreaded: bool = False) -> int:
-    """The demos' spin idiom; a node that cannot start prints why and exits 2."""
-    import sys
-
-    import rclpy
-    from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
-                                 SingleThreadedExecutor)
-
-    from rclpy.exceptions import InvalidParameterValueException, ParameterException
-    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-
-    rclpy.init(args=args)
-    node = None
-    try:
-        try:
-            node = factory()
-        except (InvalidParameterValueException, ParameterException) as exc:
-            # A start-up value outside its declared range: say why, no traceback.
-            raise ParameterError(f'cannot start: {exc}') from exc
-        executor = MultiThreadedExecutor(num_threads=4) if multithreaded else SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except ParameterError as exc:
-        print(f'error: {exc}', file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except _rclpy.RCLError:
-        if rclpy.ok():
-            raise
-        # SIGINT/SIGTERM shut the context down while the executor built its wait set.
-    finally:
-        if node is not None:
-            getattr(node, 'stop', lambda: None)()   # end its threads before it is destroyed
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0

@@ -9,9 +9,12 @@ scenario files and from the headless runner, so the rules live here once.
 """
 from __future__ import annotations
 
+import array
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Mapping
+
+from drive_common.uris import resolve_path
 
 ValueType = type  # one of bool, int, float, str, list (of float / str)
 
@@ -34,6 +37,8 @@ class ParameterSpec:
     runtime: True if it may change while the simulation runs; False means
         only while the node is held/idle (changes while running are rejected).
     length: required length for list parameters (None = any).
+    read_only: fixed at start (``--ros-args -p`` / ``--params-file``); the
+        ROS descriptor says read_only and a runtime set is refused.
     """
 
     name: str
@@ -45,6 +50,7 @@ class ParameterSpec:
     choices: tuple = ()
     runtime: bool = True
     length: int | None = None
+    read_only: bool = False
 
     @property
     def value_type(self) -> ValueType:
@@ -57,7 +63,9 @@ class ParameterSpec:
             parts.append(f'[{self.unit}]')
         if self.choices:
             parts.append('one of: ' + ', '.join(str(c) for c in self.choices))
-        if not self.runtime:
+        if self.read_only:
+            parts.append('(read-only: set at start)')
+        elif not self.runtime:
             parts.append('(changes only while the simulation is held)')
         return ' '.join(parts)
 
@@ -79,9 +87,13 @@ class ParameterSpec:
         if want is str:
             if not isinstance(value, str):
                 raise ParameterError(f'{self.name}: expected a string, got {value!r}')
-            return value
+            try:
+                return resolve_path(value)      # package://<pkg>/<path>: the file it names
+            except FileNotFoundError as exc:
+                raise ParameterError(f'{self.name}: {exc}') from None
         if want is list:
-            if not isinstance(value, (list, tuple)):
+            # array.array: what rclpy's parameter service delivers for double arrays
+            if not isinstance(value, (list, tuple, array.array)):
                 raise ParameterError(f'{self.name}: expected a list, got {value!r}')
             item_type = type(self.default[0]) if self.default else float
             out = []

@@ -32,14 +32,29 @@ def _ros_type(spec: ParameterSpec) -> int:
     return _ROS_TYPES[spec.value_type]
 
 
+def constraints(spec: ParameterSpec) -> str:
+    """The descriptor's additional_constraints: allowed values, element range, length, unit."""
+    parts = []
+    if spec.choices:
+        parts.append('one of: ' + ', '.join(str(c) for c in spec.choices))
+    if spec.value_type is list:
+        if spec.length is not None:
+            parts.append(f'{spec.length} values')
+        if spec.min_value is not None or spec.max_value is not None:
+            parts.append(f'each in [{spec.min_value}, {spec.max_value}]')
+    if spec.unit:
+        parts.append(f'unit: {spec.unit}')
+    return '; '.join(parts)
+
+
 def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
-    """ParameterDescriptor carrying the spec's type, text and range."""
+    """ParameterDescriptor carrying the spec's type, text, range, choices and read-only flag."""
     desc = ParameterDescriptor(
         name=spec.name,
         type=_ros_type(spec),
         description=spec.describe(),
-        additional_constraints=(f'unit: {spec.unit}' if spec.unit else ''),
-        read_only=False,
+        additional_constraints=constraints(spec),
+        read_only=spec.read_only,
     )
     lo, hi = spec.min_value, spec.max_value
     if spec.value_type is float and lo is not None and hi is not None:

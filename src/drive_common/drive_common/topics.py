@@ -1,4 +1,4 @@
-"""Topic, action and service names of the drive graph and the lockstep QoS (DESIGN.md §3).
+"""Topic, action and service names of the drive graph and the lockstep QoS (docs/architecture.md, "Time and lockstep").
 
 Lockstep topics are RELIABLE, VOLATILE, KEEP_LAST with a small depth; /clock
 is never used as the handshake. Names are relative so a namespace or

@@ -21,9 +21,7 @@ import argparse
 import bisect
 import json
 import os
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 from dataclasses import asdict, dataclass, field
@@ -31,9 +29,24 @@ from pathlib import Path
 
 import yaml
 
-from drive_common.harness import NodeProcess, ros_arguments
-from drive_logger.bag_reader import BagReader
+from drive_common.processes import NodeProcess, ros_arguments
+from drive_common.waiting import WaitTimeout, wait_until
+from drive_common.parameter_files import ParameterFileError, read_params_file
+from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.replay_node import clock_cdr, header_stamp_ns
+
+
+class CompareError(RuntimeError):
+    """The comparison cannot run (bad bag, controller gone, refused change); one line says why."""
+
+
+class ControllerExited(CompareError):
+    """The re-driven controller process ended before the comparison did."""
+
+    def __init__(self, controller: NodeProcess) -> None:
+        lines = controller.output().strip().splitlines()
+        super().__init__(f'controller {controller.executable} exited (code '
+                         f'{controller.process.returncode})' + (f': {lines[-1]}' if lines else ''))
 
 
 @dataclass
@@ -51,20 +64,6 @@ class ComparisonReport:
     @property
     def identical(self) -> bool:
         return self.steps_compared > 0 and self.mismatch_count == 0 and not self.missing_replies
-
-
-class CommandProcess(NodeProcess):
-    """A node started from an arbitrary command line (+ --ros-args), torn down like NodeProcess."""
-
-    def __init__(self, argv, *, parameters=None, remappings=None, env=None, log_dir=None) -> None:
-        self.package, self.executable = 'command', Path(argv[0]).name
-        self.command = [*argv, *ros_arguments(parameters, remappings)]
-        log_dir = Path(log_dir or tempfile.mkdtemp(prefix='dtc_node_'))
-        log_dir.mkdir(parents=True, exist_ok=True)
-        self.log_path = log_dir / f'{self.executable}.log'
-        self._log = open(self.log_path, 'wb')
-        self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
-                                        env=dict(env) if env is not None else None, start_new_session=True)
 
 
 def compare_fields(recorded: dict, replayed: dict) -> bool:
@@ -99,7 +98,7 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     infos = reader.topics
     for topic in (measurement_topic, command_topic):
         if topic not in infos:
-            raise SystemExit(f'compare_replay: bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
+            raise CompareError(f'bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
     meas_cls = ros_types.message_class(infos[measurement_topic].type)
     cmd_cls = ros_types.message_class(infos[command_topic].type)
     from rcl_interfaces.msg import ParameterEvent
@@ -164,30 +163,32 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     spinner.start()
     report = ComparisonReport()
     try:
-        deadline = time.monotonic() + match_timeout
-        while meas_pub.get_subscription_count() < 1 or node.count_publishers(command_topic) < 1:
+        def matched() -> bool:
             if controller is not None and not controller.alive():
-                raise RuntimeError(f'controller exited (code {controller.process.returncode}):\n{controller.output()[-2000:]}')
-            if time.monotonic() > deadline:
-                raise TimeoutError(f'controller did not subscribe to {measurement_topic} and publish '
-                                   f'{command_topic} within {match_timeout} s')
-            time.sleep(0.02)
+                raise ControllerExited(controller)
+            return meas_pub.get_subscription_count() >= 1 and node.count_publishers(command_topic) >= 1
+
+        wait_until(matched, match_timeout, 0.02,
+                   f'the controller to subscribe to {measurement_topic} and publish {command_topic}')
         time.sleep(0.2)  # let discovery settle in both directions
         if params is not None and not params.wait_for_services(timeout_sec=match_timeout):
-            raise TimeoutError(f'{controller_node} parameter services not available')
+            raise CompareError(f'{controller_node} parameter services not available')
         for index, (step, stamp, data) in enumerate(measurements):
             if index in changes:
                 future = params.set_parameters([Parameter(n, value=v) for n, v in changes[index]])
                 done = threading.Event()
                 future.add_done_callback(lambda _f: done.set())
                 if not done.wait(timeout) or not all(r.successful for r in future.result().results):
-                    raise RuntimeError(f'the controller refused the recorded change {changes[index]}')
+                    raise CompareError(f'the controller refused the recorded change {changes[index]}')
                 report.parameter_changes += 1
             clock_pub.publish(clock_cdr(stamp))
             meas_pub.publish(data)
             with arrived:
-                if not arrived.wait_for(lambda: step in replies, timeout=timeout):
+                if not arrived.wait_for(lambda: step in replies or (controller is not None and not controller.alive()),
+                                        timeout=timeout):
                     report.missing_replies.append(step)
+                elif step not in replies:
+                    raise ControllerExited(controller)
             report.steps_replayed += 1
         for step, _, _ in measurements:
             if step not in recorded or step not in replies:
@@ -206,7 +207,8 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                 if len(report.mismatches) < 20:
                     report.mismatches.append({'step': step, 'recorded': rec_f, 'replayed': rep_f})
     finally:
-        executor.shutdown(timeout_sec=1.0)
+        executor.shutdown(timeout_sec=5.0)
+        spinner.join(timeout=5.0)     # a thread left in rcl's wait aborts the interpreter at exit
         node.destroy_node()
     return report
 
@@ -218,6 +220,28 @@ def _parse_param(text: str):
     return name, yaml.safe_load(value)
 
 
+def _run(args) -> ComparisonReport:
+    """Start the controller, replay the bag into it, stop it."""
+    remaps = dict(r.split(':=', 1) for r in args.remap)
+    process = dict(parameters=dict(args.param), remappings=remaps, env=dict(os.environ),
+                   params_files=[args.params_file] if args.params_file else [])
+    if args.command:
+        controller = NodeProcess('command', Path(args.command[0]).name, argv=args.command, **process)
+    else:
+        controller = NodeProcess(args.package, args.executable, **process)
+    import rclpy
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        return replay_and_compare(args.bag, controller, measurement_topic=args.measurement_topic,
+                                  command_topic=args.command_topic, timeout=args.timeout,
+                                  max_steps=args.max_steps, salvage=args.salvage, context=context,
+                                  controller_node=args.controller_node)
+    finally:
+        controller.stop()
+        rclpy.try_shutdown(context=context)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog='compare_replay', description=__doc__.split('\n\n')[0])
     ap.add_argument('bag')
@@ -226,7 +250,8 @@ def main(argv=None) -> int:
     who.add_argument('--command', nargs='+', help='controller command line (--ros-args are appended)')
     ap.add_argument('--package', default='dtc_controller')
     ap.add_argument('-p', '--param', action='append', default=[], type=_parse_param, help='name:=value (YAML)')
-    ap.add_argument('--params-file', help='YAML file {name: value} of controller parameters')
+    ap.add_argument('--params-file', help='ROS 2 parameter file of the controller '
+                    '(node_name: {ros__parameters: ...} or /**:), passed to it as --params-file')
     ap.add_argument('-r', '--remap', action='append', default=[], help='from:=to remapping for the controller')
     ap.add_argument('--measurement-topic', default='/drive/measurement')
     ap.add_argument('--command-topic', default='/drive/gate_command')
@@ -239,27 +264,13 @@ def main(argv=None) -> int:
     ap.add_argument('--json', help='write the report here')
     args = ap.parse_args(argv)
 
-    params = {}
-    if args.params_file:
-        params.update(yaml.safe_load(Path(args.params_file).read_text()) or {})
-    params.update(dict(args.param))
-    remaps = dict(r.split(':=', 1) for r in args.remap)
-    env = dict(os.environ)
-    if args.command:
-        controller = CommandProcess(args.command, parameters=params, remappings=remaps, env=env)
-    else:
-        controller = NodeProcess(args.package, args.executable, parameters=params, remappings=remaps, env=env)
-    import rclpy
-    context = rclpy.Context()
-    rclpy.init(context=context)
     try:
-        report = replay_and_compare(args.bag, controller, measurement_topic=args.measurement_topic,
-                                    command_topic=args.command_topic, timeout=args.timeout,
-                                    max_steps=args.max_steps, salvage=args.salvage, context=context,
-                                    controller_node=args.controller_node)
-    finally:
-        controller.stop()
-        rclpy.try_shutdown(context=context)
+        if args.params_file:
+            read_params_file(args.params_file)      # one-line error before starting anything
+        report = _run(args)
+    except (CompareError, ParameterFileError, BagReadError, WaitTimeout, OSError) as exc:
+        print(f'[compare_replay] error: {exc}', file=sys.stderr)
+        return 2
     summary = asdict(report) | {'identical': report.identical}
     text = json.dumps(summary, indent=2)
     if args.json:

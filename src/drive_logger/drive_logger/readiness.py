@@ -12,9 +12,9 @@ plant and controllers), or allow about 1 s after :func:`wait_for_recorder`.
 """
 from __future__ import annotations
 
-import time
 from typing import Iterable
 
+from drive_common.waiting import WaitTimeout, wait_until
 from drive_logger import graph_topics
 
 
@@ -28,11 +28,9 @@ def wait_for_recorder(node, topics: Iterable[str] = graph_topics.DEFAULT_TOPICS,
                       recorder_name: str = 'recorder', timeout: float = 10.0) -> None:
     """Block until the recorder subscribes to every topic (names without ':type'); TimeoutError otherwise."""
     names = [graph_topics.parse_topic_spec(t)[0] for t in topics]
-    deadline = time.monotonic() + timeout
-    while True:
+    try:
+        wait_until(lambda: all(recorder_subscribed(node, t, recorder_name) for t in names),
+                   timeout, 0.02)
+    except WaitTimeout:
         missing = [t for t in names if not recorder_subscribed(node, t, recorder_name)]
-        if not missing:
-            return
-        if time.monotonic() > deadline:
-            raise TimeoutError(f'recorder {recorder_name!r} not subscribed to {missing} after {timeout} s')
-        time.sleep(0.02)
+        raise TimeoutError(f'recorder {recorder_name!r} not subscribed to {missing} after {timeout} s') from None

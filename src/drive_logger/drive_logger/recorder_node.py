@@ -5,7 +5,7 @@ subscriptions hand over the exact CDR bytes (no deserialize/re-serialize),
 each callback appends them to the current MCAP chunk, and full chunks are
 compressed and streamed to disk (bounded memory).
 
-Parameters (all read-only, read at start):
+Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 - ``topics`` (string[]): topics to record, ``name`` or ``name:pkg/msg/Type``;
   default every topic of the drive graph (:data:`graph_topics.DEFAULT_TOPICS`).
   A name outside the drive graph without a type is looked up on the graph for
@@ -36,8 +36,10 @@ Parameters (all read-only, read at start):
   that much; ``ros2 run drive_logger reindex <bag>`` completes its bag.
 
 The recorder takes messages in its own wait loop (the rclpy executor's
-per-callback cost is several times the recording cost), so it serves no
-parameter services: its parameters are fixed at start.
+per-callback cost is several times the recording cost): its subscriptions
+are in a callback group the executor leaves alone
+(:class:`drive_common.node_main.NotSpun`), and the executor serves only the
+parameter services (parameters are read-only, fixed at start).
 
 Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
 finalized (MCAP summary + metadata.yaml) and the process exits 0. A bad
@@ -47,19 +49,18 @@ killed recorder is refused with the reindex command that recovers it.
 """
 from __future__ import annotations
 
-import signal
 import sys
 import threading
 import time
 
-import rclpy
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 
 from drive_common.lockstep_io import DirectReceiver
+from drive_common.node_main import NotSpun, run_node
+from drive_common.parameters import ParameterSpec, schema
+from drive_common.ros_parameters import SchemaParameters
+from drive_common.waiting import wait_until
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
 from drive_logger.message_definitions import (DefinitionNotFoundError, carries_sim_stamp, normalize_type_name,
@@ -91,40 +92,40 @@ class _Topic:
         self.callback = None
 
 
+def _spec(name, default, description, unit='', lo=None, hi=None, **kw) -> ParameterSpec:
+    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True, **kw)
+
+
+RECORDER_SCHEMA = schema([
+    _spec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
+    _spec('all_topics', False, 'also record every topic that appears later'),
+    _spec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
+    _spec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
+    _spec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
+    _spec('qos_depth', 1000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
+    _spec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
+          's', 0.0, 60.0),
+    _spec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
+    _spec('batch_period', 0.005, 'rest after a wake-up that took messages', 's', 0.0, 0.1),
+    _spec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
+          choices=LOG_TIME_SOURCES),
+    _spec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
+])
+
+
 class RecorderNode(Node):
     """Subscribes (raw) to the chosen topics and streams their messages into a bag."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('recorder', **kwargs)
-        ro = ParameterDescriptor(read_only=True)
-        self.declare_parameter('topics', list(graph_topics.DEFAULT_TOPICS),
-                               ParameterDescriptor(read_only=True, description='name or name:pkg/msg/Type'))
-        self.declare_parameter('all_topics', False, ro)
-        self.declare_parameter('output', '', ParameterDescriptor(read_only=True, description='bag directory'))
-        self.declare_parameter('compression', 'lz4', ro)
-        self.declare_parameter('chunk_size', 1 << 20, ParameterDescriptor(read_only=True, description='bytes'))
-        self.declare_parameter('qos_depth', 1000, ro)
-        self.declare_parameter('type_discovery_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
-        self.declare_parameter('drain_timeout', 2.0, ParameterDescriptor(read_only=True, description='s'))
-        self.declare_parameter('batch_period', 0.005, ParameterDescriptor(
-            read_only=True, description='s, rest after a wake-up that took messages',
-            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.1)]))
-        self.declare_parameter('log_time', 'sim', ParameterDescriptor(
-            read_only=True, description="clock of the bag's log times: 'sim' (sample stamps) or 'wall'"))
-        self.declare_parameter('flush_period', 0.5, ParameterDescriptor(
-            read_only=True, description='s (wall), close the chunk and fsync at least this often',
-            floating_point_range=[FloatingPointRange(from_value=0.01, to_value=60.0)]))
-        p = {name: self.get_parameter(name).value for name in (
-            'topics', 'all_topics', 'output', 'compression', 'chunk_size', 'qos_depth',
-            'type_discovery_timeout', 'drain_timeout', 'batch_period', 'log_time', 'flush_period')}
-        if p['log_time'] not in LOG_TIME_SOURCES:
-            raise RecorderConfigError(f"parameter log_time: {p['log_time']!r} is not one of {list(LOG_TIME_SOURCES)}")
+        p = self.parameters = SchemaParameters(self, RECORDER_SCHEMA)
         self.flush_period = float(p['flush_period'])
         self.drain_timeout = float(p['drain_timeout'])
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
         self._lock = threading.Lock()
+        self._not_spun = NotSpun()   # subscriptions: taken by TakeLoop, not the executor
 
         # 1. Resolve every topic and its type before touching the disk.
         wanted = self._resolve_topics(p['topics'] or [], float(p['type_discovery_timeout']))
@@ -156,17 +157,16 @@ class RecorderNode(Node):
             if type_name is None:
                 unknown.append(full)
             resolved[full] = type_name
-        deadline = time.monotonic() + timeout
-        while unknown:
+
+        def all_known() -> bool:
             graph = dict(self.get_topic_names_and_types())
             for name in list(unknown):
                 if graph.get(name):
                     resolved[name] = graph[name][0]
                     unknown.remove(name)
-            if not unknown or time.monotonic() > deadline:
-                break
-            time.sleep(0.05)
-        if unknown:
+            return not unknown
+
+        if not wait_until(all_known, timeout, 0.05, raise_timeout=False):
             raise RecorderConfigError(
                 f'unknown type of topic(s) {unknown}: not part of the drive graph and not seen on the '
                 f'graph within {timeout} s; give it as name:pkg/msg/Type')
@@ -196,7 +196,8 @@ class RecorderNode(Node):
         topic = _Topic(name, type_name, definition, self._subscription_qos(name))
         topic.callback = self._callback_for(topic)
         topic.subscription = self.create_subscription(
-            message_class(type_name), name, topic.callback, topic.qos, raw=True)
+            message_class(type_name), name, topic.callback, topic.qos, raw=True,
+            callback_group=self._not_spun)
         self.topics[name] = topic
 
     def discover(self) -> None:
@@ -301,30 +302,14 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
             if node.all_topics and time.monotonic() >= next_discovery:
                 node.discover()
                 next_discovery = time.monotonic() + 0.5
-        deadline = time.monotonic() + node.drain_timeout
-        while time.monotonic() < deadline and spin_once():
-            pass
+        wait_until(lambda: not spin_once(), node.drain_timeout, 0.0,
+                   raise_timeout=False)   # until a wake-up takes nothing, or drain_timeout
     finally:
         node.finalize()
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    try:
-        node = RecorderNode()
-    except (RecorderConfigError, ParameterException) as exc:
-        print(f'[recorder] error: {exc}', file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        run(node, stop)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(RecorderNode, args, work=run, errors=(RecorderConfigError,))
 
 
 if __name__ == '__main__':

@@ -6,7 +6,7 @@ bag: its recorded /clock messages if it has them, otherwise a /clock built
 from each message's header stamp (sim time) whenever it advances, so
 ``use_sim_time`` nodes follow the recorded sim time.
 
-Parameters (read at start):
+Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
 - ``bag`` (string, required): bag directory (or .mcap file).
 - ``rate`` (double, 1.0): speed factor; <= 0 publishes as fast as possible.
 - ``loop`` (bool, false): start over at the end.
@@ -23,13 +23,15 @@ from __future__ import annotations
 
 import struct
 import sys
+import threading
 import time
 
-import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+
+from drive_common.node_main import run_node
+from drive_common.parameters import ParameterSpec, schema
+from drive_common.ros_parameters import SchemaParameters
+from drive_common.waiting import wait_until
 
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
@@ -55,33 +57,42 @@ def parse_remaps(items) -> dict[str, str]:
     return out
 
 
+def _spec(name, default, description, unit='', lo=None, hi=None) -> ParameterSpec:
+    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True)
+
+
+REPLAY_SCHEMA = schema([
+    _spec('bag', '', 'bag directory or .mcap file (required)'),
+    _spec('rate', 1.0, 'speed factor (<= 0: as fast as possible)', '', -1e6, 1e6),
+    _spec('loop', False, 'start over at the end'),
+    _spec('topics', [''], "topics to replay (['']: all)"),
+    _spec('remap', [''], 'from:=to topic renames'),
+    _spec('publish_clock', True, 'publish /clock (recorded, or from the header stamps)'),
+    _spec('salvage', False, 'replay the intact part of a truncated or corrupt bag'),
+    _spec('wait_for_subscribers', 0.0, 'wait up to this long for a subscriber on every topic',
+          's', 0.0, 3600.0),
+    _spec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
+          's', 0.0, 1e9),
+])
+
+
 class ReplayNode(Node):
     """Publishes one bag (see module docstring)."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('replay', **kwargs)
-        ro = ParameterDescriptor(read_only=True)
-        self.declare_parameter('bag', '', ro)
-        self.declare_parameter('rate', 1.0, ro)
-        self.declare_parameter('loop', False, ro)
-        self.declare_parameter('topics', [''], ro)
-        self.declare_parameter('remap', [''], ro)
-        self.declare_parameter('publish_clock', True, ro)
-        self.declare_parameter('salvage', False, ro)
-        self.declare_parameter('wait_for_subscribers', 0.0, ro)
-        self.declare_parameter('start_offset', 0.0, ro)   # s into the bag to start at (ros2 bag play --start-offset)
-        get = lambda name: self.get_parameter(name).value  # noqa: E731
-        if not get('bag'):
+        get = self.parameters = SchemaParameters(self, REPLAY_SCHEMA)
+        if not get['bag']:
             raise BagReadError('parameter bag is required (bag directory or .mcap file)')
-        self.reader = BagReader(get('bag'), salvage=get('salvage'))
+        self.reader = BagReader(get['bag'], salvage=get['salvage'])
         for problem in self.reader.problems:
             self.get_logger().warning(f'salvaging: {problem}')
-        self.rate = float(get('rate'))
-        self.loop = bool(get('loop'))
-        self.wait_for_subscribers = float(get('wait_for_subscribers'))
-        self.start_offset_ns = round(float(get('start_offset')) * 1e9)
-        selected = [t for t in get('topics') if t]
-        remaps = parse_remaps([r for r in get('remap') if r])
+        self.rate = float(get['rate'])
+        self.loop = bool(get['loop'])
+        self.wait_for_subscribers = float(get['wait_for_subscribers'])
+        self.start_offset_ns = round(float(get['start_offset']) * 1e9)
+        selected = [t for t in get['topics'] if t]
+        remaps = parse_remaps([r for r in get['remap'] if r])
         infos = self.reader.topics
         self.topic_names = [t for t in infos if not selected or t in selected or t.lstrip('/') in selected]
         self.publishers_by_topic = {}
@@ -91,7 +102,7 @@ class ReplayNode(Node):
             target = remaps.get(name, remaps.get(name.lstrip('/'), name))
             self.publishers_by_topic[name] = self.create_publisher(
                 ros_types.message_class(info.type), target, ros_types.replay_qos(info.qos_profiles))
-        self.publish_clock = bool(get('publish_clock'))
+        self.publish_clock = bool(get['publish_clock'])
         self.synthesize_clock = self.publish_clock and CLOCK_TOPIC not in self.topic_names
         if self.synthesize_clock:
             from rosgraph_msgs.msg import Clock
@@ -108,21 +119,19 @@ class ReplayNode(Node):
                 pass
         return topics
 
-    def _wait_for_subscribers(self) -> None:
-        deadline = time.monotonic() + self.wait_for_subscribers
-        while time.monotonic() < deadline and rclpy.ok(context=self.context):
-            if all(p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()):
-                return
-            time.sleep(0.02)
-        self.get_logger().warning('not every replayed topic has a subscriber; starting anyway')
+    def _wait_for_subscribers(self, stop: threading.Event) -> None:
+        if not wait_until(lambda: stop.is_set() or all(
+                p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()),
+                self.wait_for_subscribers, 0.02, raise_timeout=False):
+            self.get_logger().warning('not every replayed topic has a subscriber; starting anyway')
 
-    def play_once(self) -> None:
-        """Publish the bag once, paced by log time / rate."""
+    def play_once(self, stop: threading.Event) -> None:
+        """Publish the bag once, paced by log time / rate, until stop is set."""
         stamped = self._header_topics() if self.synthesize_clock else set()
         last_clock = None
         wall0 = bag0 = first = None
         for msg in self.reader.messages(self.topic_names):
-            if not rclpy.ok(context=self.context):
+            if stop.is_set():
                 return
             first = msg.log_time if first is None else first
             if msg.log_time - first < self.start_offset_ns:
@@ -131,8 +140,8 @@ class ReplayNode(Node):
                 if wall0 is None:
                     wall0, bag0 = time.monotonic(), msg.log_time
                 delay = wall0 + (msg.log_time - bag0) * 1e-9 / self.rate - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
+                if delay > 0 and stop.wait(delay):
+                    return
             if msg.topic in stamped:
                 stamp = header_stamp_ns(msg.data)
                 if last_clock is None or stamp > last_clock:
@@ -141,33 +150,21 @@ class ReplayNode(Node):
             self.publishers_by_topic[msg.topic].publish(msg.data)
             self.published += 1
 
-    def play(self) -> None:
+    def play(self, stop: threading.Event) -> None:
+        """Publish the bag (again and again with ``loop``) until done or stop is set."""
         if self.wait_for_subscribers > 0:
-            self._wait_for_subscribers()
-        while rclpy.ok(context=self.context):
-            self.play_once()
+            self._wait_for_subscribers(stop)
+        while not stop.is_set():
+            self.play_once(stop)
             if not self.loop:
                 break
         self.get_logger().info(f'replay done: {self.published} messages published')
+        stop.wait(0.2)  # let the last reliable samples go out
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
-    try:
-        node = ReplayNode()
-    except (BagReadError, ValueError, ros_types.UnknownTypeError, ParameterException) as exc:
-        print(f'[replay] error: {exc}', file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        node.play()
-        time.sleep(0.2)  # let the last reliable samples go out
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(ReplayNode, args, work=ReplayNode.play,
+                    errors=(BagReadError, ValueError, ros_types.UnknownTypeError))
 
 
 if __name__ == '__main__':

@@ -150,7 +150,7 @@ class Viewer:
 
 
 def _start_live_view(start_node, **parameters):
-    from drive_common.harness import wait_until
+    from drive_testing.harness import wait_until
     live = start_node('drive_logger', 'live_view', parameters={'port': 0, **parameters})
     match = wait_until(lambda: re.search(r'live view ready: ws://[\d.]+:(\d+)', live.output()) or not live.alive(),
                        60.0, what='live_view ready')
@@ -218,7 +218,7 @@ def test_viewer_lists_subscribes_decodes_and_sets_parameters(start_node, ros_ses
         client = AsyncParameterClient(probe, '/dtc_controller')
         assert client.wait_for_services(30.0)
         future = client.get_parameters(['torque_reference'])
-        from drive_common.harness import wait_until
+        from drive_testing.harness import wait_until
         wait_until(future.done, 30.0, what='get_parameters')
         assert future.result().values[0].double_value == 0.8
         status = message_class('dtc_msgs/msg/DtcStatus')
@@ -260,7 +260,7 @@ def test_viewer_lists_subscribes_decodes_and_sets_parameters(start_node, ros_ses
 def test_a_viewer_that_never_reads_does_not_stall_the_plant(start_node):
     from rclpy.serialization import deserialize_message
     from diagnostic_msgs.msg import DiagnosticArray
-    from drive_common.harness import wait_until
+    from drive_testing.harness import wait_until
     from websockets.exceptions import ConnectionClosed
 
     start_node('dtc_controller', 'dtc_controller', parameters=DTC)

@@ -156,7 +156,7 @@ def test_sigterm_finalizes_too(ros_session, start_node, tmp_path, measurement_fa
 
 
 def test_wall_log_times_and_flushed_messages_survive_sigkill(ros_session, start_node, tmp_path, measurement_factory):
-    from drive_common.harness import wait_until
+    from drive_testing.harness import wait_until
     from drive_logger.bag_reader import BagReader, intact_messages
     from drive_logger.bag_reindex import reindex
     bag = tmp_path / 'bag'

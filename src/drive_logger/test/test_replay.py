@@ -3,23 +3,22 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
-from drive_common.harness import isolated_env, wait_until
+from drive_testing.harness import NodeProcess, executable_path, isolated_env
+from drive_common.waiting import wait_until
 from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter
-from drive_logger.compare_replay import CommandProcess, replay_and_compare
+from drive_logger.compare_replay import replay_and_compare
 from drive_logger.message_definitions import type_definition
 from drive_logger.readiness import wait_for_recorder
 from dtc_msgs.msg import DriveMeasurement, GateCommand
 
 pytestmark = pytest.mark.ros
-RESPONDER = [sys.executable, str(Path(__file__).with_name('responder_node.py'))]
 STEPS = 300
 
 
@@ -70,7 +69,7 @@ def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
     """A stand-in plant drives the responder step by step while the recorder records."""
     recorder = start_node('drive_logger', 'recorder', parameters={
         'output': str(bag), 'topics': [DRIVE_MEASUREMENT, GATE_COMMAND]})
-    responder = CommandProcess(RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=bag.parent / 'nodes')
+    responder = NodeProcess('drive_testing', 'replay_responder', env=isolated_env(ros_session.domain_id), log_dir=bag.parent / 'nodes')
     try:
         node = ros_session.node('plant_standin')
         replies = {}
@@ -103,7 +102,7 @@ def test_replay_into_fresh_controller_reproduces_gate_commands(ros_session, star
     bag = tmp_path / 'run'
     _record_lockstep_run(ros_session, start_node, bag, measurement_factory)
 
-    fresh = CommandProcess(RESPONDER, env=isolated_env(ros_session.domain_id), log_dir=tmp_path / 'fresh')
+    fresh = NodeProcess('drive_testing', 'replay_responder', env=isolated_env(ros_session.domain_id), log_dir=tmp_path / 'fresh')
     try:
         report = replay_and_compare(str(bag), fresh, context=ros_session.context)
     finally:
@@ -113,7 +112,8 @@ def test_replay_into_fresh_controller_reproduces_gate_commands(ros_session, star
 
     # the CLI, with a controller that differs at one step: caught exactly there, exit code 1
     result = subprocess.run(
-        [sys.executable, '-m', 'drive_logger.compare_replay', str(bag), '--command', *RESPONDER,
+        [sys.executable, '-m', 'drive_logger.compare_replay', str(bag), '--command',
+         str(executable_path('drive_testing', 'replay_responder')),
          '-p', 'corrupt_step:=123', '--json', str(tmp_path / 'report.json')],
         env=isolated_env(ros_session.domain_id), capture_output=True, text=True, timeout=120)
     assert result.returncode == 1, result.stdout + result.stderr

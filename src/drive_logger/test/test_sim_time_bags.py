@@ -19,7 +19,7 @@ import yaml
 
 from drive_bringup.runner import GraphRunner, RunFailed
 from drive_bringup.scenario import find_scenario, load_scenario
-from drive_common.harness import reserve_domain
+from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import intact_messages
 
 pytestmark = pytest.mark.ros

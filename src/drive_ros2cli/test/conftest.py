@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from drive_common.harness import NodeProcess, isolated_env, reserve_domain, wait_until
+from drive_testing.harness import NodeProcess, isolated_env, reserve_domain, wait_until
 
 ROS2 = shutil.which('ros2')
 CALL_TIMEOUT = 120.0     # s: a hung command fails the test instead of hanging it
@@ -96,7 +96,7 @@ def drive_graph(tmp_path_factory):
     workdir = tmp_path_factory.mktemp('ros2cli')
     with reserve_domain() as domain:
         env = isolated_env(domain)
-        nodes = [NodeProcess('drive_common', 'fixed_responder', env=env, log_dir=workdir / 'nodes',
+        nodes = [NodeProcess('drive_testing', 'fixed_responder', env=env, log_dir=workdir / 'nodes',
                              parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]}),
                  NodeProcess('bldc_plant_sim', 'plant', env=env, log_dir=workdir / 'nodes', parameters=PLANT)]
         cli = Ros2(env, workdir)

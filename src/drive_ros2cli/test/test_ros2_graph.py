@@ -248,7 +248,7 @@ def test_param_verbs_never_hang_on_a_node_that_does_not_answer(drive_graph, tmp_
     import subprocess
     import sys
 
-    from drive_common.harness import wait_until
+    from drive_testing.harness import wait_until
 
     ros2 = drive_graph
     log = open(tmp_path / 'mute.out', 'w')

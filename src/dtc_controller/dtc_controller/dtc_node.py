@@ -15,7 +15,8 @@ from dtc_controller.core.backemf_table import BackEmfTableError
 from dtc_controller.core.controller import DtcCore
 from dtc_controller.parameters import SCHEMA
 from drive_common import topics
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.samples import DriveSample
 

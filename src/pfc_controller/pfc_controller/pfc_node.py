@@ -11,7 +11,8 @@ Run: ``ros2 run pfc_controller pfc_controller --ros-args -p voltage_reference:=9
 from __future__ import annotations
 
 from drive_common import topics
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.node_main import run_node
 from drive_common.samples import PfcSample
 
 from pfc_controller.core import PfcCore

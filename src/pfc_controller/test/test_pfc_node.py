@@ -5,7 +5,8 @@ import threading
 
 import pytest
 
-from drive_common.harness import wait_for_subscribers, wait_until
+from drive_testing.harness import wait_for_subscribers
+from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros
 

@@ -17,8 +17,9 @@ import rclpy
 from rclpy.node import Node
 
 from drive_common import topics
-from drive_common.lockstep_controller import run_node
+from drive_common.node_main import run_node
 from drive_common.lockstep_io import DirectReceiver
+from drive_common.waiting import wait_until
 
 
 class RawResponder(Node):
@@ -61,11 +62,9 @@ def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> 
         GateCommand, topics.GATE_COMMAND, lambda m: replies.__setitem__(m.step, m),
         topics.LOCKSTEP_QOS)])
     try:
-        deadline = time.monotonic() + timeout
-        while (pub.get_subscription_count() < 1 or node.count_publishers(topics.GATE_COMMAND) < 1):
-            if time.monotonic() > deadline:
-                raise TimeoutError('raw_responder not matched')
-            receiver.poll(0.01)
+        wait_until(lambda: pub.get_subscription_count() >= 1
+                   and node.count_publishers(topics.GATE_COMMAND) >= 1,
+                   timeout, 0.01, 'raw_responder matched', pause=receiver.poll)
         msg = DriveMeasurement()
         msg.phase_current = [1.0, -1.0, float('nan')]
         for warm in range(2):

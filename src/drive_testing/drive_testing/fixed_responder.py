@@ -2,14 +2,15 @@
 
 A stand-in controller for plant tests and benchmarks: it takes part in the
 lockstep protocol exactly as dtc_controller does (same topics, QoS, step
-matching) but its core is :class:`~drive_common.fixed_commands.FixedGateCore`.
+matching) but its core is :class:`~drive_testing.fixed_commands.FixedGateCore`.
 Parameters: ``switch_on`` (6 bools as 0/1 numbers), ``topology`` (4 or 6).
 """
 from __future__ import annotations
 
 from drive_common import topics
-from drive_common.fixed_commands import FixedGateCore
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode, run_node
+from drive_testing.fixed_commands import FixedGateCore
+from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.samples import DriveSample
 

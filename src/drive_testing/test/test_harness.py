@@ -10,13 +10,13 @@ import pytest
 from rclpy.parameter import Parameter
 
 from drive_common import topics
-from drive_common.fixed_responder import FixedResponder
-from drive_common.harness import (NodeProcess, isolated_env, processes_with_env, reserve_domain,
-                                  ros_arguments, wait_for_subscribers, wait_until)
+from drive_testing.fixed_responder import FixedResponder
+from drive_testing.harness import NodeProcess, isolated_env, processes_with_env, reserve_domain, ros_arguments, wait_for_subscribers
+from drive_common.waiting import wait_until
 
 
 def test_reserved_domains_are_exclusive_across_processes():
-    probe = ('from drive_common.harness import reserve_domain\n'
+    probe = ('from drive_testing.harness import reserve_domain\n'
              'import sys, time\n'
              'with reserve_domain() as d:\n'
              '    print(d, flush=True); time.sleep(5)\n')
@@ -69,7 +69,7 @@ def test_node_in_process_with_injected_context_and_parameter_overrides(ros_sessi
 def test_node_process_stops_and_leaves_nothing(ros_domain, tmp_path):
     marker = f'DTC_HARNESS_PROBE=stop_{os.getpid()}_{time.monotonic_ns()}'
     env = dict(isolated_env(ros_domain), DTC_HARNESS_PROBE=marker.split('=', 1)[1])
-    process = NodeProcess('drive_common', 'message_echo', env=env, log_dir=tmp_path)
+    process = NodeProcess('drive_testing', 'message_echo', env=env, log_dir=tmp_path)
     wait_until(lambda: processes_with_env(marker), 10.0, what='node started')
     assert process.alive()
     process.stop()
@@ -84,7 +84,7 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
     test_file.write_text(textwrap.dedent('''
         import time
         def test_fails(start_node):
-            node = start_node('drive_common', 'message_echo')
+            node = start_node('drive_testing', 'message_echo')
             time.sleep(2.0)
             assert node.alive()
             assert False, 'deliberate failure'

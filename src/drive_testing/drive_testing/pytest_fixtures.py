@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from drive_common.harness import NodeProcess, RosSession, isolated_env, reserve_domain
+from drive_testing.harness import NodeProcess, RosSession, isolated_env, reserve_domain
 
 
 @pytest.fixture

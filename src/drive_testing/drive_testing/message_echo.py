@@ -10,7 +10,7 @@ import importlib
 
 from rclpy.node import Node
 
-from drive_common.lockstep_controller import run_node
+from drive_common.node_main import run_node
 from drive_common.topics import LOCKSTEP_QOS
 
 def _message_types() -> tuple[str, ...]:

@@ -1,14 +1,14 @@
-"""Launch-free harness: run drive nodes in tests and scripts without launch files.
+"""Start drive nodes as ``ros2 run`` does, each graph in its own DDS domain.
 
 - :func:`reserve_domain` hands out a ROS_DOMAIN_ID no other process on this
-  machine holds (a file lock per id), so parallel test runs never see each
+  machine holds (a file lock per id), so parallel runs never see each
   other's topics; :func:`isolated_env` adds localhost-only discovery.
 - :class:`NodeProcess` starts ``<prefix>/lib/<package>/<executable> --ros-args ...``
-  exactly as ``ros2 run`` does, in its own process group, and always tears it
-  down (SIGINT, then SIGTERM, then SIGKILL).
-- :class:`RosSession` is an in-process rclpy context in a given domain with a
-  background executor, for test nodes (injected ``context`` and overrides).
-- :func:`wait_until` and the ``wait_for_*`` helpers poll with timeouts.
+  exactly as ``ros2 run`` does (or any command line), in its own process
+  group, and always tears it down (SIGINT, then SIGTERM, then SIGKILL).
+
+Used by the scenario runner, compare_replay and the test harness
+(:mod:`drive_testing.harness`).
 """
 from __future__ import annotations
 
@@ -19,19 +19,14 @@ import random
 import signal
 import subprocess
 import tempfile
-import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
 _LOCK_DIR = Path(tempfile.gettempdir()) / 'dtc_drive_ros_domains'
-
-
-class HarnessTimeout(TimeoutError):
-    """A waited-for condition did not happen in time."""
 
 
 @contextmanager
@@ -114,9 +109,12 @@ def _yaml_value(value: Any) -> str:
 def ros_arguments(parameters: Mapping[str, Any] | None = None,
                   remappings: Mapping[str, str] | None = None,
                   node_name: str | None = None,
-                  log_level: str | None = None) -> list[str]:
-    """``--ros-args`` list as ``ros2 run`` takes it (-p name:=value, -r from:=to)."""
+                  log_level: str | None = None,
+                  params_files: Sequence[str] = ()) -> list[str]:
+    """``--ros-args`` list as ``ros2 run`` takes it (--params-file f, -p name:=value, -r from:=to)."""
     args = ['--ros-args']
+    for path in params_files:            # before -p: a -p value overrides the file's
+        args += ['--params-file', str(path)]
     if node_name:
         args += ['-r', f'__node:={node_name}']
     for name, value in (parameters or {}).items():
@@ -142,12 +140,17 @@ class NodeProcess:
                  env: Mapping[str, str] | None = None,
                  extra_args: Sequence[str] = (),
                  log_dir: str | os.PathLike | None = None,
+                 argv: Sequence[str] | None = None,
+                 params_files: Sequence[str] = (),
                  prefix: Sequence[str] = ()) -> None:
-        """prefix runs the program through a wrapper, e.g. ``ip netns exec NAME``."""
+        """argv: run this command line instead of the installed executable
+        (package and executable then only name the process in logs);
+        prefix: run it through a wrapper, e.g. ``ip netns exec NAME``."""
         self.package = package
         self.executable = executable
-        path = executable_path(package, executable)
-        self.command = [*prefix, str(path), *extra_args, *ros_arguments(parameters, remappings, node_name)]
+        program = list(argv) if argv else [str(executable_path(package, executable))]
+        self.command = [*prefix, *program, *extra_args,
+                        *ros_arguments(parameters, remappings, node_name, params_files=params_files)]
         log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
         log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f'{node_name or executable}.log'
@@ -197,94 +200,3 @@ class NodeProcess:
 
     def __exit__(self, *exc) -> None:
         self.stop()
-
-
-def processes_with_env(marker: str) -> list[int]:
-    """PIDs (other than this one) whose environment holds marker, e.g. 'KEY=value'.
-
-    Tests put a unique variable in a runner's environment; every node it starts
-    inherits it, so leftovers are found even after they were re-parented.
-    """
-    found = []
-    for proc in Path('/proc').iterdir():
-        if proc.name.isdigit() and int(proc.name) != os.getpid():
-            try:
-                if marker.encode() in (proc / 'environ').read_bytes():
-                    found.append(int(proc.name))
-            except OSError:
-                continue
-    return found
-
-
-def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
-               what: str = 'condition') -> Any:
-    """Poll predicate until it returns a truthy value; raise HarnessTimeout after timeout s."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise HarnessTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
-        time.sleep(interval)
-
-
-class RosSession:
-    """An rclpy context in one domain with an executor spinning in a thread.
-
-    Nodes made by :meth:`node` (or added with :meth:`add`) share the context
-    and are destroyed by :meth:`close`.
-    """
-
-    def __init__(self, domain_id: int, num_threads: int = 2) -> None:
-        import rclpy
-        from rclpy.executors import MultiThreadedExecutor
-        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-        self.domain_id = domain_id
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=domain_id)
-        self.executor = MultiThreadedExecutor(num_threads=num_threads, context=self.context)
-        self._nodes: list = []
-        self._thread = threading.Thread(target=self._spin, daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        from rclpy.executors import ExternalShutdownException
-        try:
-            self.executor.spin()
-        except ExternalShutdownException:
-            pass
-
-    def node(self, name: str, **kwargs):
-        """A plain rclpy node in this session."""
-        from rclpy.node import Node
-        return self.add(Node(name, context=self.context, **kwargs))
-
-    def add(self, node):
-        self._nodes.append(node)
-        self.executor.add_node(node)
-        return node
-
-    def close(self) -> None:
-        import rclpy
-        self.executor.shutdown(timeout_sec=2.0)
-        for node in self._nodes:
-            node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=2.0)
-
-    def __enter__(self) -> 'RosSession':
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-
-def wait_for_subscribers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
-    wait_until(lambda: node.count_subscribers(topic) >= count, timeout,
-               what=f'{count} subscriber(s) on {topic}')
-
-
-def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
-    wait_until(lambda: node.count_publishers(topic) >= count, timeout,
-               what=f'{count} publisher(s) on {topic}')

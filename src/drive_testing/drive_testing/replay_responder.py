@@ -1,5 +1,4 @@
-#!/usr/bin/env python3
-"""Deterministic stand-in controller for the replay regression tests.
+"""replay_responder: deterministic stand-in controller for the replay regression tests.
 
 Answers every drive/measurement with a GateCommand of the same step whose
 switches depend on the measurement (hall code and current signs) and on an
@@ -8,10 +7,9 @@ at that step, to prove the comparison catches a difference.
 """
 import sys
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from drive_common.node_main import run_node
 from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
 from dtc_msgs.msg import DriveMeasurement, GateCommand
 
@@ -35,16 +33,8 @@ class Responder(Node):
         self.pub.publish(out)
 
 
-def main():
-    rclpy.init()
-    node = Responder()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+def main(args=None) -> int:
+    return run_node(Responder, args)
 
 
 if __name__ == '__main__':

@@ -1,0 +1,118 @@
+"""The one ``main`` of every executable: start a node, run it, stop it cleanly.
+
+:func:`run_node` follows the demos' talker idiom (init, build, spin,
+destroy, shutdown) with the drive stack's rules: a node that cannot start
+prints one line naming the program and the reason and exits 2 (no
+traceback); SIGINT and SIGTERM end it with exit 0. The node's executor
+(parameter services, actions, timers) spins in a background thread; the
+main thread waits for a signal, or runs the node's own ``work`` loop
+(recorder, replay) and returns when it is done.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+from typing import Callable
+
+from rclpy.callback_groups import CallbackGroup
+
+from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
+from drive_common.parameters import ParameterError
+
+
+class NotSpun(CallbackGroup):
+    """Callback group the executor leaves alone: its entities are taken by the
+    node's own wait loop (:mod:`drive_common.lockstep_io`), while the rest of
+    the node (parameter services) is spun as usual."""
+
+    def can_execute(self, entity) -> bool:
+        return False
+
+    def beginning_execution(self, entity) -> bool:
+        return False
+
+    def ending_execution(self, entity) -> None:
+        pass
+
+
+def fail(reason: object, code: int = 2) -> int:
+    """Print ``[program] error: reason`` on one line (stderr); return code."""
+    text = ' '.join(str(reason).split())
+    print(f'[{os.path.basename(sys.argv[0]) or "node"}] error: {text}', file=sys.stderr, flush=True)
+    return code
+
+
+def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
+             work: Callable[[object, threading.Event], None] | None = None,
+             errors: tuple[type[BaseException], ...] = ()) -> int:
+    """Run the node built by ``factory`` until SIGINT/SIGTERM (or ``work`` returns).
+
+    args: command line (``--ros-args`` with ``-p``, ``-r``, ``--params-file``).
+    multithreaded: spin with a 4-thread executor (a node whose action
+        callback runs long, the plant).
+    work: ``work(node, stop)`` runs in the main thread while the executor
+        serves the node; ``stop`` is set by SIGINT/SIGTERM.
+    errors: further exception types that mean "cannot start" (exit 2).
+    """
+    import rclpy
+    from rclpy.exceptions import ParameterException
+    from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
+                                 SingleThreadedExecutor)
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    try:
+        for path in params_files_in(sys.argv if args is None else args):
+            read_params_file(path)
+    except ParameterFileError as exc:
+        return fail(exc)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as exc:  # noqa: BLE001 - rcl's own errors: bad --ros-args / params file
+        return fail(f'bad ROS arguments: {exc}')
+    node = None
+    try:
+        try:
+            node = factory()
+        except (ParameterError, ParameterException, OSError, *errors) as exc:
+            return fail(f'cannot start: {exc}')
+        executor = MultiThreadedExecutor(num_threads=4) if multithreaded else SingleThreadedExecutor()
+        executor.add_node(node)
+
+        failures: list[BaseException] = []
+
+        def spin() -> None:
+            try:
+                executor.spin()
+            except ExternalShutdownException:
+                pass
+            except ParameterError as exc:    # raised by a callback, e.g. GraphConflict
+                failures.append(exc)
+                stop.set()
+            except _rclpy.RCLError:
+                if rclpy.ok():
+                    raise
+                # SIGINT/SIGTERM shut the context down while the executor built its wait set.
+
+        spinner = threading.Thread(target=spin, daemon=True, name='executor')
+        spinner.start()
+        if work is None:
+            stop.wait()
+        else:
+            work(node, stop)
+        getattr(node, 'stop', lambda: None)()   # end the node's own threads while the context lives
+        rclpy.try_shutdown()          # ends a running action loop and the executor
+        executor.shutdown(timeout_sec=2.0)
+        spinner.join(timeout=2.0)
+        if failures:
+            return fail(failures[0])
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

@@ -1,0 +1,36 @@
+"""One waiting loop: poll a condition until it holds or a deadline passes.
+
+Every place that waits for the graph (matching, services, a recorder's
+subscriptions, a future) calls :func:`wait_until`; between polls it sleeps,
+or does useful work instead (``pause``: spin an executor, take messages).
+"""
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+
+class WaitTimeout(TimeoutError):
+    """A waited-for condition did not happen in time."""
+
+
+def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
+               what: str = 'condition', *, pause: Callable[[float], Any] = time.sleep,
+               raise_timeout: bool = True) -> Any:
+    """Poll predicate until it returns a truthy value and return that value.
+
+    timeout: s (monotonic clock); interval: s passed to ``pause`` between polls.
+    After timeout, raise :class:`WaitTimeout` naming ``what``, or, with
+    ``raise_timeout=False``, return the last (falsy) value. An exception of
+    predicate (e.g. a crashed peer) ends the wait at once.
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            if not raise_timeout:
+                return value
+            raise WaitTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
+        pause(interval)

@@ -1,0 +1,102 @@
+"""Launch-free test harness: run drive nodes in tests and benchmarks without launch files.
+
+- Node processes and private DDS domains: :mod:`drive_common.processes`
+  (re-exported here: :func:`reserve_domain`, :func:`isolated_env`,
+  :class:`NodeProcess`, :func:`ros_arguments`, :func:`executable_path`).
+- :class:`RosSession` is an in-process rclpy context in a given domain with a
+  background executor, for test nodes (injected ``context`` and overrides).
+- :func:`processes_with_env` finds leftover processes of a test.
+- the ``wait_for_*`` helpers wait for graph matching
+  (:func:`drive_common.waiting.wait_until`, re-exported).
+"""
+from __future__ import annotations
+
+import os
+import threading
+from pathlib import Path
+
+from drive_common.processes import (NodeProcess, executable_path, isolated_env, reserve_domain,
+                                    ros_arguments)
+from drive_common.waiting import WaitTimeout, wait_until
+
+__all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
+           'processes_with_env', 'reserve_domain', 'ros_arguments', 'wait_for_publishers',
+           'wait_for_subscribers', 'wait_until']
+
+
+def processes_with_env(marker: str) -> list[int]:
+    """PIDs (other than this one) whose environment holds marker, e.g. 'KEY=value'.
+
+    Tests put a unique variable in a runner's environment; every node it starts
+    inherits it, so leftovers are found even after they were re-parented.
+    """
+    found = []
+    for proc in Path('/proc').iterdir():
+        if proc.name.isdigit() and int(proc.name) != os.getpid():
+            try:
+                if marker.encode() in (proc / 'environ').read_bytes():
+                    found.append(int(proc.name))
+            except OSError:
+                continue
+    return found
+
+
+class RosSession:
+    """An rclpy context in one domain with an executor spinning in a thread.
+
+    Nodes made by :meth:`node` (or added with :meth:`add`) share the context
+    and are destroyed by :meth:`close`.
+    """
+
+    def __init__(self, domain_id: int, num_threads: int = 2) -> None:
+        import rclpy
+        from rclpy.executors import MultiThreadedExecutor
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        self.domain_id = domain_id
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.executor = MultiThreadedExecutor(num_threads=num_threads, context=self.context)
+        self._nodes: list = []
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        from rclpy.executors import ExternalShutdownException
+        try:
+            self.executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    def node(self, name: str, **kwargs):
+        """A plain rclpy node in this session."""
+        from rclpy.node import Node
+        return self.add(Node(name, context=self.context, **kwargs))
+
+    def add(self, node):
+        self._nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def close(self) -> None:
+        import rclpy
+        self.executor.shutdown(timeout_sec=2.0)
+        for node in self._nodes:
+            node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+        self._thread.join(timeout=2.0)
+
+    def __enter__(self) -> 'RosSession':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def wait_for_subscribers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
+    wait_until(lambda: node.count_subscribers(topic) >= count, timeout,
+               what=f'{count} subscriber(s) on {topic}')
+
+
+def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
+    wait_until(lambda: node.count_publishers(topic) >= count, timeout,
+               what=f'{count} publisher(s) on {topic}')
