@@ -38,11 +38,8 @@ def test_type_hash_comes_from_installed_json():
 
 
 def test_core_modules_do_not_import_rclpy():
-    code = ('import sys
-import drive_logger.bag_writer, drive_logger.bag_reader, drive_logger.bag_reindex, drive_logger.qos_yaml
-'
-            'import drive_logger.message_definitions
-'
+    code = ('import sys\nimport drive_logger.bag_writer, drive_logger.bag_reader, drive_logger.bag_reindex, drive_logger.qos_yaml\n'
+            'import drive_logger.message_definitions\n'
             'assert "rclpy" not in sys.modules, "rclpy imported"\n')
     subprocess.run([sys.executable, '-c', code], check=True)
 
