@@ -468,10 +468,25 @@ class PlantNode(Node):
         return msg
 
     def _wrong_topology(self, msg) -> str | None:
+        """Why a gate command cannot be applied, or None (switch_on is bool[6] by its type)."""
         if msg.topology != self.core.topology:
             return (f'gate command for a {msg.topology}-switch inverter, the plant has '
                     f'{self.core.topology}')
         return None
+
+    @staticmethod
+    def _invalid_duty(msg) -> str | None:
+        """Why a duty command cannot be applied (NaN, infinite or outside [0, 1]), or None."""
+        if not 0.0 <= msg.duty <= 1.0:      # False for NaN too
+            return f'duty command with duty = {msg.duty!r}, outside [0, 1]'
+        return None
+
+    def _sources(self, which: str) -> str:
+        """The node(s) publishing this controller's commands, for a diagnostic."""
+        topic = topics.GATE_COMMAND if which == 'gate' else topics.DUTY_COMMAND
+        names = sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
+                        for i in self.get_publishers_info_by_topic(topic)})
+        return ', '.join(names) or 'no publisher'
 
     def _tick(self) -> None:
         """One base tick of the lockstep protocol."""
@@ -490,7 +505,8 @@ class PlantNode(Node):
             if msg is not None:
                 self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
         if due_pfc:
-            msg = self._command('duty', self._duty_in, k, deadline, resend=self._resend_pfc)
+            msg = self._command('duty', self._duty_in, k, deadline, self._invalid_duty,
+                                self._resend_pfc)
             if msg is not None:
                 self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
         self.core.advance()
@@ -517,12 +533,14 @@ class PlantNode(Node):
         return reason
 
     def _fault(self, which: str, reason: str) -> None:
-        """Safe state with a diagnostic; the fault is reported in the goal's result."""
+        """Safe state with a diagnostic naming the commanding node(s); also in the goal's result."""
         self.core.enter_safe_state(COMMAND_TIMEOUT)
+        sources = self._sources(which)
+        reason = f'{reason} (from {sources})'
         self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}')
         self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
-                        'controller': which})
+                        'controller': which, 'node': sources})
         self.get_logger().error(f'safe state applied: {reason}')
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
