@@ -103,3 +103,32 @@ def test_a_command_for_the_wrong_step_is_not_applied_at_its_sample(start_node, r
         assert not any(last.applied_switch_on)
     else:
         assert any('resumed' in s.message for s in seen)
+
+
+def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_node, ros_session):
+    # Every odd step's duty is NaN. The responder publishes each command one sample ahead (on
+    # measurement k the command for k + 1), so the plant, which does not wait for a faulted
+    # controller, finds the next valid one at once and resumes: refused, resumed, refused, ...
+    # /diagnostics and the goal's result carry one report per FAULT_REPORT_PERIOD = 10 ms sim.
+    seen = _diagnostics(ros_session)
+    node = ros_session.node('flapping_pfc')
+    pub = node.create_publisher(DutyCommand, topics.DUTY_COMMAND, topics.LOCKSTEP_QOS)
+
+    def answer(msg):
+        for step in ([0, 1] if msg.step == 0 else [msg.step + 1]):
+            bad = step >= GOOD_SAMPLES and step % 2
+            pub.publish(DutyCommand(header=msg.header, step=step, duty=math.nan if bad else 0.3,
+                                    enable=True))
+
+    node.create_subscription(PfcMeasurement, topics.PFC_MEASUREMENT, answer, topics.LOCKSTEP_QOS)
+    start_node('bldc_plant_sim', 'plant', parameters=PFC_PLANT)
+    client = PlantClient(ros_session)
+    result = client.run(0.002)                  # 80 samples: 30 malformed, all within 10 ms
+    assert not result.success and result.message.count('safe state at') == 1, result.message
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    wait_until(lambda: any('resumed' in s.message for s in seen), 10.0, what='resumed')
+    faults = [s.message for s in seen if 'flapping_pfc' in s.message]
+    assert len(faults) == 1 and faults[0].startswith('safe state: duty command'), faults
+    # 'resumed' follows the reported fault only, not the unreported ones after it.
+    assert sum('resumed' in s.message for s in seen) == 1, [s.message for s in seen]
+    assert client.states[-1].safe_state         # the last command (step 79) was NaN

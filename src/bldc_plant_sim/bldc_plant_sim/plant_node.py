@@ -69,6 +69,7 @@ AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
 WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
+FAULT_REPORT_PERIOD = 0.01      # s of sim time: a controller's faults reported at most once per this
 STOP_WAIT = 10.0                # s stop() waits for a run to end
 LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
                    topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
@@ -141,6 +142,7 @@ class PlantNode(Node):
         self._ready: set[str] = set()        # controllers that answered since they last failed
         self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
+        self._fault_reports: dict[str, tuple[float, int, bool]] = {}  # last report t, unreported, shown
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
@@ -464,7 +466,8 @@ class PlantNode(Node):
             self._faulted[which] = None
             if not any(self._faulted.values()):
                 self.core.leave_safe_state(COMMAND_TIMEOUT)
-            self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
+            if self._fault_reports[which][2]:     # the fault it ends was reported
+                self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
         return msg
 
     def _wrong_topology(self, msg) -> str | None:
@@ -533,10 +536,21 @@ class PlantNode(Node):
         return reason
 
     def _fault(self, which: str, reason: str) -> None:
-        """Safe state with a diagnostic naming the commanding node(s); also in the goal's result."""
+        """Safe state with a diagnostic naming the commanding node(s); also in the goal's result.
+
+        A controller that keeps faulting (e.g. every other command malformed) is reported at
+        most once per FAULT_REPORT_PERIOD of sim time; the next report counts the ones left out.
+        """
         self.core.enter_safe_state(COMMAND_TIMEOUT)
+        last, unreported, _ = self._fault_reports.get(which, (-FAULT_REPORT_PERIOD, 0, False))
+        if self.core.time - last < FAULT_REPORT_PERIOD:
+            self._fault_reports[which] = (last, unreported + 1, False)
+            return
+        self._fault_reports[which] = (self.core.time, 0, True)
         sources = self._sources(which)
         reason = f'{reason} (from {sources})'
+        if unreported:
+            reason += f'; {unreported} more fault(s) of this controller not reported before'
         self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}')
         self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
