@@ -545,6 +545,9 @@ class PlantNode(Node):
         last, unreported, _ = self._fault_reports.get(which, (-FAULT_REPORT_PERIOD, 0, False))
         if self.core.time - last < FAULT_REPORT_PERIOD:
             self._fault_reports[which] = (last, unreported + 1, False)
+            if not self._faults:      # a goal with a fault never ends successful
+                self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason} '
+                                    '(a repeated fault; reports rate-limited)')
             return
         self._fault_reports[which] = (self.core.time, 0, True)
         sources = self._sources(which)
