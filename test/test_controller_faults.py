@@ -132,3 +132,53 @@ def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_
     # 'resumed' follows the reported fault only, not the unreported ones after it.
     assert sum('resumed' in s.message for s in seen) == 1, [s.message for s in seen]
     assert client.states[-1].safe_state         # the last command (step 79) was NaN
+
+
+class _SevenSwitchCore:
+    """A user core with a bug: from GOOD_SAMPLES on it returns 7 switch states."""
+
+    from drive_common.controller_api import schema as _schema
+    SCHEMA = _schema([])
+
+    def __init__(self, params) -> None:
+        pass
+
+    def reconfigure(self, params) -> None:
+        pass
+
+    def update(self, sample):
+        from drive_common.controller_api import GateSample
+        switches = (True, False, False, True, False, False) + ((True,) if sample.step >= GOOD_SAMPLES else ())
+        return GateSample(sample.step, 6, switches), None
+
+
+def test_a_command_of_the_wrong_length_is_not_sent():
+    from drive_common.controller_api import CheckedCore, MalformedCommand
+    from drive_common.samples import DriveSample
+    reports = []
+    core = CheckedCore(_SevenSwitchCore({}), reports.append)
+    sample = DriveSample(GOOD_SAMPLES - 1, 0.0, (0.0,) * 3, 0.0, 0.0, 0, 0.0, 0, 0.0)
+    assert len(core.update(sample)[0].switch_on) == 6
+    sample.step = GOOD_SAMPLES
+    with pytest.raises(MalformedCommand, match='6 bools'):
+        core.update(sample)
+    assert reports and 'not sent' in reports[0]
+
+
+@pytest.mark.filterwarnings('ignore::pytest.PytestUnhandledThreadExceptionWarning')  # its thread ends
+def test_a_controller_node_with_a_wrong_length_command_leaves_the_plant_safe(start_node, ros_session):
+    # Serialization would truncate a 7-entry switch_on to bool[6] silently; the controller API
+    # sends nothing instead, so the plant times out on it and names it.
+    from drive_common.controller_api import controller_node
+    seen = _diagnostics(ros_session)
+    ros_session.add(controller_node(_SevenSwitchCore, 'seven_switches', status=False,
+                                    context=ros_session.context))
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 2.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success and f'no gate command for step {GOOD_SAMPLES}' in result.message
+    assert '/seven_switches' in result.message
+    wait_until(lambda: any('/seven_switches' in s.message for s in seen), 10.0,
+               what='a diagnostic naming /seven_switches')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)

@@ -24,7 +24,9 @@ def build_controllers(scenario: Scenario):
     """(drive controller core or None, pfc core or None) from the scenario's snapshots."""
     dtc = pfc = None
     if scenario.controller is not None:
-        dtc = scenario.controller.core_class()(scenario.node_parameters['controller'])
+        from drive_common.controller_api import CheckedCore   # a malformed command stops the run
+        dtc = CheckedCore(scenario.controller.core_class()(scenario.node_parameters['controller']),
+                          report=lambda text: None)
     if 'dtc_controller' in scenario.node_parameters:
         from dtc_controller.core.controller import DtcCore
         dtc = DtcCore(scenario.node_parameters['dtc_controller'])

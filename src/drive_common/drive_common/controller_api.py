@@ -24,9 +24,10 @@ from drive_common.parameters import ParameterError, ParameterSchema, ParameterSp
 from drive_common.samples import (ALL_OFF, TOPOLOGY_FOUR_SWITCH, TOPOLOGY_SIX_SWITCH, DriveSample,
                                   GateSample)
 
-__all__ = ['ALL_OFF', 'ControllerCore', 'DriveSample', 'GateSample', 'ParameterError',
-           'ParameterSchema', 'ParameterSpec', 'TOPOLOGY_FOUR_SWITCH', 'TOPOLOGY_SIX_SWITCH',
-           'check_core_class', 'run_controller', 'schema']
+__all__ = ['ALL_OFF', 'CheckedCore', 'ControllerCore', 'DriveSample', 'GateSample',
+           'MalformedCommand', 'ParameterError', 'ParameterSchema', 'ParameterSpec',
+           'TOPOLOGY_FOUR_SWITCH', 'TOPOLOGY_SIX_SWITCH', 'check_core_class', 'controller_node',
+           'run_controller', 'schema']
 
 
 @runtime_checkable
@@ -66,6 +67,78 @@ def check_core_class(core_class: type) -> None:
         raise TypeError(f'{core_class.__qualname__}.SCHEMA is not a drive_common ParameterSchema')
 
 
+class MalformedCommand(ValueError):
+    """A core returned a command that must not be sent (the message names what is wrong)."""
+
+
+def command_problem(command, step: int) -> str | None:
+    """Why a core's answer to sample ``step`` is malformed, or None.
+
+    The plant checks step and topology itself; a ``switch_on`` of another length
+    than 6 cannot be checked there (serialization truncates a longer one to the
+    message's bool[6] and refuses a shorter one), so it is checked here.
+    """
+    if not isinstance(command, GateSample):
+        return f'update returned {type(command).__name__}, not a GateSample'
+    switches = command.switch_on
+    if len(switches) != 6 or not all(isinstance(s, bool) or type(s).__name__ == 'bool_' for s in switches):
+        return f'switch_on must be 6 bools (SW1..SW6), got {switches!r}'
+    if command.step != step:
+        return f'command for step {command.step} answers the sample of step {step}'
+    return None
+
+
+class CheckedCore:
+    """A core whose commands are checked before they are sent (:func:`command_problem`).
+
+    A malformed command raises :class:`MalformedCommand` after ``report`` got its
+    one-line reason: nothing is sent for that sample and the node answers no more
+    (a crashed controller), so the plant times out and applies the safe state,
+    naming the node on /diagnostics.
+    """
+
+    def __init__(self, core, report) -> None:
+        self.core, self._report = core, report
+
+    def update(self, sample):
+        command, status = self.core.update(sample)
+        problem = command_problem(command, sample.step)
+        if problem is not None:
+            self._report(f'malformed command, not sent: {problem}')
+            raise MalformedCommand(problem)
+        return command, status
+
+    def reconfigure(self, params) -> None:
+        self.core.reconfigure(params)
+
+    def check(self, params):
+        check = getattr(self.core, 'check', None)
+        return check(params) if check is not None else type(self.core)(params)
+
+
+def controller_node(core_class: type, node_name: str, *, status: bool = True, **kwargs):
+    """The node :func:`run_controller` runs (also for tests that run it in-process)."""
+    check_core_class(core_class)
+    from drive_common import topics
+    from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+
+    channels = LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT, DriveSample,
+                                GateCommand, topics.GATE_COMMAND,
+                                DtcStatus if status else None, topics.DTC_STATUS)
+    holder = []
+
+    def report(text: str) -> None:
+        (holder[0].get_logger().error if holder else print)(text)   # holder: set once built
+
+    node = LockstepControllerNode(
+        node_name, schema=core_class.SCHEMA, channels=channels,
+        make_core=lambda params: CheckedCore(core_class(params), report),
+        check=lambda snapshot: node.core.check(snapshot), **kwargs)
+    holder.append(node)
+    return node
+
+
 def run_controller(core_class: type, node_name: str, args=None, *, status: bool = True) -> int:
     """``main`` of a drive controller node: core_class wrapped in the built-ins' node base.
 
@@ -74,21 +147,5 @@ def run_controller(core_class: type, node_name: str, args=None, *, status: bool 
     Returns the exit code (0 on SIGINT/SIGTERM, 2 with a one-line error when
     the node cannot start, e.g. a rejected parameter).
     """
-    check_core_class(core_class)
-    from drive_common import topics
-    from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
     from drive_common.node_main import run_node
-    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
-
-    channels = LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT, DriveSample,
-                                GateCommand, topics.GATE_COMMAND,
-                                DtcStatus if status else None, topics.DTC_STATUS)
-    has_check = callable(getattr(core_class, 'check', None))
-
-    def factory():
-        node = LockstepControllerNode(
-            node_name, schema=core_class.SCHEMA, make_core=core_class, channels=channels,
-            check=(lambda snapshot: node.core.check(snapshot)) if has_check else None)
-        return node
-
-    return run_node(factory, args)
+    return run_node(lambda: controller_node(core_class, node_name, status=status), args)
