@@ -26,6 +26,7 @@ NODES = {
     'pfc_controller': ('pfc_controller', None, ('voltage_kp', -1.0)),
     'recorder': ('drive_logger', 'output', ('compression', 'zip')),
     'replay': ('drive_logger', 'bag', ('rate', 'fast')),
+    'hysteresis_current_controller': ('drive_examples', None, ('current_band', -1.0)),  # your own
 }
 
 

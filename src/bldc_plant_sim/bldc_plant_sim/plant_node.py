@@ -69,6 +69,7 @@ AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
 WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
+FAULT_REPORT_PERIOD = 0.01      # s of sim time: a controller's faults reported at most once per this
 STOP_WAIT = 10.0                # s stop() waits for a run to end
 LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
                    topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
@@ -141,6 +142,7 @@ class PlantNode(Node):
         self._ready: set[str] = set()        # controllers that answered since they last failed
         self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
+        self._fault_reports: dict[str, tuple[float, int, bool]] = {}  # last report t, unreported, shown
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
@@ -464,14 +466,30 @@ class PlantNode(Node):
             self._faulted[which] = None
             if not any(self._faulted.values()):
                 self.core.leave_safe_state(COMMAND_TIMEOUT)
-            self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
+            if self._fault_reports[which][2]:     # the fault it ends was reported
+                self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
         return msg
 
     def _wrong_topology(self, msg) -> str | None:
+        """Why a gate command cannot be applied, or None (switch_on is bool[6] by its type)."""
         if msg.topology != self.core.topology:
             return (f'gate command for a {msg.topology}-switch inverter, the plant has '
                     f'{self.core.topology}')
         return None
+
+    @staticmethod
+    def _invalid_duty(msg) -> str | None:
+        """Why a duty command cannot be applied (NaN, infinite or outside [0, 1]), or None."""
+        if not 0.0 <= msg.duty <= 1.0:      # False for NaN too
+            return f'duty command with duty = {msg.duty!r}, outside [0, 1]'
+        return None
+
+    def _sources(self, which: str) -> str:
+        """The node(s) publishing this controller's commands, for a diagnostic."""
+        topic = topics.GATE_COMMAND if which == 'gate' else topics.DUTY_COMMAND
+        names = sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
+                        for i in self.get_publishers_info_by_topic(topic)})
+        return ', '.join(names) or 'no publisher'
 
     def _tick(self) -> None:
         """One base tick of the lockstep protocol."""
@@ -490,7 +508,8 @@ class PlantNode(Node):
             if msg is not None:
                 self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
         if due_pfc:
-            msg = self._command('duty', self._duty_in, k, deadline, resend=self._resend_pfc)
+            msg = self._command('duty', self._duty_in, k, deadline, self._invalid_duty,
+                                self._resend_pfc)
             if msg is not None:
                 self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
         self.core.advance()
@@ -517,12 +536,28 @@ class PlantNode(Node):
         return reason
 
     def _fault(self, which: str, reason: str) -> None:
-        """Safe state with a diagnostic; the fault is reported in the goal's result."""
+        """Safe state with a diagnostic naming the commanding node(s); also in the goal's result.
+
+        A controller that keeps faulting (e.g. every other command malformed) is reported at
+        most once per FAULT_REPORT_PERIOD of sim time; the next report counts the ones left out.
+        """
         self.core.enter_safe_state(COMMAND_TIMEOUT)
+        last, unreported, _ = self._fault_reports.get(which, (-FAULT_REPORT_PERIOD, 0, False))
+        if self.core.time - last < FAULT_REPORT_PERIOD:
+            self._fault_reports[which] = (last, unreported + 1, False)
+            if not self._faults:      # a goal with a fault never ends successful
+                self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason} '
+                                    '(a repeated fault; reports rate-limited)')
+            return
+        self._fault_reports[which] = (self.core.time, 0, True)
+        sources = self._sources(which)
+        reason = f'{reason} (from {sources})'
+        if unreported:
+            reason += f'; {unreported} more fault(s) of this controller not reported before'
         self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}')
         self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
-                        'controller': which})
+                        'controller': which, 'node': sources})
         self.get_logger().error(f'safe state applied: {reason}')
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:

@@ -1,6 +1,7 @@
 """Headless runner: a scenario's cores stepped in one process (no ROS).
 
-The same PlantCore, DtcCore and PfcCore the nodes wrap, built from the same
+The same PlantCore, DtcCore (or the scenario's own controller core,
+``nodes.controller.core``) and PfcCore the nodes wrap, built from the same
 validated parameter snapshots, stepped by the plant's lockstep
 co-simulation (:mod:`bldc_plant_sim.core.cosim`) with each event applied at
 its exact sim time. For sweeps, long reproduction runs and fast tests; a
@@ -16,12 +17,16 @@ import numpy as np
 from bldc_plant_sim.core.cosim import CoSimulation, Trajectory
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.core.lockstep import ticks_of
-from drive_bringup.scenario import Scenario, node_schema
+from drive_bringup.scenario import Scenario
 
 
 def build_controllers(scenario: Scenario):
-    """(dtc core or None, pfc core or None) from the scenario's snapshots."""
+    """(drive controller core or None, pfc core or None) from the scenario's snapshots."""
     dtc = pfc = None
+    if scenario.controller is not None:
+        from drive_common.controller_api import CheckedCore   # a malformed command stops the run
+        dtc = CheckedCore(scenario.controller.core_class()(scenario.node_parameters['controller']),
+                          report=lambda text: None)
     if 'dtc_controller' in scenario.node_parameters:
         from dtc_controller.core.controller import DtcCore
         dtc = DtcCore(scenario.node_parameters['dtc_controller'])
@@ -71,11 +76,11 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
         period = p['state_period'] if p['state_period'] > 0 else p['dtc_period']
         record_every = ticks_of(period, plant.base_tick, 'state_period')
     cosim = CoSimulation(plant, dtc, pfc, record_every=record_every, on_tick=on_tick)
-    cores = {'plant': plant, 'dtc_controller': dtc, 'pfc_controller': pfc}
+    cores = {'plant': plant, 'dtc_controller': dtc, 'controller': dtc, 'pfc_controller': pfc}
     for event in scenario.events:
         if event.time > plant.time:
             cosim.run(steps=plant.step_of(event.time) - plant.step)
-        schema = node_schema(event.node)
+        schema = scenario.schema(event.node)
         snapshots[event.node] = schema.validate_changes(snapshots[event.node], event.parameters)
         cores[event.node].reconfigure(snapshots[event.node])
     cosim.run(steps=plant.step_of(scenario.duration) - plant.step)

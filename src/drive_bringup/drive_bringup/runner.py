@@ -1,6 +1,7 @@
 """Launch-free scenario runner: the drive graph as separate processes.
 
-Starts plant, dtc_controller, pfc_controller (when the scenario has one)
+Starts plant, dtc_controller (or the scenario's own ``nodes.controller``,
+under its node name), pfc_controller (when the scenario has one)
 and the recorder exactly as ``ros2 run <pkg> <exe> --ros-args -p ...``
 would, then drives the plant's ``plant/run`` action from event to event so
 each event's parameter change lands at its exact sim time (the plant holds
@@ -93,9 +94,10 @@ class GraphRunner:
             return dict(os.environ)
         return isolated_env(self.domain_id)
 
-    def _start(self, key: str, package: str, executable: str, parameters: dict) -> NodeProcess:
+    def _start(self, key: str, package: str, executable: str, parameters: dict,
+               node_name: str | None = None) -> NodeProcess:
         process = NodeProcess(package, executable, parameters=parameters, env=self._env(),
-                              log_dir=self.log_dir, node_name=None)
+                              log_dir=self.log_dir, node_name=node_name)
         self.processes[key] = process
         return process
 
@@ -157,9 +159,11 @@ class GraphRunner:
             plant_params['run_until'] = 0.0
             plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
             for key in sc.nodes:
-                package, executable = NODE_PROGRAMS[key]
+                own = sc.controller if key == 'controller' else None
+                package, executable = (own.package, own.executable) if own else NODE_PROGRAMS[key]
                 self._start(key, package, executable,
-                            plant_params if key == 'plant' else dict(sc.overrides[key]))
+                            plant_params if key == 'plant' else dict(sc.overrides[key]),
+                            node_name=own.node_name if own else None)
             context = rclpy.Context()
             rclpy.init(context=context, domain_id=self.domain_id)
             node = rclpy.create_node('scenario_runner', context=context)
@@ -225,6 +229,8 @@ class GraphRunner:
         self._action = ActionClient(node, Run, topics.RUN_ACTION)
         node_names = {'plant': '/plant', 'dtc_controller': '/dtc_controller',
                       'pfc_controller': '/pfc_controller'}
+        if sc.controller is not None:
+            node_names['controller'] = '/' + sc.controller.node_name
         self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
         self._wait_ready(node, executor, self._action)
         self._spin_while_waiting(

@@ -17,9 +17,15 @@ Schema (keys marked * are required)::
       plant: {parameters: {...}}
       dtc_controller: {parameters: {...}}     # optional: omit for plant-only runs
       pfc_controller: {parameters: {...}}     # optional: the boost PFC loop
+      controller:              # optional, instead of dtc_controller: your own drive controller
+        package*: str          #   ros2 run <package> <executable>
+        executable*: str
+        core*: module:Class    #   its ControllerCore (drive_common.controller_api): schema, headless
+        node_name: str         #   ROS node name (default: the executable)
+        parameters: {...}
     events:                    # applied at exact sim times, in order
       - time*: float           # s, 0 <= time < duration
-        node*: plant | dtc_controller | pfc_controller
+        node*: plant | dtc_controller | pfc_controller | controller
         parameters*: {...}
     record: {enabled: bool, topics: [str, ...]}
     metrics: {name: {...options}}   # names: drive_analysis.registry
@@ -50,6 +56,7 @@ NODE_SCHEMAS = {
     'dtc_controller': ('dtc_controller.parameters', 'SCHEMA'),
     'pfc_controller': ('pfc_controller.parameters', 'PFC_SCHEMA'),
 }
+CONTROLLER_KEYS = {'package', 'executable', 'core', 'node_name', 'parameters'}
 TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'events', 'record',
             'metrics', 'figures', 'checks'}
 
@@ -69,6 +76,27 @@ def _resolve_paths(params: dict) -> dict:
 def node_schema(node: str) -> ParameterSchema:
     module, attr = NODE_SCHEMAS[node]
     return getattr(importlib.import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class ControllerProgram:
+    """A scenario's own drive controller (``nodes.controller``): what runs, and its core."""
+
+    package: str
+    executable: str
+    core: str                           # 'module:Class', a drive_common.controller_api.ControllerCore
+    node_name: str
+
+    def core_class(self) -> type:
+        """The core class (ValueError naming the problem if it cannot be imported)."""
+        from drive_common.controller_api import check_core_class
+        module, _, attr = self.core.partition(':')
+        try:
+            core_class = getattr(importlib.import_module(module), attr)
+            check_core_class(core_class)
+        except (ImportError, AttributeError, TypeError) as exc:
+            raise ValueError(f'core {self.core!r}: {exc}') from exc
+        return core_class
 
 
 @dataclass(frozen=True)
@@ -124,6 +152,13 @@ class Scenario:
     metrics: dict[str, dict] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
     checks: list[Check] = field(default_factory=list)
+    controller: ControllerProgram | None = None    # nodes.controller, else None
+
+    def schema(self, node: str) -> ParameterSchema:
+        """The parameter schema of one of the scenario's nodes."""
+        if node == 'controller' and self.controller is not None:
+            return self.controller.core_class().SCHEMA
+        return node_schema(node)
 
     @property
     def nodes(self) -> list[str]:
@@ -143,7 +178,7 @@ class Scenario:
                                 f'({", ".join(self.nodes)})')
         overrides, snapshots = dict(self.overrides), dict(self.node_parameters)
         for node in self.nodes:
-            schema = node_schema(node)
+            schema = self.schema(node)
             values = parameters_for(node, sections, known=schema)
             merged = dict(self.overrides[node], **values)
             try:
@@ -218,17 +253,26 @@ def load_scenario(path: str | Path) -> Scenario:
     if 'plant' not in nodes:
         raise _fail(path, 'nodes.plant', 'required: the plant is the time master')
     snapshots, overrides = {}, {}
+    controller = _controller_program(path, nodes)
+    schemas = {}
     for node, spec in nodes.items():
         key = f'nodes.{node}'
-        if node not in NODE_SCHEMAS:
-            raise _fail(path, key, 'unknown node (allowed: ' + ', '.join(NODE_SCHEMAS) + ')')
+        if node not in NODE_SCHEMAS and node != 'controller':
+            raise _fail(path, key, 'unknown node (allowed: ' + ', '.join(NODE_SCHEMAS)
+                        + ', controller)')
         spec = _mapping(spec, path, key)
-        extra = sorted(set(spec) - {'parameters'})
+        allowed = CONTROLLER_KEYS if node == 'controller' else {'parameters'}
+        extra = sorted(set(spec) - allowed)
         if extra:
-            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: parameters)')
+            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: '
+                        + ', '.join(sorted(allowed)) + ')')
+        try:
+            schemas[node] = controller.core_class().SCHEMA if node == 'controller' else node_schema(node)
+        except ValueError as exc:
+            raise _fail(path, f'{key}.core', str(exc)) from exc
         params = _resolve_paths(_mapping(spec.get('parameters'), path, f'{key}.parameters'))
         try:
-            snapshots[node] = node_schema(node).resolve(params)
+            snapshots[node] = schemas[node].resolve(params)
         except ParameterError as exc:
             raise _fail(path, f'{key}.parameters', str(exc)) from exc
         overrides[node] = dict(params)
@@ -253,8 +297,8 @@ def load_scenario(path: str | Path) -> Scenario:
         if not params:
             raise _fail(path, f'{key}.parameters', 'no parameters to change')
         try:
-            node_schema(node).validate_changes(snapshots[node], params)
-            unknown_params = sorted(set(params) - set(node_schema(node).names()))
+            schemas[node].validate_changes(snapshots[node], params)
+            unknown_params = sorted(set(params) - set(schemas[node].names()))
             if unknown_params:
                 raise ParameterError('unknown parameter(s): ' + ', '.join(unknown_params))
         except ParameterError as exc:
@@ -320,7 +364,26 @@ def load_scenario(path: str | Path) -> Scenario:
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
                     record=enabled, record_topics=list(topics),
-                    metrics=metrics, figures=list(figures), checks=checks)
+                    metrics=metrics, figures=list(figures), checks=checks, controller=controller)
+
+
+def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
+    """nodes.controller as a ControllerProgram (None without one); ScenarioError if malformed."""
+    if 'controller' not in nodes:
+        return None
+    if 'dtc_controller' in nodes:
+        raise _fail(path, 'nodes.controller', 'a scenario has either dtc_controller or its own '
+                    'controller (both answer drive/measurement)')
+    spec = _mapping(nodes['controller'], path, 'nodes.controller')
+    values = {}
+    for name in ('package', 'executable', 'core', 'node_name'):
+        value = spec.get(name, spec.get('executable') if name == 'node_name' else None)
+        if not isinstance(value, str) or not value:
+            raise _fail(path, f'nodes.controller.{name}', 'required: a non-empty string')
+        values[name] = value
+    if values['core'].count(':') != 1:
+        raise _fail(path, 'nodes.controller.core', f'expected module:Class, got {values["core"]!r}')
+    return ControllerProgram(**values)
 
 
 def scenario_dir() -> Path:

@@ -33,8 +33,8 @@ from drive_common import topics
 from drive_common.netns import VirtualHosts
 
 HOSTS = ('plant', 'controller', 'supervisor')
-PLACEMENT = {'plant': 'plant', 'dtc_controller': 'controller', 'pfc_controller': 'controller',
-             'recorder': 'supervisor'}
+PLACEMENT = {'plant': 'plant', 'dtc_controller': 'controller', 'controller': 'controller',
+             'pfc_controller': 'controller', 'recorder': 'supervisor'}
 RUNNER_HOST = 'supervisor'
 
 
@@ -53,10 +53,12 @@ class SplitHostRunner(GraphRunner):
         self.static_peers = static_peers
         self.cut_controller_at = cut_controller_at
 
-    def _start(self, key: str, package: str, executable: str, parameters: dict):
+    def _start(self, key: str, package: str, executable: str, parameters: dict,
+               node_name: str | None = None):
         from drive_common.processes import NodeProcess
         host = PLACEMENT.get(key, RUNNER_HOST)     # helpers (e.g. a live view) beside the runner
         process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
+                              node_name=node_name,
                               env=self.hosts.env(host, self.domain_id,
                                                  static_peers=self.static_peers),
                               prefix=self.hosts.prefix(host))

@@ -66,7 +66,7 @@ import yaml
 from drive_analysis.registry import lookup as metric_function   # the one metric registry
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
-                                    load_scenario, node_schema)
+                                    load_scenario)
 from drive_bringup.scenario import _mapping, _number  # the same value checks as scenarios
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
@@ -151,16 +151,16 @@ def check_target(scenario: Scenario, target: str) -> str | None:
         if index >= len(scenario.events):
             return f'the scenario has {len(scenario.events)} event(s)'
         event = scenario.events[index]
-        if name != 'time' and name not in node_schema(event.node).names():
+        if name != 'time' and name not in scenario.schema(event.node).names():
             return f'{event.node} has no parameter {name!r}'
         return None
     node, _, name = target.partition('.')
-    if node not in NODE_SCHEMAS:
+    if node not in NODE_SCHEMAS and node != 'controller':
         return (f'unknown target (allowed: duration, events[i].time, events[i].<parameter>, '
-                f'<node>.<parameter> with node in {", ".join(NODE_SCHEMAS)})')
+                f'<node>.<parameter> with node in {", ".join(NODE_SCHEMAS)}, controller)')
     if node not in scenario.node_parameters:
         return f'node {node!r} is not in the scenario'
-    if name not in node_schema(node).names():
+    if name not in scenario.schema(node).names():
         return f'{node} has no parameter {name!r}'
     return None
 
@@ -191,7 +191,7 @@ def apply_values(scenario: Scenario, changes: dict[str, Any]) -> Scenario:
     snapshots = {}
     for node, params in overrides.items():
         try:
-            snapshots[node] = node_schema(node).resolve(params)
+            snapshots[node] = scenario.schema(node).resolve(params)
         except ParameterError as exc:
             raise ParameterError(f'{node}: {exc}') from exc
     new_events = []
@@ -199,7 +199,7 @@ def apply_values(scenario: Scenario, changes: dict[str, Any]) -> Scenario:
         if not 0.0 <= t < duration:
             raise ValueError(f'event time {t} s is outside [0, duration = {duration} s)')
         try:
-            node_schema(node).validate_changes(snapshots[node], params)
+            scenario.schema(node).validate_changes(snapshots[node], params)
         except ParameterError as exc:
             raise ParameterError(f'event at {t} s, {node}: {exc}') from exc
         new_events.append(Event(t, node, params))
@@ -224,6 +224,8 @@ def point_key(scenario: Scenario, repeat: int) -> str:
         'metrics': scenario.metrics,
         'repeat': repeat,
     }
+    if scenario.controller is not None:       # your own controller: its core is part of the point
+        content['controller'] = scenario.controller.core
     text = json.dumps(content, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

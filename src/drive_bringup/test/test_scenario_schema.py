@@ -27,6 +27,21 @@ def test_minimal_scenario_loads_with_node_defaults(tmp_path):
     assert sc.node_parameters['plant']  # full validated snapshot of the plant schema
 
 
+EXAMPLE = ('{package: drive_examples, executable: hysteresis_current_controller, '
+           'core: "drive_examples.hysteresis_current_controller:HysteresisCurrentCore"}')
+
+
+def test_own_controller_entry_gives_its_program_schema_and_events(tmp_path):
+    sc = load_scenario(write(tmp_path, GOOD + f'''
+      controller: {EXAMPLE}
+    events: [{{time: 0.005, node: controller, parameters: {{torque_reference: 0.5}}}}]
+    '''))
+    assert sc.controller.node_name == 'hysteresis_current_controller'      # default: the executable
+    assert sc.node_parameters['controller']['current_band'] == 0.2          # the core's schema
+    assert 'current_band' in sc.schema('controller').names()
+    assert sc.events[0].node == 'controller'
+
+
 @pytest.mark.parametrize('text, key, reason', [
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nbogus: 1\n', 'bogus', 'unknown key'),
     ('name: x\nnodes: {plant: {}}\n', 'duration', 'required key missing'),
@@ -56,6 +71,21 @@ def test_minimal_scenario_loads_with_node_defaults(tmp_path):
      'figures[0]', 'unknown figure'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nmetrics: {bogus: {x: 1}}\n',
      'metrics.bogus', 'no metric named'),
+    # your own controller (nodes.controller)
+    ('name: x\nduration: 0.1\nnodes: {plant: {}, controller: {package: p, core: "m:C"}}\n',
+     'nodes.controller.executable', 'required'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}, controller: {package: p, executable: e, core: C}}\n',
+     'nodes.controller.core', 'expected module:Class'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}, controller: {package: p, executable: e, '
+     'core: "no_such_module:C"}}\n', 'nodes.controller.core', 'No module named'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}, controller: {package: p, executable: e, '
+     'core: "drive_common.samples:DriveSample"}}\n', 'nodes.controller.core', 'not a controller core'),
+    (f'name: x\nduration: 0.1\nnodes: {{plant: {{}}, dtc_controller: {{}}, controller: {EXAMPLE}}}\n',
+     'nodes.controller', 'either dtc_controller or its own'),
+    (f'name: x\nduration: 0.1\nnodes: {{plant: {{}}, controller: {EXAMPLE[:-1]}, parameters: {{current_band: -1}}}}}}\n',
+     'nodes.controller.parameters', 'current_band'),
+    (f'name: x\nduration: 0.1\nnodes: {{plant: {{}}, controller: {EXAMPLE[:-1]}, bogus: 1}}}}\n',
+     'nodes.controller.bogus', 'unknown key'),
 ])
 def test_errors_name_file_key_and_reason(tmp_path, text, key, reason):
     path = tmp_path / 'bad.yaml'

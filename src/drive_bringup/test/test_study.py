@@ -186,3 +186,23 @@ def test_cli_on_a_local_cluster_records_a_protection_trip_and_samples_randomly(t
     expected = ['protection_trip' if p.values['peak_current_A'] < 2.0 else 'ok' for p in study.points]
     assert list(table['status']) == expected and set(expected) == {'ok', 'protection_trip'}
     assert f'protection_trip {expected.count("protection_trip")}' in proc.stdout   # the summary
+
+
+def test_a_study_sweeps_your_own_controller_by_its_schema(tmp_path):
+    study = load_study(write(tmp_path, '''
+        name: own
+        scenario: example_hysteresis_current_control
+        duration: 0.01
+        parameters:
+          - name: band_A
+            targets: [controller.current_band]
+            values: [0.1, 0.4]
+    '''))
+    assert [p.scenario.node_parameters['controller']['current_band'] for p in study.points] == [0.1, 0.4]
+    assert len({p.key for p in study.points}) == 2
+    with pytest.raises(StudyError, match='controller has no parameter'):
+        load_study(write(tmp_path, '''
+            name: own
+            scenario: example_hysteresis_current_control
+            parameters: [{name: x, targets: [controller.no_such], values: [1.0]}]
+        ''', 'bad.yaml'))

@@ -1,4 +1,7 @@
-"""ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller).
+"""ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller, your own).
+
+Controller authors: start from :mod:`drive_common.controller_api` (the documented
+core contract and a one-call ``main``); this module is the node base behind it.
 
 A controller node answers each measurement of step k with a command of the
 same step and publishes its status (docs/architecture.md, "Time and lockstep"). All control lives in a
@@ -31,6 +34,8 @@ from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
 
+
+__all__ = ['LockstepChannels', 'LockstepControllerNode']
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread

@@ -1,7 +1,7 @@
 """DtcStatusSample: one field per dtc_msgs/DtcStatus field (header excluded), same names and units."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 NAN = float('nan')
 
@@ -34,3 +34,16 @@ class DtcStatusSample:
     d_current_hysteresis: int        # 0 (DTIFC only)
     voltage_vector: int              # index in the mode's vector numbering
     switch_on: tuple                 # SW1..SW6
+
+    @classmethod
+    def partial(cls, step: int, mode: str, **values) -> 'DtcStatusSample':
+        """A status with the given fields; the others NaN (floats) or 0 (integers), switches off.
+
+        For controllers that have only some of the DTC's internals (docs/write_your_own_controller.md).
+        """
+        base = {f.name: NAN for f in fields(cls)}
+        base.update(step=step, mode=mode, rotation=1, sector=0, torque_hysteresis=0,
+                    flux_hysteresis=0, d_current_hysteresis=0, voltage_vector=0,
+                    switch_on=(False,) * 6)
+        base.update(values)
+        return cls(**base)

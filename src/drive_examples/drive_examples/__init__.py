@@ -1,0 +1,1 @@
+"""Worked examples of the public controller API (drive_common.controller_api)."""

@@ -1,0 +1,75 @@
+"""Hysteresis phase-current control with six-step commutation of the BLDC of 000.
+
+The classic BLDC drive that 000 ch. I compares DTC with: two phases conduct
+at a time (120 deg six-step), the pair is chosen from the encoder angle, and
+a hysteresis comparator keeps the pair current within +-``current_band`` of
+I* = T* / k_t. With the ideal trapezoid, both conducting phases on their
+flat tops, T = 2 p K I (000 App. A: k_t = 2 p K = 0.2292 N m/A, see
+motors/ozturk_bldc.yaml). Bipolar chopping: +V_dc or -V_dc across the pair.
+
+``ros2 run drive_examples hysteresis_current_controller`` runs it as a
+node; docs/write_your_own_controller.md walks through this file.
+"""
+import math
+
+from drive_common.controller_api import GateSample, ParameterSpec, run_controller, schema
+from dtc_controller.core.status import DtcStatusSample
+
+# Conducting pair (phase driven +, phase driven -) per 60 deg sector, sector 0 starting at
+# theta_e = 30 deg: the phase whose back-EMF constant k_x is on its +K / -K flat top
+# (plant convention: k_a = -K on [30, 150] deg, b and c lag by 120 and 240 deg).
+PAIRS = ((1, 0), (2, 0), (2, 1), (0, 1), (0, 2), (1, 2))
+
+SCHEMA = schema([
+    ParameterSpec('torque_reference', 0.0, 'electromagnetic torque reference T*', 'N*m', -5.0, 5.0),
+    ParameterSpec('torque_constant', 0.2292, 'k_t = T / I with two-phase conduction (000 App. A)',
+                  'N*m/A', 1e-3, 10.0),
+    ParameterSpec('current_band', 0.2, 'hysteresis half-width on the pair current', 'A', 0.0, 10.0),
+    ParameterSpec('current_limit', 20.0, 'limit of the current reference |I*|', 'A', 0.0, 24.0),
+    ParameterSpec('encoder_offset', 0.0, 'added to the measured electrical encoder angle', 'rad',
+                  -6.3, 6.3),
+])
+
+
+class HysteresisCurrentCore:
+    """ROS-free core: DriveSample of step k -> (GateSample of step k, DtcStatusSample)."""
+
+    SCHEMA = SCHEMA
+
+    def __init__(self, params: dict) -> None:
+        self.reconfigure(params)
+        self.chop = 1                                   # +1: +V_dc on the pair, -1: -V_dc
+
+    def reconfigure(self, params: dict) -> None:
+        self.p = SCHEMA.validate_changes(SCHEMA.defaults(), dict(params))
+
+    def update(self, sample):
+        p = self.p
+        theta = (sample.encoder_angle + p['encoder_offset']) % (2.0 * math.pi)
+        sector = int(((theta - math.pi / 6.0) % (2.0 * math.pi)) // (math.pi / 3.0)) % 6
+        plus, minus = PAIRS[sector]
+        limit = p['current_limit']
+        reference = max(-limit, min(limit, p['torque_reference'] / p['torque_constant']))
+        current = 0.5 * (sample.phase_current[plus] - sample.phase_current[minus])
+        if current < reference - p['current_band']:
+            self.chop = 1
+        elif current > reference + p['current_band']:
+            self.chop = -1
+        switch_on = [False] * 6                         # SW1/SW2 = a upper/lower, SW3/4 b, SW5/6 c
+        switch_on[2 * plus + (0 if self.chop > 0 else 1)] = True
+        switch_on[2 * minus + (1 if self.chop > 0 else 0)] = True
+        status = DtcStatusSample.partial(
+            sample.step, 'hysteresis_current', speed_measured=sample.mechanical_speed,
+            torque_reference=p['torque_reference'],
+            torque_estimate=p['torque_constant'] * current, q_current=current,
+            rotor_angle_estimate=theta, sector=sector + 1, torque_hysteresis=self.chop,
+            switch_on=tuple(switch_on))
+        return GateSample(sample.step, 6, tuple(switch_on)), status
+
+
+def main(args=None) -> int:
+    return run_controller(HysteresisCurrentCore, 'hysteresis_current_controller', args)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

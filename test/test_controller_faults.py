@@ -1,0 +1,184 @@
+"""A misbehaving controller is handled by the plant as the built-ins are (issue 16).
+
+An in-test responder answers the plant's measurements correctly for the
+first samples, then misbehaves: NaN or out-of-range duty, a wrong step
+(stale or future: never applied, so the command timeout applies). Each
+time the plant ends in the safe state, says so once on /diagnostics naming
+the commanding node and the problem, and the Run goal reports it.
+"""
+import math
+
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+
+from drive_common import topics
+from drive_common.waiting import wait_until
+from dtc_msgs.msg import DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement
+
+from test_plant_lockstep import PLANT, PlantClient
+
+pytestmark = pytest.mark.ros
+
+GOOD_SAMPLES = 20          # answered correctly first (readiness, then a normal run)
+PFC_PLANT = {'motor.file': 'ozturk_bldc', 'dtc_period': 0.0, 'pfc_enabled': True,
+             'pfc_period': 25e-6, 'front_end.enabled': True, 'dc_link.mode': 'current_fed',
+             'dc_link.voltage': 80.0, 'command_timeout': 3.0}
+
+
+class Responder:
+    """Answers measurements on one lockstep channel; after GOOD_SAMPLES, mangle(command)."""
+
+    def __init__(self, session, name, measurement, measurement_topic, command, command_topic,
+                 fill, mangle) -> None:
+        self.node = session.node(name)
+        self.fill, self.mangle, self.command = fill, mangle, command
+        self.pub = self.node.create_publisher(command, command_topic, topics.LOCKSTEP_QOS)
+        self.node.create_subscription(measurement, measurement_topic, self.answer,
+                                      topics.LOCKSTEP_QOS)
+
+    def answer(self, msg) -> None:
+        out = self.command(header=msg.header, step=msg.step)
+        self.fill(out)
+        if msg.step >= GOOD_SAMPLES:
+            self.mangle(out)
+        self.pub.publish(out)
+
+
+def _diagnostics(session) -> list:
+    seen = []
+    session.node('diagnostics_probe').create_subscription(
+        DiagnosticArray, topics.DIAGNOSTICS, lambda m: seen.extend(m.status), 10)
+    return seen
+
+
+def _duty(value):
+    def set_duty(out):
+        out.duty = value
+    return set_duty
+
+
+@pytest.mark.parametrize('bad_duty', [math.nan, 1.5])
+def test_a_malformed_duty_gives_safe_state_with_a_diagnostic_naming_the_node(start_node, ros_session,
+                                                                             bad_duty):
+    seen = _diagnostics(ros_session)
+    Responder(ros_session, 'bad_pfc', PfcMeasurement, topics.PFC_MEASUREMENT, DutyCommand, topics.DUTY_COMMAND,
+              lambda out: setattr(out, 'duty', 0.3) or setattr(out, 'enable', True), _duty(bad_duty))
+    start_node('bldc_plant_sim', 'plant', parameters=PFC_PLANT)
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success
+    assert result.message.count('safe state at') == 1, result.message   # once, not every sample
+    assert 'outside [0, 1]' in result.message and '/bad_pfc' in result.message
+    wait_until(lambda: any('/bad_pfc' in s.message and 'duty' in s.message for s in seen), 10.0,
+               what='a diagnostic naming /bad_pfc')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    assert client.states[-1].safe_state
+
+
+@pytest.mark.parametrize('offset', [-1, 1])
+def test_a_command_for_the_wrong_step_is_not_applied_at_its_sample(start_node, ros_session, offset):
+    # -1: stale answers are never applied, the plant stays safe to the end. +1: each answer
+    # carries the next step, so the plant applies it at that step (one sample late) and resumes.
+    seen = _diagnostics(ros_session)
+
+    def wrong_step(out):
+        out.step += offset
+
+    Responder(ros_session, 'bad_dtc', DriveMeasurement, topics.DRIVE_MEASUREMENT, GateCommand,
+              topics.GATE_COMMAND,
+              lambda out: setattr(out, 'topology', 6) or setattr(
+                  out, 'switch_on', [True, False, False, True, False, False]), wrong_step)
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 2.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success and result.message.count('safe state at') == 1, result.message
+    assert f'no gate command for step {GOOD_SAMPLES}' in result.message
+    assert '/bad_dtc' in result.message
+    wait_until(lambda: any('/bad_dtc' in s.message for s in seen), 10.0,
+               what='a diagnostic naming /bad_dtc')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    last = client.states[-1]
+    assert last.safe_state == (offset < 0)
+    if offset < 0:
+        assert not any(last.applied_switch_on)
+    else:
+        assert any('resumed' in s.message for s in seen)
+
+
+def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_node, ros_session):
+    # Every odd step's duty is NaN. The responder publishes each command one sample ahead (on
+    # measurement k the command for k + 1), so the plant, which does not wait for a faulted
+    # controller, finds the next valid one at once and resumes: refused, resumed, refused, ...
+    # /diagnostics and the goal's result carry one report per FAULT_REPORT_PERIOD = 10 ms sim.
+    seen = _diagnostics(ros_session)
+    node = ros_session.node('flapping_pfc')
+    pub = node.create_publisher(DutyCommand, topics.DUTY_COMMAND, topics.LOCKSTEP_QOS)
+
+    def answer(msg):
+        for step in ([0, 1] if msg.step == 0 else [msg.step + 1]):
+            bad = step >= GOOD_SAMPLES and step % 2
+            pub.publish(DutyCommand(header=msg.header, step=step, duty=math.nan if bad else 0.3,
+                                    enable=True))
+
+    node.create_subscription(PfcMeasurement, topics.PFC_MEASUREMENT, answer, topics.LOCKSTEP_QOS)
+    start_node('bldc_plant_sim', 'plant', parameters=PFC_PLANT)
+    client = PlantClient(ros_session)
+    result = client.run(0.002)                  # 80 samples: 30 malformed, all within 10 ms
+    assert not result.success and result.message.count('safe state at') == 1, result.message
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    wait_until(lambda: any('resumed' in s.message for s in seen), 10.0, what='resumed')
+    faults = [s.message for s in seen if 'flapping_pfc' in s.message]
+    assert len(faults) == 1 and faults[0].startswith('safe state: duty command'), faults
+    # 'resumed' follows the reported fault only, not the unreported ones after it.
+    assert sum('resumed' in s.message for s in seen) == 1, [s.message for s in seen]
+    assert client.states[-1].safe_state         # the last command (step 79) was NaN
+
+
+class _SevenSwitchCore:
+    """A user core with a bug: from GOOD_SAMPLES on it returns 7 switch states."""
+
+    from drive_common.controller_api import schema as _schema
+    SCHEMA = _schema([])
+
+    def __init__(self, params) -> None:
+        pass
+
+    def reconfigure(self, params) -> None:
+        pass
+
+    def update(self, sample):
+        from drive_common.controller_api import GateSample
+        switches = (True, False, False, True, False, False) + ((True,) if sample.step >= GOOD_SAMPLES else ())
+        return GateSample(sample.step, 6, switches), None
+
+
+def test_a_command_of_the_wrong_length_is_not_sent():
+    from drive_common.controller_api import CheckedCore, MalformedCommand
+    from drive_common.samples import DriveSample
+    reports = []
+    core = CheckedCore(_SevenSwitchCore({}), reports.append)
+    sample = DriveSample(GOOD_SAMPLES - 1, 0.0, (0.0,) * 3, 0.0, 0.0, 0, 0.0, 0, 0.0)
+    assert len(core.update(sample)[0].switch_on) == 6
+    sample.step = GOOD_SAMPLES
+    with pytest.raises(MalformedCommand, match='6 bools'):
+        core.update(sample)
+    assert reports and 'not sent' in reports[0]
+
+
+@pytest.mark.filterwarnings('ignore::pytest.PytestUnhandledThreadExceptionWarning')  # its thread ends
+def test_a_controller_node_with_a_wrong_length_command_leaves_the_plant_safe(start_node, ros_session):
+    # Serialization would truncate a 7-entry switch_on to bool[6] silently; the controller API
+    # sends nothing instead, so the plant times out on it and names it.
+    from drive_common.controller_api import controller_node
+    seen = _diagnostics(ros_session)
+    ros_session.add(controller_node(_SevenSwitchCore, 'seven_switches', status=False,
+                                    context=ros_session.context))
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 2.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success and f'no gate command for step {GOOD_SAMPLES}' in result.message
+    assert '/seven_switches' in result.message
+    wait_until(lambda: any('/seven_switches' in s.message for s in seen), 10.0,
+               what='a diagnostic naming /seven_switches')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
