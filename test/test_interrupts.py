@@ -29,11 +29,16 @@ BACKEMF_TABLE = (Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' 
 
 def test_interrupted_graph_exits_cleanly_every_time(start_node, ros_session, tmp_path):
     rng = random.Random(SEED)
-    states: list = []
-    ros_session.node('state_probe').create_subscription(PlantState, topics.PLANT_STATE,
-                                                        states.append, topics.STREAM_QOS)
+    probe = ros_session.node('state_probe')
+    subscription = None
     for attempt in range(INTERRUPTS):
-        states.clear()
+        # A new subscription per attempt: a state of the previous (stopped) plant still queued
+        # in the old one must not pass for this plant's run being under way.
+        if subscription is not None:
+            probe.destroy_subscription(subscription)
+        states: list = []
+        subscription = probe.create_subscription(PlantState, topics.PLANT_STATE, states.append,
+                                                 topics.STREAM_QOS)
         bag = tmp_path / f'bag_{attempt}'
         logs = {'log_dir': tmp_path / f'nodes_{attempt}'}
         recorder = start_node('drive_logger', 'recorder', parameters={'output': str(bag)}, **logs)

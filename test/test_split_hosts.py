@@ -117,8 +117,10 @@ def test_link_cut_puts_the_plant_in_the_safe_state(tmp_path):
 def test_cable_pulled_during_a_run_goal_puts_the_plant_in_the_safe_state(tmp_path):
     """The controller host's eth0 goes down from outside while the plant is stepping."""
     out = tmp_path / 'pulled'
-    duration = 0.5      # s sim: several seconds of wall time, so the cut lands mid-goal
-    process = subprocess.Popen([sys.executable, '-u', '-m', 'drive_bringup.split_hosts', SCENARIO,
+    # A scenario long enough to shorten to several seconds of wall time with no event before its
+    # end (--duration only shortens), so the cut lands mid-goal; T_s = 25 us.
+    scenario, duration, rate = 'two_phase_six_switch_flux_control', 0.25, 40000
+    process = subprocess.Popen([sys.executable, '-u', '-m', 'drive_bringup.split_hosts', scenario,
                                 '--duration', str(duration), '--out', str(out)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -140,7 +142,7 @@ def test_cable_pulled_during_a_run_goal_puts_the_plant_in_the_safe_state(tmp_pat
     assert 0.0 < float(fault.group(1)) < duration
     steps = [m.step for _, m in BagReader(out / 'bag').decoded_messages(['/plant/state'])
              if m.safe_state]
-    assert steps and steps[0] == int(fault.group(2)) + 1 and steps[-1] == round(duration * 30000)
+    assert steps and steps[0] == int(fault.group(2)) + 1 and steps[-1] == round(duration * rate)
 
 
 def test_hosts_are_removed_after_an_exception():

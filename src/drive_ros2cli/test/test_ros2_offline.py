@@ -60,7 +60,7 @@ def test_pkg_and_run(ros2_offline):
     assert {'drive_logger recorder', 'drive_logger replay'} <= set(executables)
     assert ros2_offline('pkg', 'executables', 'no_such_package').code == 1
 
-    ran = ros2_offline('run', 'drive_logger', 'analyze', '--help')
+    ran = ros2_offline('run', 'drive_analysis', 'analyze', '--help')
     assert ran.code == 0 and 'usage:' in ran.out
     missing = ros2_offline('run', 'no_such_package', 'x')
     assert missing.code == 1 and missing.err.strip() == "Package 'no_such_package' not found"
