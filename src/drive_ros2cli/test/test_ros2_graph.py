@@ -147,6 +147,11 @@ def test_action_verbs_echo_and_bag(drive_graph, tmp_path):
     bag = tmp_path / 'bag'
     recorder = ros2.start('bag', 'record', '-o', str(bag), '/plant/state', name='record')
     recorder.wait_for_output('recorder ready')
+    from drive_testing.harness import wait_until
+    # echo subscribes once it has discovered the topic's type: the run must not start before
+    # (on a loaded machine the whole goal can pass before echo's subscription matches).
+    wait_until(lambda: 'Subscription count: 2' in ros2('topic', 'info', '/plant/state').out, 120.0,
+               what='echo and the recorder subscribed to /plant/state')
     goal = ros2.ok('action', 'send_goal', '--feedback', '/plant/run', 'dtc_msgs/action/Run',
                    '{target_time: 0.06}')
     assert 'Goal accepted with ID: ' in goal
