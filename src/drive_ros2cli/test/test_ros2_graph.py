@@ -150,8 +150,11 @@ def test_action_verbs_echo_and_bag(drive_graph, tmp_path):
     from drive_testing.harness import wait_until
     # echo subscribes once it has discovered the topic's type: the run must not start before
     # (on a loaded machine the whole goal can pass before echo's subscription matches).
-    wait_until(lambda: 'Subscription count: 2' in ros2('topic', 'info', '/plant/state').out, 120.0,
-               what='echo and the recorder subscribed to /plant/state')
+    def subscribers() -> int:
+        out = ros2('topic', 'info', '/plant/state').out
+        return int(out.split('Subscription count: ')[1].split()[0]) if 'Subscription count: ' in out else 0
+
+    wait_until(lambda: subscribers() >= 2, 120.0, what='echo and the recorder subscribed to /plant/state')
     goal = ros2.ok('action', 'send_goal', '--feedback', '/plant/run', 'dtc_msgs/action/Run',
                    '{target_time: 0.06}')
     assert 'Goal accepted with ID: ' in goal
