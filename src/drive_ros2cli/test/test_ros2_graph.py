@@ -7,15 +7,30 @@ nodes really are (names, types, values), in upstream ros2cli's format.
 import pytest
 import yaml
 
+from drive_testing.harness import wait_until
+
 pytestmark = pytest.mark.ros
+
+
+def _settled(ros2, args, ready, what):
+    """ros2 <args> once its output shows the whole graph (discovery without a daemon can lag on
+    a loaded machine: as a user would, ask again), the output."""
+    outputs = []
+
+    def ask() -> bool:
+        outputs.append(ros2.ok(*args))
+        return ready(outputs[-1])
+
+    wait_until(ask, 120.0, 0.5, what)
+    return outputs[-1]
 
 
 def test_node_list_and_info(drive_graph):
     ros2 = drive_graph
-    names = ros2.ok('node', 'list').split()
-    assert '/plant' in names and '/fixed_responder' in names
+    names = _settled(ros2, ('node', 'list'), lambda out: {'/plant', '/fixed_responder'} <= set(out.split()),
+                     'both nodes listed').split()
     assert not any(n.startswith('/_') for n in names), names          # hidden: not even ours
-    assert ros2.ok('node', 'list', '-c').strip() == str(len(names))
+    _settled(ros2, ('node', 'list', '-c'), lambda out: out.strip() == str(len(names)), 'the count')
 
     info = ros2.ok('node', 'info', '/plant')
     lines = info.splitlines()
@@ -46,9 +61,11 @@ def test_topic_list_and_info(drive_graph):
     assert '/plant/state' in ros2.ok('topic', 'list').splitlines()
 
     # counts need both processes' endpoints discovered: give discovery the time a loaded machine needs
-    info = ros2.ok('topic', 'info', '/drive/measurement', '--spin-time', '3').splitlines()
+    info = _settled(ros2, ('topic', 'info', '/drive/measurement', '--spin-time', '3'),
+                    lambda out: 'Subscription count: 0' not in out, 'both endpoints').splitlines()
     assert info == ['Type: dtc_msgs/msg/DriveMeasurement', 'Publisher count: 1', 'Subscription count: 1']
-    verbose = ros2.ok('topic', 'info', '-v', '/plant/state')
+    verbose = _settled(ros2, ('topic', 'info', '-v', '/plant/state'),
+                       lambda out: 'Node name: _NODE_NAME_UNKNOWN_' not in out, "the publisher's node known")
     assert verbose.startswith('Type: dtc_msgs/msg/PlantState\n\nPublisher count: 1\n\nNode name: plant\n'
                               'Node namespace: /\nTopic type: dtc_msgs/msg/PlantState\n')
     assert 'Endpoint type: PUBLISHER' in verbose and 'QoS profile:\n  Reliability: ' in verbose
@@ -147,7 +164,6 @@ def test_action_verbs_echo_and_bag(drive_graph, tmp_path):
     bag = tmp_path / 'bag'
     recorder = ros2.start('bag', 'record', '-o', str(bag), '/plant/state', name='record')
     recorder.wait_for_output('recorder ready')
-    from drive_testing.harness import wait_until
     # echo subscribes once it has discovered the topic's type: the run must not start before
     # (on a loaded machine the whole goal can pass before echo's subscription matches).
     def subscribers() -> int:
