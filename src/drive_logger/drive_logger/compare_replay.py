@@ -1,5 +1,10 @@
 """Regression: re-drive a controller from a bag's drive measurements and compare its commands.
 
+The measurements and recorded commands are the bag's raw lockstep topics when
+it has them, else those its controller status blocks carry (a default
+recording: ``/dtc/status_block`` holds every measurement the controller
+acted on and every command it sent, bit-exact).
+
 The controller (any executable: ``--package/--executable`` as ``ros2 run``
 finds it, or ``--command``) is started as its own process with the given
 parameters. The recorded measurements are then replayed in lockstep: for
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import functools
 import json
 import os
 import sys
@@ -33,6 +39,7 @@ from drive_common.processes import NodeProcess, ros_arguments
 from drive_common.waiting import WaitTimeout, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_logger.bag_reader import BagReadError, BagReader
+from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.replay_node import clock_cdr, header_stamp_ns
 
 
@@ -89,6 +96,10 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
                    controller_node: str = '/dtc_controller'):
     """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}, changes) from a bag.
 
+    The measurements and commands are the raw lockstep topics when the bag has them, else
+    the ones the controller's status block carries (``/dtc/status_block`` for
+    ``/drive/measurement`` and ``/drive/gate_command``, ``/pfc/status_block`` for the PFC
+    pair; :mod:`drive_logger.block_topics`), expanded bit-exact.
     changes: {index of the first measurement after the change: [(name, value), ...]} from the
     controller node's recorded parameter events (changed parameters only).
     """
@@ -96,16 +107,24 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     from drive_logger import ros_types
     reader = BagReader(bag, salvage=salvage)
     infos = reader.topics
-    for topic in (measurement_topic, command_topic):
-        if topic not in infos:
-            raise CompareError(f'bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
-    meas_cls = ros_types.message_class(infos[measurement_topic].type)
-    cmd_cls = ros_types.message_class(infos[command_topic].type)
+    pair = (measurement_topic, command_topic)
+    if all(t in infos and infos[t].message_count != 0 for t in pair):
+        classes = [ros_types.message_class(infos[t].type) for t in pair]
+        stream = reader.messages
+    else:
+        sources = block_sources(reader)
+        for topic in pair:
+            if topic not in sources:
+                raise CompareError(f'bag {bag!r} has no topic {topic!r} and no block topic carrying it '
+                                   f'(topics: {sorted(infos)})')
+        classes = [part_classes(sources[t][0])[sources[t][1]] for t in pair]
+        stream = functools.partial(per_sample_messages, reader)
+    meas_cls, cmd_cls = classes
     from rcl_interfaces.msg import ParameterEvent
     from rclpy.parameter import parameter_value_to_python
-    measurements, commands, changes = [], {}, {}
+    measurements, commands, events = [], {}, []
     topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
-    for msg in reader.messages(topics):
+    for msg in stream(topics):
         if msg.topic == measurement_topic:
             measurements.append((deserialize_message(msg.data, meas_cls).step, header_stamp_ns(msg.data), msg.data))
         elif msg.topic == command_topic:
@@ -113,13 +132,16 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
         else:
             event = deserialize_message(msg.data, ParameterEvent)
             if event.node == controller_node and event.changed_parameters:
-                # Sim log times: a change made while the graph held time at T is logged at T; the
-                # plant measured sample T before it held, so the change acts from the next sample
-                # (after every measurement stamped <= T, whatever the tie order); wall: arrival order.
-                index = (bisect.bisect_right([stamp for _, stamp, _ in measurements], msg.log_time)
-                         if reader.log_time_source == 'sim' else len(measurements))
-                changes.setdefault(index, []).extend(
-                    (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters)
+                events.append((msg.log_time, len(measurements), [
+                    (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters]))
+    stamps = [stamp for _, stamp, _ in measurements]
+    changes = {}
+    for log_time, arrived_after, changed in events:
+        # Sim log times: a change made while the graph held time at T is logged at T; the
+        # plant measured sample T before it held, so the change acts from the next sample
+        # (after every measurement stamped <= T, whatever the tie order); wall: arrival order.
+        index = bisect.bisect_right(stamps, log_time) if reader.log_time_source == 'sim' else arrived_after
+        changes.setdefault(index, []).extend(changed)
     return meas_cls, measurements, cmd_cls, commands, changes
 
 
