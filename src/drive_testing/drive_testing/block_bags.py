@@ -130,9 +130,24 @@ def _per_sample_streams(samples: HeadlessSamples):
             yield stamp, 2, status, _fill(types[status][0], stat, stamp)
 
 
+PARAMETER_EVENTS = 'parameter_events'
+
+
+def _write_parameter_events(bag: '_Bag', samples: HeadlessSamples) -> None:
+    """The scenario's runtime changes as /parameter_events of their node, logged at the event's
+    sim time (the headless run applies them before the sample at that time, as the graph does)."""
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.parameter import Parameter
+    for event in samples.scenario.events:
+        msg = ParameterEvent(node=f'/{event.node}', changed_parameters=[
+            Parameter(name, value=value).to_parameter_msg() for name, value in event.parameters.items()])
+        bag.write(PARAMETER_EVENTS, msg, nanoseconds(event.time))
+
+
 def write_per_sample_bag(samples: HeadlessSamples, path: Path) -> Path:
-    """A bag of every per-sample message (the recording before blocks)."""
+    """A bag of every per-sample message (the recording before blocks) and the parameter events."""
     bag = _Bag(path)
+    _write_parameter_events(bag, samples)
     for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
         bag.write(topic, msg, stamp)
     bag.close()
@@ -147,7 +162,8 @@ _CARRIED = {names.PLANT_STATE: (), names.DTC_STATUS: (names.DRIVE_MEASUREMENT, n
 def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFAULT_BLOCK_SIZE,
                     live_period: float | None = DEFAULT_LIVE_PERIOD, lockstep: bool = False) -> Path:
     """A bag of block topics (+ the live topics decimated to live_period unless None, + the raw
-    lockstep topics if asked), as the nodes publish them; blocks logged at their first stamp."""
+    lockstep topics if asked), as the nodes publish them; blocks logged at their first stamp;
+    and the parameter events."""
     from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
     from drive_common.telemetry_blocks import BlockPacker
     packers = {names.PLANT_STATE: (names.PLANT_STATE_BLOCK, BlockPacker(PlantStateBlock, block_size)),
@@ -156,6 +172,7 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
     decimators = {t: Decimator(live_period) for t in packers} if live_period is not None else {}
     lockstep_topics = {names.DRIVE_MEASUREMENT, names.GATE_COMMAND, names.PFC_MEASUREMENT, names.DUTY_COMMAND}
     bag = _Bag(path)
+    _write_parameter_events(bag, samples)
     sample_parts: dict = {}
     for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
         if topic in lockstep_topics:
