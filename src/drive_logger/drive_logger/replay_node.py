@@ -187,7 +187,17 @@ class ReplayNode(Node):
             if not self.loop:
                 break
         self.get_logger().info(f'replay done: {self.published} messages published')
-        stop.wait(0.2)  # let the last reliable samples go out
+        self._wait_for_acks(stop)
+
+    def _wait_for_acks(self, stop: threading.Event, timeout: float = 5.0) -> None:
+        """Let the last reliable samples (and any a late-matching reader asks again for) go out."""
+        from rclpy.duration import Duration
+        deadline = time.monotonic() + timeout
+        for publisher in self.publishers_by_topic.values():
+            left = deadline - time.monotonic()
+            if stop.is_set() or left <= 0 or not publisher.wait_for_all_acked(Duration(seconds=left)):
+                break
+        stop.wait(0.2)
 
 
 def main(args=None) -> int:
