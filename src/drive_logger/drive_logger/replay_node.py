@@ -25,6 +25,8 @@ Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
   re-driven from a block bag (:mod:`drive_logger.block_topics`). The
   recorded per-sample messages of those names (decimated live topics) are
   not published then; ``topics`` may name the per-sample topics.
+At the end a replay waits (up to 5 s) until every reliable sample it published
+is acknowledged, so a reader that matched late still gets the first ones.
 A bag that cannot be read is an error naming the problem (exit code 2).
 """
 from __future__ import annotations
