@@ -1,13 +1,23 @@
-"""A bag's drive topics as numpy columns (no ROS): {topic: {field: array}}.
+"""A bag's drive topics as numpy columns: {topic: {field: array}}.
 
 Every message with a header gets ``t`` (s, sim time from the stamp); array
-fields become 2-D arrays (samples x elements).
+fields become 2-D arrays (samples x elements); numbers are float64, strings
+object arrays. A per-sample topic that a block topic of the bag carries
+(``/plant/state`` in ``/plant/state_block``, ``/dtc/status``,
+``/drive/measurement`` and ``/drive/gate_command`` in ``/dtc/status_block``,
+the PFC topics in ``/pfc/status_block``; :mod:`drive_logger.block_topics`)
+is read from every sample of the block (``block_columns``), never mixed with
+the recorded per-sample messages of that name (decimated live topic or raw
+lockstep topic): the columns equal those a bag of the per-sample topics
+gives. Blocks that skip or repeat steps are refused (BagReadError naming the
+topic), not silently analysed.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from drive_logger.bag_reader import BagReader
+from drive_logger.bag_reader import BagReader, BagReadError
+from drive_logger.block_topics import block_class, block_sources, part_classes, read_blocks
 
 ANALYSED_TOPICS = ('/plant/state', '/dtc/status', '/drive/measurement', '/drive/gate_command',
                    '/pfc/status', '/pfc/measurement', '/pfc/duty_command')
@@ -19,12 +29,20 @@ def _plain(value):
     return value
 
 
-def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS) -> dict[str, dict[str, np.ndarray]]:
-    """Read the given topics of a bag into columns (missing topics are left out)."""
-    reader = BagReader(bag, salvage=salvage)
-    present = [t for t in topics if t in reader.topics]
-    rows: dict[str, dict[str, list]] = {t: {} for t in present}
-    for msg, decoded in reader.decoded_messages(present):
+def _arrays(cols: dict[str, list]) -> dict[str, np.ndarray]:
+    arrays = {}
+    for name, values in cols.items():
+        try:
+            arrays[name] = np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            arrays[name] = np.asarray(values, dtype=object)
+    return arrays
+
+
+def _recorded_columns(reader: BagReader, topics: list[str]) -> dict[str, dict[str, np.ndarray]]:
+    """Columns of per-sample messages as recorded."""
+    rows: dict[str, dict[str, list]] = {t: {} for t in topics}
+    for msg, decoded in reader.decoded_messages(topics):
         cols = rows[msg.topic]
         for name in decoded.__slots__:
             value = getattr(decoded, name)
@@ -34,13 +52,48 @@ def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS) -> dic
             if hasattr(value, '__slots__'):
                 continue
             cols.setdefault(name, []).append(_plain(value))
+    return {topic: _arrays(cols) for topic, cols in rows.items()}
+
+
+def block_problems(blocks_by_topic: dict[str, list]) -> list[str]:
+    """'<topic>: <problem>' for every skip or repeat of steps between consecutive blocks of a topic."""
+    from drive_common.telemetry_blocks import step_gaps
+    return [f'{topic}: {problem}' for topic, blocks in blocks_by_topic.items()
+            for problem in step_gaps(blocks)]
+
+
+def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dict[str, dict[str, np.ndarray]]:
+    """Columns of the wanted per-sample topics {topic: (block topic, part)} from every block sample."""
+    from drive_common.telemetry_blocks import block_columns, layout
+    blocks = read_blocks(reader, sorted({block for block, _ in wanted.values()}))
+    problems = block_problems(blocks)
+    if problems:
+        raise BagReadError(f'bag {str(reader.path)!r}: blocks skip or repeat steps, not analysed: '
+                           + '; '.join(problems[:5]) + (f' (+{len(problems) - 5} more)' if len(problems) > 5 else ''))
     out = {}
-    for topic, cols in rows.items():
-        arrays = {}
-        for name, values in cols.items():
-            try:
-                arrays[name] = np.asarray(values, dtype=float)
-            except (TypeError, ValueError):
-                arrays[name] = np.asarray(values, dtype=object)
+    for topic, (block_topic, part) in wanted.items():
+        lay = layout(block_class(block_topic))
+        msg_type = part_classes(block_topic)[part]
+        by_source = {c.source: c.name for c in lay.columns + lay.per_block if c.part == part}
+        per_block = [block_columns(b) for b in blocks[block_topic]]
+        arrays = {'t': np.concatenate([c['time'] for c in per_block]) if per_block else np.zeros(0)}
+        for name in msg_type.get_fields_and_field_types():
+            if name == 'header':
+                continue
+            source = 'step' if name == 'step' else by_source[name]
+            values = np.concatenate([c[source] for c in per_block]) if per_block else np.zeros(0)
+            # the dtypes the recorded path gives: float64 numbers, object strings
+            arrays[name] = values.astype(object if values.dtype.kind == 'U' else float)
         out[topic] = arrays
     return out
+
+
+def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS) -> dict[str, dict[str, np.ndarray]]:
+    """Read the given topics of a bag into columns (missing topics are left out; blocks preferred)."""
+    reader = BagReader(bag, salvage=salvage)
+    sources = block_sources(reader)
+    from_blocks = {t: sources[t] for t in topics if t in sources}
+    recorded = [t for t in topics if t in reader.topics and t not in from_blocks]
+    columns = _recorded_columns(reader, recorded)
+    columns.update(_block_columns(reader, from_blocks) if from_blocks else {})
+    return {t: columns[t] for t in topics if t in columns}

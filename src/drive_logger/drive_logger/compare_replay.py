@@ -1,5 +1,10 @@
 """Regression: re-drive a controller from a bag's drive measurements and compare its commands.
 
+The measurements and recorded commands are the bag's raw lockstep topics when
+it has them, else those its controller status blocks carry (a default
+recording: ``/dtc/status_block`` holds every measurement the controller
+acted on and every command it sent, bit-exact).
+
 The controller (any executable: ``--package/--executable`` as ``ros2 run``
 finds it, or ``--command``) is started as its own process with the given
 parameters. The recorded measurements are then replayed in lockstep: for
@@ -19,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import functools
 import json
 import os
 import sys
@@ -33,6 +39,7 @@ from drive_common.processes import NodeProcess, ros_arguments
 from drive_common.waiting import WaitTimeout, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_logger.bag_reader import BagReadError, BagReader
+from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.replay_node import clock_cdr, header_stamp_ns
 
 
@@ -89,6 +96,10 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
                    controller_node: str = '/dtc_controller'):
     """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}, changes) from a bag.
 
+    The measurements and commands are the raw lockstep topics when the bag has them, else
+    the ones the controller's status block carries (``/dtc/status_block`` for
+    ``/drive/measurement`` and ``/drive/gate_command``, ``/pfc/status_block`` for the PFC
+    pair; :mod:`drive_logger.block_topics`), expanded bit-exact.
     changes: {index of the first measurement after the change: [(name, value), ...]} from the
     controller node's recorded parameter events (changed parameters only).
     """
@@ -96,16 +107,24 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     from drive_logger import ros_types
     reader = BagReader(bag, salvage=salvage)
     infos = reader.topics
-    for topic in (measurement_topic, command_topic):
-        if topic not in infos:
-            raise CompareError(f'bag {bag!r} has no topic {topic!r} (topics: {sorted(infos)})')
-    meas_cls = ros_types.message_class(infos[measurement_topic].type)
-    cmd_cls = ros_types.message_class(infos[command_topic].type)
+    pair = (measurement_topic, command_topic)
+    if all(t in infos and infos[t].message_count != 0 for t in pair):
+        classes = [ros_types.message_class(infos[t].type) for t in pair]
+        stream = reader.messages
+    else:
+        sources = block_sources(reader)
+        for topic in pair:
+            if topic not in sources:
+                raise CompareError(f'bag {bag!r} has no topic {topic!r} and no block topic carrying it '
+                                   f'(topics: {sorted(infos)})')
+        classes = [part_classes(sources[t][0])[sources[t][1]] for t in pair]
+        stream = functools.partial(per_sample_messages, reader)
+    meas_cls, cmd_cls = classes
     from rcl_interfaces.msg import ParameterEvent
     from rclpy.parameter import parameter_value_to_python
     measurements, commands, changes = [], {}, {}
     topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
-    for msg in reader.messages(topics):
+    for msg in stream(topics):
         if msg.topic == measurement_topic:
             measurements.append((deserialize_message(msg.data, meas_cls).step, header_stamp_ns(msg.data), msg.data))
         elif msg.topic == command_topic:

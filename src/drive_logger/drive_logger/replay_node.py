@@ -17,6 +17,16 @@ Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
   ``wait_for_subscribers`` (double s, 0.0: wait up to this long for at least
   one subscriber on every replayed topic before starting).
 - ``start_offset`` (double s, 0.0): skip the first seconds of log time.
+- ``expand_blocks`` (bool, false): publish the per-sample topics a block
+  topic carries (``plant/state`` from ``plant/state_block``; ``dtc/status``,
+  ``drive/measurement``, ``drive/gate_command`` from ``dtc/status_block``;
+  the PFC topics likewise) instead of the blocks, every sample at its
+  stamp, bit-exact as the nodes published them, so a controller can be
+  re-driven from a block bag (:mod:`drive_logger.block_topics`). The
+  recorded per-sample messages of those names (decimated live topics) are
+  not published then; ``topics`` may name the per-sample topics.
+At the end a replay waits (up to 5 s) until every reliable sample it published
+is acknowledged, so a reader that matched late still gets the first ones.
 A bag that cannot be read is an error naming the problem (exit code 2).
 """
 from __future__ import annotations
@@ -35,6 +45,7 @@ from drive_common.waiting import wait_until
 
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
+from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.message_definitions import cdr_stamp_ns as header_stamp_ns  # noqa: F401 (compare_replay)
 from drive_logger.message_definitions import first_field_is_header as has_header, message_text
 
@@ -73,6 +84,7 @@ REPLAY_SCHEMA = schema([
           's', 0.0, 3600.0),
     _spec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
           's', 0.0, 1e9),
+    _spec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
 ])
 
 
@@ -93,15 +105,17 @@ class ReplayNode(Node):
         self.start_offset_ns = round(float(get['start_offset']) * 1e9)
         selected = [t for t in get['topics'] if t]
         remaps = parse_remaps([r for r in get['remap'] if r])
-        infos = self.reader.topics
-        self.topic_names = [t for t in infos if not selected or t in selected or t.lstrip('/') in selected]
+        self.expand_blocks = bool(get['expand_blocks'])
+        available = self._available_topics()
+        self.topic_types = {t: available[t][0] for t in available
+                            if not selected or t in selected or t.lstrip('/') in selected}
+        self.topic_names = list(self.topic_types)
         self.publishers_by_topic = {}
-        self.stamped = {}
         for name in self.topic_names:
-            info = infos[name]
+            type_name, profiles = available[name]
             target = remaps.get(name, remaps.get(name.lstrip('/'), name))
             self.publishers_by_topic[name] = self.create_publisher(
-                ros_types.message_class(info.type), target, ros_types.replay_qos(info.qos_profiles))
+                ros_types.message_class(type_name), target, ros_types.replay_qos(profiles))
         self.publish_clock = bool(get['publish_clock'])
         self.synthesize_clock = self.publish_clock and CLOCK_TOPIC not in self.topic_names
         if self.synthesize_clock:
@@ -109,12 +123,28 @@ class ReplayNode(Node):
             self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
         self.published = 0
 
+    def _available_topics(self) -> dict[str, tuple[str, list]]:
+        """{topic: (type, offered QoS profiles)} this replay can publish."""
+        infos = self.reader.topics
+        topics = {name: (info.type, info.qos_profiles) for name, info in infos.items()}
+        if self.expand_blocks:
+            for topic, (block_topic, part) in block_sources(self.reader).items():
+                topics.pop(block_topic, None)
+                msg_type = part_classes(block_topic)[part]
+                topics[topic] = (f'dtc_msgs/msg/{msg_type.__name__}', infos[block_topic].qos_profiles)
+        return topics
+
+    def _messages(self):
+        if self.expand_blocks:
+            return per_sample_messages(self.reader, self.topic_names)
+        return self.reader.messages(self.topic_names)
+
     def _header_topics(self) -> set[str]:
         topics = set()
-        for schema_name in {self.reader.topics[t].type for t in self.topic_names}:
+        for schema_name in set(self.topic_types.values()):
             try:
                 if has_header(message_text(schema_name)):
-                    topics.update(t for t in self.topic_names if self.reader.topics[t].type == schema_name)
+                    topics.update(t for t, n in self.topic_types.items() if n == schema_name)
             except LookupError:
                 pass
         return topics
@@ -130,7 +160,7 @@ class ReplayNode(Node):
         stamped = self._header_topics() if self.synthesize_clock else set()
         last_clock = None
         wall0 = bag0 = first = None
-        for msg in self.reader.messages(self.topic_names):
+        for msg in self._messages():
             if stop.is_set():
                 return
             first = msg.log_time if first is None else first
@@ -159,7 +189,17 @@ class ReplayNode(Node):
             if not self.loop:
                 break
         self.get_logger().info(f'replay done: {self.published} messages published')
-        stop.wait(0.2)  # let the last reliable samples go out
+        self._wait_for_acks(stop)
+
+    def _wait_for_acks(self, stop: threading.Event, timeout: float = 5.0) -> None:
+        """Let the last reliable samples (and any a late-matching reader asks again for) go out."""
+        from rclpy.duration import Duration
+        deadline = time.monotonic() + timeout
+        for publisher in self.publishers_by_topic.values():
+            left = deadline - time.monotonic()
+            if stop.is_set() or left <= 0 or not publisher.wait_for_all_acked(Duration(seconds=left)):
+                break
+        stop.wait(0.2)
 
 
 def main(args=None) -> int:

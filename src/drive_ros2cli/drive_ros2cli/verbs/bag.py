@@ -4,7 +4,8 @@ rosbag2 ships no wheels: ``record`` runs ``drive_logger recorder`` and
 ``play`` runs ``drive_logger replay`` (exec'd, so Ctrl-C reaches the node and
 the bag is finalized), with rosbag2's option names mapped to their
 parameters; ``info`` reads metadata.yaml through
-:class:`drive_logger.bag_reader.BagReader`; ``reindex`` rebuilds the footer,
+:class:`drive_logger.bag_reader.BagReader` (for a block topic also its
+samples, and any skipped or repeated steps between its blocks); ``reindex`` rebuilds the footer,
 summary and metadata.yaml of a bag whose recorder was killed
 (:mod:`drive_logger.bag_reindex`).
 """
@@ -117,8 +118,10 @@ def _stamp(ns: int) -> str:
 
 def info_main(args) -> int:
     from drive_logger.bag_reader import BagReader, BagReadError
+    from drive_logger.block_topics import block_summaries
     try:
         reader = BagReader(args.bag_path)
+        blocks = block_summaries(reader)
     except BagReadError as exc:
         raise CliError(str(exc)) from None
     meta = reader.metadata or {}
@@ -137,8 +140,11 @@ def info_main(args) -> int:
     print(label('End') + _stamp(start + duration))
     print(label('Messages') + str(meta.get('message_count', 0)))
     lines = [f'Topic: {t.name} | Type: {t.type} | Count: {t.message_count} | Serialization Format: cdr'
-             for t in topics]
+             + (f' | Samples: {blocks[t.name][0]}' if t.name in blocks else '') for t in topics]
     print(label('Topic information') + ('\n' + ' ' * 19).join(lines))
+    problems = [f'{topic}: {p}' for topic, (_, found) in blocks.items() for p in found]
+    if problems:
+        print(label('Block steps') + ('\n' + ' ' * 19).join(problems))
     print(label('Service') + '0')
     print(label('Service information'))
     return 0

@@ -1,0 +1,221 @@
+"""Bags of one headless run, written without the ROS graph: per-sample topics, block topics, or both.
+
+For readers' tests (issue 14): the same samples a recorded graph would
+carry, from :func:`drive_bringup.headless.run_headless` (the same cores the
+nodes wrap), serialized as the nodes fill them
+(:class:`drive_common.conversions.ReusedMessage`, stamp = the sample's sim
+time) and written with :class:`drive_logger.bag_writer.BagWriter` on sim log
+times. The per-sample bag holds ``/plant/state``, ``/dtc/status``,
+``/drive/measurement``, ``/drive/gate_command`` (and the PFC topics) every
+sample, like a recording of the graph before blocks; the block bag holds
+``/plant/state_block``, ``/dtc/status_block`` (``/pfc/status_block``) packed
+by :class:`drive_common.telemetry_blocks.BlockPacker`, optionally with the
+decimated live topics as the nodes publish them
+(:class:`drive_common.telemetry.Decimator`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from unittest import mock
+
+from drive_common import topics as names
+from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD, Decimator, nanoseconds
+
+
+class _Tap:
+    """A controller core that remembers (sample, command, status) of every update."""
+
+    def __init__(self, core) -> None:
+        self.core = core
+        self.records: list = []
+
+    def update(self, sample):
+        command, status = self.core.update(sample)
+        self.records.append((sample, command, status))
+        return command, status
+
+    def __getattr__(self, name):
+        return getattr(self.core, name)
+
+
+@dataclass
+class HeadlessSamples:
+    """Every sample of a headless run, in step order, as the nodes would publish them."""
+
+    scenario: object
+    states: list = field(default_factory=list)       # (stamp_ns, PlantStateSample)
+    dtc: list = field(default_factory=list)          # (stamp_ns, DriveSample, GateSample, DtcStatusSample)
+    pfc: list = field(default_factory=list)          # (stamp_ns, PfcSample, DutySample, PfcStatusSample)
+
+
+def headless_samples(scenario) -> HeadlessSamples:
+    """Run the scenario headless and keep every plant state and controller exchange."""
+    from drive_bringup import headless
+    taps = []
+    build = headless.build_controllers
+
+    def tapped(scen):
+        cores = [None if core is None else _Tap(core) for core in build(scen)]
+        taps.extend(cores)
+        return tuple(cores)
+
+    with mock.patch.object(headless, 'build_controllers', tapped):
+        result = headless.run_headless(scenario)
+    out = HeadlessSamples(scenario)
+    trajectory = result.trajectory
+    out.states = [(nanoseconds(t), s) for t, s in zip(trajectory.times, trajectory.states)]
+    dtc, pfc = taps
+    for tap, target in ((dtc, out.dtc), (pfc, out.pfc)):
+        if tap is not None:
+            target.extend((nanoseconds(s.time), s, c, st) for s, c, st in tap.records)
+    return out
+
+
+def _message_types():
+    from dtc_msgs.msg import (DriveMeasurement, DtcStatus, DutyCommand, GateCommand, PfcMeasurement,
+                              PfcStatus, PlantState)
+    return {
+        names.PLANT_STATE: (PlantState,), names.DRIVE_MEASUREMENT: (DriveMeasurement,),
+        names.GATE_COMMAND: (GateCommand,), names.DTC_STATUS: (DtcStatus,),
+        names.PFC_MEASUREMENT: (PfcMeasurement,), names.DUTY_COMMAND: (DutyCommand,),
+        names.PFC_STATUS: (PfcStatus,),
+    }
+
+
+class _Bag:
+    """A BagWriter on sim log times whose topics are registered on first use."""
+
+    def __init__(self, path: Path) -> None:
+        from drive_logger import qos_yaml
+        from drive_logger.bag_writer import BagWriter
+        self.writer = BagWriter(path, log_time='sim')
+        self._topics: dict = {}
+        self._qos = [qos_yaml.profile()]
+
+    def write(self, topic: str, msg, stamp_ns: int) -> None:
+        from rclpy.serialization import serialize_message
+        from drive_logger.message_definitions import type_definition
+        record = self._topics.get(topic)
+        if record is None:
+            module = type(msg).__module__.split('.')[0]
+            definition = type_definition(f'{module}/msg/{type(msg).__name__}')
+            record = self._topics[topic] = self.writer.add_topic('/' + topic, definition, self._qos)
+        self.writer.write(record, serialize_message(msg), stamp_ns, stamp_ns)
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+def _fill(msg_type, data, stamp_ns: int):
+    """A new message of msg_type from a core sample, stamped as the nodes stamp it."""
+    from drive_common.conversions import ReusedMessage
+    msg = ReusedMessage(msg_type).fill(data)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    return msg
+
+
+def _per_sample_streams(samples: HeadlessSamples):
+    """(stamp_ns, order, topic, message) of every per-sample message of the run."""
+    types = _message_types()
+    for stamp, state in samples.states:
+        yield stamp, 3, names.PLANT_STATE, _fill(types[names.PLANT_STATE][0], state, stamp)
+    for records, (meas, cmd, status) in (
+            (samples.dtc, (names.DRIVE_MEASUREMENT, names.GATE_COMMAND, names.DTC_STATUS)),
+            (samples.pfc, (names.PFC_MEASUREMENT, names.DUTY_COMMAND, names.PFC_STATUS))):
+        for stamp, sample, command, stat in records:
+            yield stamp, 0, meas, _fill(types[meas][0], sample, stamp)
+            yield stamp, 1, cmd, _fill(types[cmd][0], command, stamp)
+            yield stamp, 2, status, _fill(types[status][0], stat, stamp)
+
+
+PARAMETER_EVENTS = 'parameter_events'
+
+
+def _write_parameter_events(bag: '_Bag', samples: HeadlessSamples) -> None:
+    """The scenario's runtime changes as /parameter_events of their node, logged at the event's
+    sim time (the headless run applies them before the sample at that time, as the graph does)."""
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.parameter import Parameter
+    for event in samples.scenario.events:
+        msg = ParameterEvent(node=f'/{event.node}', changed_parameters=[
+            Parameter(name, value=value).to_parameter_msg() for name, value in event.parameters.items()])
+        bag.write(PARAMETER_EVENTS, msg, nanoseconds(event.time))
+
+
+def write_per_sample_bag(samples: HeadlessSamples, path: Path) -> Path:
+    """A bag of every per-sample message (the recording before blocks) and the parameter events."""
+    bag = _Bag(path)
+    _write_parameter_events(bag, samples)
+    for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
+        bag.write(topic, msg, stamp)
+    bag.close()
+    return Path(path)
+
+
+_CARRIED = {names.PLANT_STATE: (), names.DTC_STATUS: (names.DRIVE_MEASUREMENT, names.GATE_COMMAND),
+            names.PFC_STATUS: (names.PFC_MEASUREMENT, names.DUTY_COMMAND)}
+"""Status topic -> the lockstep topics its block carries (BLOCK_PARTS order after the status)."""
+
+
+def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFAULT_BLOCK_SIZE,
+                    live_period: float | None = DEFAULT_LIVE_PERIOD, lockstep: bool = False) -> Path:
+    """A bag of block topics (+ the live topics decimated to live_period unless None, + the raw
+    lockstep topics if asked), as the nodes publish them; blocks logged at their first stamp;
+    and the parameter events."""
+    from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
+    from drive_common.telemetry_blocks import BlockPacker
+    packers = {names.PLANT_STATE: (names.PLANT_STATE_BLOCK, BlockPacker(PlantStateBlock, block_size)),
+               names.DTC_STATUS: (names.DTC_STATUS_BLOCK, BlockPacker(DtcStatusBlock, block_size)),
+               names.PFC_STATUS: (names.PFC_STATUS_BLOCK, BlockPacker(PfcStatusBlock, block_size))}
+    decimators = {t: Decimator(live_period) for t in packers} if live_period is not None else {}
+    lockstep_topics = {names.DRIVE_MEASUREMENT, names.GATE_COMMAND, names.PFC_MEASUREMENT, names.DUTY_COMMAND}
+    bag = _Bag(path)
+    _write_parameter_events(bag, samples)
+    sample_parts: dict = {}
+    for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
+        if topic in lockstep_topics:
+            sample_parts[topic] = msg
+            if lockstep:
+                bag.write(topic, msg, stamp)
+            continue
+        block_topic, packer = packers[topic]
+        parts = (msg, *(sample_parts.pop(t) for t in _CARRIED[topic]))
+        block = packer.append(stamp, *parts)
+        if block is not None:
+            bag.write(block_topic, block, _first_ns(block))
+        if topic in decimators and decimators[topic].keep(stamp):
+            bag.write(topic, msg, stamp)
+    for block_topic, packer in packers.values():
+        block = packer.flush()
+        if block is not None:
+            bag.write(block_topic, block, _first_ns(block))
+    bag.close()
+    return Path(path)
+
+
+def _first_ns(block) -> int:
+    from drive_common.telemetry_blocks import stamp_ns
+    return stamp_ns(block.header.stamp)
+
+
+def zero_padded(data: bytes, type_name: str) -> bytes:
+    """CDR bytes of a message with the alignment padding zeroed (every value's bits kept).
+
+    rclpy (Fast CDR) leaves padding bytes uninitialised, so two serializations
+    of equal messages may differ there; rosbags, with a type store built from
+    the installed definition, decodes the bytes and re-encodes them with zero
+    padding.
+    """
+    store = _typestore(type_name)
+    return bytes(store.serialize_cdr(store.deserialize_cdr(data, type_name), type_name))
+
+
+@lru_cache(maxsize=None)
+def _typestore(type_name: str):
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    from drive_logger.message_definitions import full_definition
+    store = get_typestore(Stores.EMPTY)
+    store.register(get_types_from_msg(full_definition(type_name), type_name))
+    return store
