@@ -5,7 +5,10 @@ Both measured in the same run, same message types, private DDS domain:
    probe publishes/awaits one at a time (drive_testing.ceiling);
 2. plant: the plant node (six-switch BLDC, T_s = 25 us) driven by a Run goal
    against fixed_responder (a real lockstep controller with a trivial core).
-Prints samples per wall second for both and the ratio (goal >= 0.7).
+3. with computation_delay on: the same plant, sequential (pipelined:=false)
+   and pipelined (issue 14: measurement k+1 goes out and the plant integrates
+   while the controller computes; goal >= 1.4 x the ceiling).
+Prints samples per wall second for each and the ratios (goal >= 0.7).
 
     source scripts/env.sh && python benchmarks/bench_plant_ros.py [--samples 8000]
 """
@@ -26,11 +29,11 @@ from dtc_msgs.action import Run
 TS = 25e-6
 
 
-def plant_rate(context, env, samples: int, state_period: float) -> float:
+def plant_rate(context, env, samples: int, state_period: float, **plant) -> float:
     with NodeProcess('drive_testing', 'fixed_responder', env=env), \
             NodeProcess('bldc_plant_sim', 'plant', env=env,
                         parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
-                                    'state_period': state_period}):
+                                    'state_period': state_period, **plant}):
         node = rclpy.create_node('bench_client', context=context)
         executor = rclpy.executors.SingleThreadedExecutor(context=context)
         executor.add_node(node)
@@ -64,9 +67,18 @@ def main() -> None:
             with NodeProcess('drive_testing', 'raw_responder', env=env):
                 ceiling = measure_round_trips(context, args.samples)
             every = plant_rate(context, env, args.samples, TS)
+            delayed = {mode: plant_rate(context, env, args.samples, TS, computation_delay=True,
+                                        pipelined=mode == 'pipelined')
+                       for mode in ('sequential', 'pipelined')}
             print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
             print(f'plant + fixed_responder (state every sample): {every:8.0f} samples/s '
                   f'= {every / ceiling:.2f} of the ceiling (goal >= 0.70)')
+            for mode, rate in delayed.items():
+                print(f'computation_delay on, {mode:10s}: {rate:8.0f} samples/s '
+                      f'= {rate / ceiling:.2f} of the ceiling')
+            print(f'pipelined / sequential (computation_delay on): '
+                  f'{delayed["pipelined"] / delayed["sequential"]:.2f} '
+                  f'(goal: pipelined >= 1.40 x the ceiling)')
             print(f'real-time factor at T_s = 25 us : {every * TS:.3f}')
         finally:
             rclpy.try_shutdown(context=context)
