@@ -5,6 +5,8 @@
   co-simulation with the same delay step by step, across two goals with a
   hold (and a parameter change) between them; the sequential ROS schedule
   (``pipelined: false``) gives the same bag.
+- A goal cancelled mid-run drains the pipeline: the next goal continues the
+  headless trajectory.
 - A controller killed mid-run: the plant enters the safe state, reports it on
   /diagnostics and in the goal's result, and does not hang.
 """
@@ -54,6 +56,7 @@ def _assert_equal_to_headless(columns: dict, scenario, fields) -> np.ndarray:
     for name in fields:
         assert np.array_equal(state[name], headless[f'plant/state.{name}']), name
     status = columns['/dtc/status']
+    assert np.array_equal(status['step'], headless['dtc/status.step'])
     assert np.array_equal(status['torque_estimate'], headless['dtc/status.torque_estimate'])
     return state
 
@@ -97,6 +100,68 @@ def test_delayed_pfc_and_dtc_graph_equals_headless_across_a_hold(ros_domain, tmp
     assert np.array_equal(pfc['duty'][kept], headless['pfc/status.duty'])
 
 
+def _client(ros_session):
+    """(node, Run action client, plant/state list) once the plant serves and publishes."""
+    node = ros_session.node('pipelined_test_client')
+    states = []
+    node.create_subscription(PlantState, topics.PLANT_STATE, states.append, topics.STREAM_QOS)
+    action = ActionClient(node, Run, topics.RUN_ACTION)
+    wait_until(action.server_is_ready, 30.0, what='plant/run action server')
+    wait_until(lambda: node.count_publishers(topics.PLANT_STATE) >= 1, 30.0,
+               what='plant/state publisher')
+    return node, action, states
+
+
+def _send(action, target: float):
+    send = action.send_goal_async(Run.Goal(target_time=target))
+    wait_until(send.done, 30.0, what='goal acceptance')
+    assert send.result().accepted
+    return send.result()
+
+
+def _result(handle):
+    future = handle.get_result_async()
+    wait_until(future.done, 120.0, what='Run result (the plant must not hang)')
+    return future.result().result
+
+
+def test_cancelled_goals_drain_the_pipeline_and_the_next_goal_continues(start_node, ros_session):
+    # Three goals cancelled at wall-clock moments, then one to the end: the ground truth
+    # is the uninterrupted headless run's (a cancel where the last two commands differ,
+    # about one in three, shows a pipeline not drained at the cancel).
+    scenario = _delayed('two_phase_six_switch_torque_step', 0.04, True)
+    scenario.events.clear()
+    scenario.duration = 0.3                       # 9000 samples: the cancels land before the end
+    last = round(scenario.duration / scenario.node_parameters['plant']['base_tick'])
+    start_node('dtc_controller', 'dtc_controller',
+               parameters=dict(scenario.overrides['dtc_controller']))
+    start_node('bldc_plant_sim', 'plant', parameters=dict(scenario.overrides['plant']))
+    _, action, states = _client(ros_session)
+    time.sleep(0.5)   # let the state subscription match before sample 0
+    cancelled_at = []
+    for _ in range(3):
+        start = states[-1].step if states else 0
+        handle = _send(action, 10.0)
+        wait_until(lambda: states and states[-1].step > start + 30, 60.0, what='run under way')
+        handle.cancel_goal_async()
+        cancelled = _result(handle)
+        assert 'cancelled at' in cancelled.message, cancelled.message
+        cancelled_at.append(cancelled.final_step)
+    assert cancelled_at == sorted(set(cancelled_at)) and cancelled_at[-1] < last, cancelled_at
+    finished = _result(_send(action, scenario.duration))
+    assert finished.success and finished.final_step == last, finished.message
+    wait_until(lambda: states[-1].step == last, 30.0, what='last state')
+    headless = run_headless(scenario, record_every=1).trajectory
+    by_step = {s.step: s for s in states}
+    compared = 0
+    for step, truth in zip(headless.steps, headless.states):
+        if step in by_step:
+            assert list(by_step[step].phase_current) == list(truth.phase_current), step
+            assert list(by_step[step].applied_switch_on) == list(truth.applied_switch_on), step
+            compared += 1
+    assert compared >= 250 and last in by_step   # every sample (or the live topic's decimation)
+
+
 def test_controller_killed_mid_run_gives_safe_state_and_the_plant_does_not_hang(
         start_node, ros_session):
     plant_params = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
@@ -105,31 +170,22 @@ def test_controller_killed_mid_run_gives_safe_state_and_the_plant_does_not_hang(
     responder = start_node('drive_testing', 'fixed_responder',
                            parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]})
     start_node('bldc_plant_sim', 'plant', parameters=plant_params)
-    node = ros_session.node('pipelined_test_client')
-    states, diagnostics = [], []
-    node.create_subscription(PlantState, topics.PLANT_STATE, states.append, topics.STREAM_QOS)
+    node, action, states = _client(ros_session)
+    diagnostics = []
     node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, diagnostics.append, 10)
-    action = ActionClient(node, Run, topics.RUN_ACTION)
-    wait_until(action.server_is_ready, 30.0, what='plant/run action server')
-    wait_until(lambda: node.count_publishers(topics.PLANT_STATE) >= 1
-               and node.count_publishers(topics.DIAGNOSTICS) >= 1, 30.0, what='plant publishers')
-    send = action.send_goal_async(Run.Goal(target_time=0.2))
-    wait_until(send.done, 30.0, what='goal acceptance')
-    handle = send.result()
-    assert handle.accepted
+    wait_until(lambda: node.count_publishers(topics.DIAGNOSTICS) >= 1, 30.0, what='diagnostics')
+    handle = _send(action, 1.0)                  # 40000 samples: still running at the kill
     wait_until(lambda: states and states[-1].step > 100, 60.0, what='run under way')
     assert any(states[-1].applied_switch_on)
     responder.process.kill()
     responder.process.wait(timeout=10)
     started = time.monotonic()
-    result_future = handle.get_result_async()
-    wait_until(result_future.done, 120.0, what='Run result (the plant must not hang)')
-    result = result_future.result().result
+    result = _result(handle)
     assert not result.success and 'safe state' in result.message, result.message
     assert 'no gate command for step' in result.message
-    assert result.final_step == 8000                 # went on to the target, switches off
+    assert result.final_step == 40000                # went on to the target, switches off
     assert time.monotonic() - started < 100.0
-    wait_until(lambda: states[-1].step == 8000, 10.0, what='last state')
+    wait_until(lambda: states[-1].step == 40000, 10.0, what='last state')
     last = states[-1]
     assert last.safe_state and last.protection & PlantState.PROTECTION_COMMAND_TIMEOUT
     assert not any(last.applied_switch_on)
