@@ -4,7 +4,10 @@ docs/architecture.md "Time and lockstep": the plant counts integer base
 ticks; a controller with period N * base_tick is due at tick k when k % N == 0. Its command is latched at
 the sample it answers (or, with ``computation_delay``, one controller
 sample later, as a DSP that writes its PWM registers at the next interrupt)
-and held until the next command.
+and held until the next command. With that delay the plant node may pipeline
+(:meth:`LockstepSchedule.hold` / :meth:`LockstepSchedule.apply_held`): the
+command of a due sample is received while the plant integrates the ticks
+after it, and applied from the controller's next due sample, as latched.
 """
 from __future__ import annotations
 
