@@ -2,8 +2,8 @@
 
 - Recorded bags of the pipelined graph (plant + dtc_controller; plant +
   dtc_controller + pfc_controller, multi-rate) equal the headless
-  co-simulation with the same delay step by step, across two goals with a
-  hold (and a parameter change) between them; the sequential ROS schedule
+  co-simulation with the same delay step by step, across goals with holds
+  (and a parameter change) between them; the sequential ROS schedule
   (``pipelined: false``) gives the same bag.
 - A goal cancelled mid-run drains the pipeline: the next goal continues the
   headless trajectory.
