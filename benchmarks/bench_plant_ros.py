@@ -5,13 +5,18 @@ Both measured in the same run, same message types, private DDS domain:
    probe publishes/awaits one at a time (drive_testing.ceiling);
 2. plant: the plant node (six-switch BLDC, T_s = 25 us) driven by a Run goal
    against fixed_responder (a real lockstep controller with a trivial core).
-Prints samples per wall second for both and the ratio (goal >= 0.7).
+3. with computation_delay on: the same plant, sequential (pipelined:=false)
+   and pipelined (issue 14: measurement k+1 goes out and the plant integrates
+   while the controller computes; goal >= 1.4 x the ceiling), alternated
+   --repeats times, best of each (on a shared machine one run is noise).
+Prints samples per wall second for each and the ratios (goal >= 0.7).
 
     source scripts/env.sh && python benchmarks/bench_plant_ros.py [--samples 8000]
 """
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 
 import rclpy
@@ -24,14 +29,15 @@ from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 
 TS = 25e-6
+_CLIENTS = itertools.count()   # one client node name per run (same context)
 
 
-def plant_rate(context, env, samples: int, state_period: float) -> float:
+def plant_rate(context, env, samples: int, state_period: float, **plant) -> float:
     with NodeProcess('drive_testing', 'fixed_responder', env=env), \
             NodeProcess('bldc_plant_sim', 'plant', env=env,
                         parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
-                                    'state_period': state_period}):
-        node = rclpy.create_node('bench_client', context=context)
+                                    'state_period': state_period, **plant}):
+        node = rclpy.create_node(f'bench_client_{next(_CLIENTS)}', context=context)
         executor = rclpy.executors.SingleThreadedExecutor(context=context)
         executor.add_node(node)
         client = ActionClient(node, Run, topics.RUN_ACTION)
@@ -55,6 +61,8 @@ def plant_rate(context, env, samples: int, state_period: float) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--samples', type=int, default=8000)
+    parser.add_argument('--repeats', type=int, default=3,
+                        help='alternated sequential/pipelined runs with computation_delay')
     args = parser.parse_args()
     with reserve_domain() as domain:
         env = isolated_env(domain)
@@ -64,9 +72,21 @@ def main() -> None:
             with NodeProcess('drive_testing', 'raw_responder', env=env):
                 ceiling = measure_round_trips(context, args.samples)
             every = plant_rate(context, env, args.samples, TS)
+            delayed = {'sequential': 0.0, 'pipelined': 0.0}
+            for _ in range(args.repeats):
+                for mode in delayed:
+                    rate = plant_rate(context, env, args.samples, TS, computation_delay=True,
+                                      pipelined=mode == 'pipelined')
+                    delayed[mode] = max(delayed[mode], rate)
             print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
             print(f'plant + fixed_responder (state every sample): {every:8.0f} samples/s '
                   f'= {every / ceiling:.2f} of the ceiling (goal >= 0.70)')
+            for mode, rate in delayed.items():
+                print(f'computation_delay on, {mode:10s} (best of {args.repeats}): {rate:8.0f} samples/s '
+                      f'= {rate / ceiling:.2f} of the ceiling')
+            print(f'pipelined / sequential (computation_delay on): '
+                  f'{delayed["pipelined"] / delayed["sequential"]:.2f} '
+                  f'(goal: pipelined >= 1.40 x the ceiling)')
             print(f'real-time factor at T_s = 25 us : {every * TS:.3f}')
         finally:
             rclpy.try_shutdown(context=context)

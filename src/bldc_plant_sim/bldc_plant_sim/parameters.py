@@ -61,6 +61,9 @@ PLANT_SPECS = (
        runtime=False),
     _S('computation_delay', False, 'apply each command one controller sample late, as a DSP does',
        runtime=False),
+    _S('pipelined', True, 'with computation_delay: publish the next measurement and integrate '
+       'while the controllers compute (same results as waiting for each reply in turn, '
+       'false); no effect without computation_delay', runtime=False),
     _S('command_timeout', 5.0, 'wall-clock wait for a due command before the safe state', 's',
        1e-3, 600.0),
     _S('startup_timeout', 120.0, 'wall-clock wait, at the start of a run, for each controller '

@@ -13,6 +13,19 @@ through the diodes) without waiting for the silent controller again until
 it answers a due sample, and the goal then ends unsuccessful with the
 reason. The node keeps serving its action, services and parameters.
 
+Pipelined lockstep (``computation_delay`` on and ``pipelined`` true, the
+default): the command of due sample k acts only from the controller's next
+due sample, so at tick k the plant publishes measurement k, applies the
+command of the previous due sample (waiting for it only now), and goes on
+integrating while the controller computes command k. The applied commands,
+hence the trajectory, equal the sequential schedule with the same delay. A
+command not received within ``command_timeout`` of its measurement's publish
+still puts the plant in the safe state before it would have acted. At the
+end of a run (target reached or goal cancelled) the plant receives every
+outstanding command, so the time holds at the target with nothing in flight
+and the next goal resumes as if the run had not stopped. A controller's
+first answer in a run (readiness) is awaited in turn, as without pipelining.
+
 Start-up: sim time starts only when every controller due in the run is
 matched and ready, i.e. has answered its first measurement (the plant logs
 what it waits for every few seconds and gives up after ``startup_timeout``
@@ -39,7 +52,8 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Callable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -129,6 +143,26 @@ class _Inbox:
         return msg
 
 
+@dataclass
+class _Channel:
+    """One controller's side of the lockstep: its commands and the one still being computed."""
+
+    which: str                                  # 'gate' (dtc_controller) or 'duty' (pfc_controller)
+    inbox: _Inbox
+    command_of: Callable[[Any], tuple]          # message -> LockstepSchedule command
+    resend: Callable[[], None]                  # re-publish the last measurement (start-up)
+    invalid: Callable[[Any], str | None] = lambda msg: None
+    awaiting: tuple[int, float] | None = None   # pipelined: (step, deadline) of the pending command
+
+
+def _gate_command(msg) -> tuple:
+    return tuple(bool(s) for s in msg.switch_on)
+
+
+def _duty_command(msg) -> tuple:
+    return float(msg.duty), bool(msg.enable)
+
+
 class PlantNode(Node):
     """Lockstep plant: see the module docstring."""
 
@@ -177,6 +211,11 @@ class PlantNode(Node):
         self._pfc_msg = ReusedMessage(PfcMeasurement)
         self._resend_drive = lambda: self._drive_pub.publish(self._drive_msg.msg)
         self._resend_pfc = lambda: self._pfc_pub.publish(self._pfc_msg.msg)
+        self._gate = _Channel('gate', self._gates_in, _gate_command, self._resend_drive,
+                              self._wrong_topology)
+        self._duty = _Channel('duty', self._duty_in, _duty_command, self._resend_pfc,
+                              self._invalid_duty)
+        self._pipelined = False              # for the run under way: see the module docstring
         self._state_msg = ReusedMessage(PlantState)
         self._state_lock = threading.Lock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
@@ -404,10 +443,12 @@ class PlantNode(Node):
             for which, reason in self._faulted.items():
                 if reason is not None and which not in self._startup_pending:
                     self._faults.append(f'safe state continues ({which}): {reason}')
+            self._pipelined = self.schedule.computation_delay and self.parameters['pipelined']
             started, start_time = time.monotonic(), self.core.time
             feedback_every = max(1, int(0.05 / self.core.base_tick))
             while self.core.step < target_step:
                 if goal_handle is not None and goal_handle.is_cancel_requested:
+                    self._drain()
                     return False, f'cancelled at t = {self.core.time:.6f} s'
                 halted = self._halted()
                 if halted:
@@ -422,16 +463,24 @@ class PlantNode(Node):
                     goal_handle.publish_feedback(Run.Feedback(
                         sim_time=self.core.time, step=self.core.step,
                         real_time_factor=(self.core.time - start_time) / wall if wall > 0 else 0.0))
+            self._drain()
             self._publish_state_once()
             reached = f'reached t = {self.core.time:.6f} s (step {self.core.step})'
             if self._faults:
                 return False, f'{reached} with faults: ' + '; '.join(self._faults[:3])
             return True, reached
         finally:
+            # A run that ends otherwise (stop, second graph, failed start-up) drops the
+            # pending commands: the next run re-publishes a sample it did not finish.
+            self._gate.awaiting = self._duty.awaiting = None
             self._running = False
 
-    def _command(self, which: str, inbox: _Inbox, k: int, deadline: float,
-                 invalid=lambda msg: None, resend=None):
+    def _drain(self) -> None:
+        """Pipelined: receive every outstanding command before the time holds."""
+        self._collect(self._gate)
+        self._collect(self._duty)
+
+    def _command(self, channel: _Channel, k: int, deadline: float):
         """The due, valid command of one controller, or None (safe state).
 
         A controller's first due sample in a run, until it has answered once,
@@ -441,13 +490,14 @@ class PlantNode(Node):
         safe state, diagnostic, and no more waiting for it until it sends a
         valid command for a due sample again.
         """
+        which, inbox = channel.which, channel.inbox
         if which in self._startup_pending:
-            msg = self._first_answer(which, inbox, k, resend)
+            msg = self._first_answer(which, inbox, k, channel.resend)
             self._startup_pending.discard(which)
         else:
             msg = self._await(inbox, k, None if self._faulted[which] else deadline)
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
-                  if msg is None else invalid(msg))
+                  if msg is None else channel.invalid(msg))
         if reason is not None:
             # Report a new fault once; a controller that stays silent is not re-reported.
             if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
@@ -503,16 +553,36 @@ class PlantNode(Node):
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
         if due_dtc:
-            msg = self._command('gate', self._gates_in, k, deadline, self._wrong_topology,
-                                self._resend_drive)
-            if msg is not None:
-                self.schedule.latch_gates(self.core, tuple(bool(s) for s in msg.switch_on))
+            self._serve(self._gate, k, deadline)
         if due_pfc:
-            msg = self._command('duty', self._duty_in, k, deadline, self._invalid_duty,
-                                self._resend_pfc)
-            if msg is not None:
-                self.schedule.latch_duty(self.core, float(msg.duty), bool(msg.enable))
+            self._serve(self._duty, k, deadline)
         self.core.advance()
+
+    def _serve(self, channel: _Channel, k: int, deadline: float) -> None:
+        """Latch what a controller due at tick k commands for the ticks from k on.
+
+        Sequential: wait for command k and latch it (with computation_delay the
+        schedule applies the previous one and holds this one). Pipelined: the
+        previous due sample's command is received now, held and applied; command
+        k is left to be computed while the plant integrates (deadline kept).
+        """
+        if self._pipelined and channel.which not in self._startup_pending:
+            self._collect(channel)
+            self.schedule.apply_held(self.core, channel.which)
+            channel.awaiting = (k, deadline)
+            return
+        msg = self._command(channel, k, deadline)
+        if msg is not None:
+            self.schedule.latch(self.core, channel.which, channel.command_of(msg))
+
+    def _collect(self, channel: _Channel) -> None:
+        """Pipelined: receive the outstanding command of a controller (if any) and hold it."""
+        if channel.awaiting is None:
+            return
+        (step, deadline), channel.awaiting = channel.awaiting, None
+        msg = self._command(channel, step, deadline)
+        if msg is not None:
+            self.schedule.hold(channel.which, channel.command_of(msg))
 
     def _publish_state_once(self) -> None:
         """plant/state and /clock at t_k, for every state_ticks-th step, each step once."""

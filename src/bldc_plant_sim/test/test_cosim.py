@@ -44,6 +44,44 @@ def test_computation_delay_applies_each_command_one_controller_sample_late():
     assert applied[1] == OFF and applied[2] == ON and applied[3] == OFF
 
 
+class _AppliedCommands:
+    """Stands in for PlantCore: records every command applied to it."""
+
+    def __init__(self):
+        self.applied = []
+
+    def apply_gates(self, switch_on):
+        self.applied.append(('gate', switch_on))
+
+    def apply_duty(self, duty, enable):
+        self.applied.append(('duty', (duty, enable)))
+
+
+def test_pipelined_hold_then_apply_gives_the_sequential_delayed_commands():
+    """The plant node's pipelined order (LockstepSchedule.hold of the previous
+    due sample's command, then apply_held) applies the same commands at the same
+    due samples as latch() with computation_delay, across a drained hold."""
+    from bldc_plant_sim.core.lockstep import LockstepSchedule
+    commands = [('gate', ON if k % 3 else OFF) if k % 2 else ('duty', (0.1 * k, k % 4 != 1))
+                for k in range(12)]
+    sequential, plant = LockstepSchedule(1, 1, 1, True), _AppliedCommands()
+    for which, command in commands:
+        sequential.latch(plant, which, command)
+    pipelined, piped = LockstepSchedule(1, 1, 1, True), _AppliedCommands()
+    pending = {}
+    for k, (which, command) in enumerate(commands):
+        if which in pending:                       # received while the plant integrated
+            pipelined.hold(which, pending.pop(which))
+        pipelined.apply_held(piped, which)
+        pending[which] = command
+        if k == 6:                                 # end of a goal: drain, then resume
+            for name, late in pending.items():
+                pipelined.hold(name, late)
+            pending.clear()
+    assert piped.applied == plant.applied
+    assert plant.applied[:2] == [('duty', (0.0, False)), ('gate', OFF)]   # nothing before a command
+
+
 def test_state_sample_fields_equal_the_plant_state_message():
     from pathlib import Path
     msg = Path(__file__).resolve().parents[2] / 'dtc_msgs' / 'msg' / 'PlantState.msg'

@@ -8,12 +8,13 @@ Fixed-size per-sample arrays (``float64[3] phase_current``, ``bool[6]
 switch_on``) become flat sequences of count * width elements, sample-major;
 string fields (DtcStatus.mode) are one value per block. Sample i has
 ``step = first_step + i * step_stride`` and header stamp ``header.stamp +
-i * round(sample_period * 1e9)`` ns, exactly what its per-sample message
-carries (docs/architecture.md "Telemetry: blocks and live topics").
+stamp_offset[i]`` ns, exactly what its per-sample message carries (the
+plant's tick, e.g. 1/30 kHz, need not be a whole number of ns, so the stamps
+are kept rather than rebuilt from a period) (docs/architecture.md "Telemetry: blocks and live topics").
 
 :class:`BlockPacker` collects one sample at a time and hands back a filled
 block every N samples (``flush`` for the partial block at the end of a run);
-a sample that breaks the block's regular step/stamp pattern or changes a
+a sample that breaks the block's regular step pattern or changes a
 per-block string closes the block early, so a block always expands to
 exactly the messages that went in. :func:`expand` and :func:`block_columns`
 are the inverse, per sample (bit-exact, NaN payloads kept) or per column.
@@ -144,9 +145,10 @@ class BlockPacker:
         self._buffer = np.zeros(self.size + 1, dtype=[
             (c.name, _ELEMENT[c.element][1], (c.width,) if c.width > 1 else ())
             for c in self.layout.columns])
+        self._stamps = np.zeros(self.size + 1, dtype=np.int64)
         self._count = 0
-        self._first_step = self._first_ns = self._last_step = self._last_ns = 0
-        self._stride = self._period_ns = 0
+        self._first_step = self._last_step = self._last_ns = 0
+        self._stride = 0
         self._block_values: Any = None
 
     @property
@@ -173,11 +175,12 @@ class BlockPacker:
             n = 0
         else:
             self._buffer[n] = row
+        self._stamps[n] = stamp_ns
         if n == 0:
-            self._first_step, self._first_ns = step, stamp_ns
+            self._first_step = step
             self._block_values = block_values
         elif n == 1:
-            self._stride, self._period_ns = step - self._last_step, stamp_ns - self._last_ns
+            self._stride = step - self._last_step
         self._last_step, self._last_ns = step, stamp_ns
         self._count = n + 1
         if self._count == self.size:
@@ -189,10 +192,11 @@ class BlockPacker:
         """Whether the sample extends the open block's regular pattern."""
         if block_values != self._block_values:
             return False
+        if stamp_ns <= self._last_ns or stamp_ns - self._stamps[0] >= 1 << 32:
+            return False                  # stamps go forward and fit stamp_offset (uint32 ns)
         if self._count == 1:
-            return step > self._last_step and stamp_ns > self._last_ns
-        return (step - self._last_step == self._stride
-                and stamp_ns - self._last_ns == self._period_ns)
+            return step > self._last_step
+        return step - self._last_step == self._stride
 
     def flush(self) -> Any:
         """The partial block of the samples collected so far, or None if there are none."""
@@ -202,12 +206,16 @@ class BlockPacker:
         n, lay = self._count, self.layout
         self._count = 0
         block = lay.block_type()
-        block.header.stamp.sec, block.header.stamp.nanosec = divmod(self._first_ns, 1_000_000_000)
+        stamps = self._stamps[:n]
+        block.header.stamp.sec, block.header.stamp.nanosec = divmod(int(stamps[0]), 1_000_000_000)
         block.first_step = self._first_step
         block.count = n
+        offsets = array.array('I')
+        offsets.frombytes((stamps - stamps[0]).astype(np.uint32).tobytes())
+        block.stamp_offset = offsets
         if n > 1:
             block.step_stride = self._stride
-            block.sample_period = self._period_ns * 1e-9
+            block.sample_period = float(stamps[-1] - stamps[0]) / (n - 1) * 1e-9
         for column, value in zip(lay.per_block, self._block_values or ()):
             setattr(block, column.name, value)
         samples = self._buffer[:n]
@@ -232,9 +240,12 @@ def _check_lengths(block, lay: BlockLayout) -> None:
                              f'x width {column.width}')
 
 
-def _stamps_ns(block) -> tuple[int, int]:
-    """(first stamp, stamp stride) of a block in ns."""
-    return stamp_ns(block.header.stamp), int(round(block.sample_period * 1e9))
+def sample_stamps_ns(block) -> np.ndarray:
+    """Each sample's header stamp in ns (int64, count elements)."""
+    offsets = block.stamp_offset
+    if len(offsets) != block.count:
+        raise ValueError(f'{type(block).__name__}.stamp_offset: {len(offsets)} elements for count {block.count}')
+    return stamp_ns(block.header.stamp) + np.frombuffer(offsets, dtype=np.uint32).astype(np.int64)
 
 
 def block_columns(block) -> dict[str, np.ndarray]:
@@ -248,9 +259,8 @@ def block_columns(block) -> dict[str, np.ndarray]:
     lay = layout(type(block))
     _check_lengths(block, lay)
     count = block.count
-    first_ns, period_ns = _stamps_ns(block)
     index = np.arange(count, dtype=np.int64)
-    ns = first_ns + index * period_ns
+    ns = sample_stamps_ns(block)
     columns = {
         'step': np.uint64(block.first_step) + np.uint64(block.step_stride) * index.astype(np.uint64),
         'time': (ns // 1_000_000_000).astype(np.float64) + (ns % 1_000_000_000).astype(np.float64) * 1e-9,
@@ -276,7 +286,7 @@ def expand(block) -> Iterator[tuple]:
     lay = layout(type(block))
     _check_lengths(block, lay)
     count = block.count
-    first_ns, period_ns = _stamps_ns(block)
+    stamps = sample_stamps_ns(block).tolist()
     per_sample = []
     for column in lay.columns:
         data = getattr(block, column.name)
@@ -293,7 +303,7 @@ def expand(block) -> Iterator[tuple]:
     frame_id = block.header.frame_id
     for i in range(count):
         msgs = tuple(msg_type() for _, msg_type in lay.parts)
-        sec, nanosec = divmod(first_ns + i * period_ns, 1_000_000_000)
+        sec, nanosec = divmod(stamps[i], 1_000_000_000)
         step = block.first_step + i * block.step_stride
         for msg in msgs:
             msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec

@@ -21,7 +21,7 @@ from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateB
 
 BLOCK_TYPES = (PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
 BLOCK_HEADER = {'header': 'std_msgs/Header', 'first_step': 'uint64', 'step_stride': 'uint64',
-                'sample_period': 'double', 'count': 'uint32'}
+                'sample_period': 'double', 'count': 'uint32', 'stamp_offset': 'sequence<uint32>'}
 NAN_WITH_PAYLOAD = struct.unpack('<d', struct.pack('<Q', 0x7FF8_0000_0000_0123))[0]
 NEGATIVE_NAN = struct.unpack('<d', struct.pack('<Q', 0xFFF8_0000_0000_0000))[0]
 SPECIAL_FLOATS = (float('nan'), NAN_WITH_PAYLOAD, NEGATIVE_NAN, float('inf'), float('-inf'),
@@ -274,3 +274,23 @@ def test_step_gaps_reports_skipped_and_repeated_steps():
     assert step_gaps(packed) == [
         'steps skipped: step 12 is followed by step 20 (stride 4)',
         'steps repeated: a block starts at step 24, the previous one ended at step 24']
+
+
+def test_a_tick_of_no_whole_number_of_ns_still_fills_blocks():
+    """At 30 kHz (33 333.3 ns) the rounded stamps alternate 33 333 / 33 334 ns apart: blocks keep
+    every sample's own stamp, so they fill to N and expand to the exact stamps."""
+    tick = 1.0 / 30000.0
+    packer = BlockPacker(PlantStateBlock, 40)
+    blocks, stamps = [], []
+    for step in range(120):
+        state = PlantState(step=step)
+        ns = int(round(step * tick * 1e9))          # what conversions puts in the header
+        stamps.append(ns)
+        block = packer.append(ns, state)
+        if block is not None:
+            blocks.append(block)
+    assert [b.count for b in blocks] == [40, 40, 40]
+    expanded = [msgs[0] for b in blocks for msgs in expand(b)]
+    assert [stamp_ns(m.header.stamp) for m in expanded] == stamps
+    assert np.array_equal(np.concatenate([block_columns(b)['time'] for b in blocks]),
+                          np.array([ns // 1_000_000_000 + (ns % 1_000_000_000) * 1e-9 for ns in stamps]))

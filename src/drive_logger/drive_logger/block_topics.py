@@ -83,7 +83,7 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
     block in publish order: measurement, command, status).
     """
     from rclpy.serialization import deserialize_message, serialize_message
-    from drive_common.telemetry_blocks import expand
+    from drive_common.telemetry_blocks import expand, sample_stamps_ns
 
     sources = block_sources(reader)
     every = topics is None
@@ -106,10 +106,11 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
         if msg.topic not in expanded:
             continue
         block = deserialize_message(msg.data, block_classes[msg.topic])
-        period_ns = int(round(block.sample_period * 1e9))
+        stamps = sample_stamps_ns(block)
+        offsets = (stamps - stamps[0]).tolist() if block.count else []
         for i, parts in enumerate(expand(block)):
-            log_time = msg.log_time + i * period_ns
-            publish_time = msg.publish_time + i * period_ns
+            log_time = msg.log_time + offsets[i]
+            publish_time = msg.publish_time + offsets[i]
             for part, topic in expanded[msg.topic]:
                 seq += 1
                 data = bytes(serialize_message(parts[part]))

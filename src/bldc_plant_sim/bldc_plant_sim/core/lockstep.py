@@ -4,7 +4,10 @@ docs/architecture.md "Time and lockstep": the plant counts integer base
 ticks; a controller with period N * base_tick is due at tick k when k % N == 0. Its command is latched at
 the sample it answers (or, with ``computation_delay``, one controller
 sample later, as a DSP that writes its PWM registers at the next interrupt)
-and held until the next command.
+and held until the next command. With that delay the plant node may pipeline
+(:meth:`LockstepSchedule.hold` / :meth:`LockstepSchedule.apply_held`): the
+command of a due sample is received while the plant integrates the ticks
+after it, and applied from the controller's next due sample, as latched.
 """
 from __future__ import annotations
 
@@ -71,3 +74,28 @@ class LockstepSchedule:
         if self.computation_delay:
             (duty, enable), self._held_duty = self._held_duty, (duty, enable)
         plant.apply_duty(duty, enable)
+
+    def latch(self, plant, which: str, command: tuple) -> None:
+        """latch_gates (which = 'gate', command = switch_on) or latch_duty ('duty', (duty, enable))."""
+        if which == 'gate':
+            self.latch_gates(plant, command)
+        else:
+            self.latch_duty(plant, *command)
+
+    # Pipelined lockstep (computation_delay): the command of due sample k arrives
+    # while the plant integrates the ticks after k. At the next due sample the
+    # plant holds it first and then applies what is held; latch() does the same
+    # two steps in the other order, so both give the same applied sequence.
+    def hold(self, which: str, command: tuple) -> None:
+        """Keep the command of the previous due sample, received late (it acts from now on)."""
+        if which == 'gate':
+            self._held_gates = command
+        else:
+            self._held_duty = command
+
+    def apply_held(self, plant, which: str) -> None:
+        """Apply the held command (the initial one, all off / duty 0, before any command)."""
+        if which == 'gate':
+            plant.apply_gates(self._held_gates)
+        else:
+            plant.apply_duty(*self._held_duty)
