@@ -226,9 +226,9 @@ def _number(value, path: Path, key: str) -> float:
     return float(value)
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Load and validate a scenario file; raise ScenarioError naming what is wrong."""
-    path = Path(path)
+def read_named_file(path: Path, allowed: set[str], required: tuple[str, ...]) -> tuple[dict, str]:
+    """(top-level mapping, its name) of a scenario or study file: YAML, no unknown or missing
+    key, a ``name`` without "/"; ScenarioError naming file, key and reason."""
     try:
         raw = yaml.safe_load(path.read_text())
     except OSError as exc:
@@ -236,15 +236,22 @@ def load_scenario(path: str | Path) -> Scenario:
     except yaml.YAMLError as exc:
         raise ScenarioError(f'{path}: not valid YAML: {exc}') from exc
     raw = _mapping(raw, path, '(top level)')
-    unknown = sorted(set(raw) - TOP_KEYS)
+    unknown = sorted(set(raw) - allowed)
     if unknown:
-        raise _fail(path, unknown[0], 'unknown key (allowed: ' + ', '.join(sorted(TOP_KEYS)) + ')')
-    for key in ('name', 'duration', 'nodes'):
+        raise _fail(path, unknown[0], 'unknown key (allowed: ' + ', '.join(sorted(allowed)) + ')')
+    for key in ('name', *required):
         if key not in raw:
             raise _fail(path, key, 'required key missing')
     name = raw['name']
     if not isinstance(name, str) or not name or '/' in name:
         raise _fail(path, 'name', 'expected a non-empty string without "/"')
+    return raw, name
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Load and validate a scenario file; raise ScenarioError naming what is wrong."""
+    path = Path(path)
+    raw, name = read_named_file(path, TOP_KEYS, ('duration', 'nodes'))
     duration = _number(raw['duration'], path, 'duration')
     if duration <= 0.0:
         raise _fail(path, 'duration', 'must be > 0 s')

@@ -61,13 +61,12 @@ from pathlib import Path
 from typing import Any, Callable, Iterator
 
 import numpy as np
-import yaml
 
 from drive_analysis.registry import lookup as metric_function   # the one metric registry
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-from drive_bringup.scenario import _mapping, _number  # the same value checks as scenarios
+from drive_bringup.scenario import _mapping, _number, read_named_file  # the same checks as scenarios
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -320,22 +319,7 @@ def load_study(path: str | Path) -> Study:
 
 
 def _load_study(path: Path) -> Study:
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise StudyError(f'{path}: cannot read: {exc.strerror}') from exc
-    except yaml.YAMLError as exc:
-        raise StudyError(f'{path}: not valid YAML: {exc}') from exc
-    raw = _mapping(raw, path, '(top level)')
-    unknown = sorted(set(raw) - TOP_KEYS)
-    if unknown:
-        raise _fail(path, unknown[0], 'unknown key (allowed: ' + ', '.join(sorted(TOP_KEYS)) + ')')
-    for key in ('name', 'scenario', 'parameters'):
-        if key not in raw:
-            raise _fail(path, key, 'required key missing')
-    name = raw['name']
-    if not isinstance(name, str) or not name or '/' in name:
-        raise _fail(path, 'name', 'expected a non-empty string without "/"')
+    raw, name = read_named_file(path, TOP_KEYS, ('scenario', 'parameters'))
     ref = raw['scenario']
     if not isinstance(ref, str) or not ref:
         raise _fail(path, 'scenario', 'expected a scenario name or path')
