@@ -32,6 +32,16 @@ def add_node_arguments(parser) -> None:
                              '(there is none in the embedded set-up: always so)')
 
 
+def print_names_and_types(items, count_only: bool, show_types: bool) -> int:
+    """The `list` verbs' output: a count, or one name a line (with `[types]` on request)."""
+    if count_only:
+        print(len(items))
+        return 0
+    for name, types in items:
+        print(f"{name} [{', '.join(types)}]" if show_types else name)
+    return 0
+
+
 def absolute_name(name: str) -> str:
     return name if name.startswith('/') else '/' + name
 

@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from drive_ros2cli import messages
-from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments, join_node_name
+from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
+                                  join_node_name, print_names_and_types)
 from drive_ros2cli.errors import CliError
 
 DESCRIPTION = 'Various action related sub-commands'
@@ -47,12 +48,7 @@ def _actions(cli: CliNode) -> list:
 def list_main(args) -> int:
     with CliNode(args) as cli:
         actions = _actions(cli)
-    if args.count_actions:
-        print(len(actions))
-        return 0
-    for name, types in actions:
-        print(f"{name} [{', '.join(types)}]" if args.show_types else name)
-    return 0
+    return print_names_and_types(actions, args.count_actions, args.show_types)
 
 
 def info_main(args) -> int:

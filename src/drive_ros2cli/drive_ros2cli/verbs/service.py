@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from drive_ros2cli import messages
-from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments
+from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
+                                  print_names_and_types)
 from drive_ros2cli.errors import CliError
 
 DESCRIPTION = 'Various service related sub-commands'
@@ -40,12 +41,7 @@ def add_verbs(verbs) -> None:
 def list_main(args) -> int:
     with CliNode(args) as cli:
         services = cli.services(include_hidden=args.include_hidden_services)
-    if args.count_services:
-        print(len(services))
-        return 0
-    for name, types in services:
-        print(f"{name} [{', '.join(types)}]" if args.show_types else name)
-    return 0
+    return print_names_and_types(services, args.count_services, args.show_types)
 
 
 def type_main(args) -> int:

@@ -5,7 +5,8 @@ import math
 import time
 
 from drive_ros2cli import messages
-from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments
+from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
+                                  print_names_and_types)
 from drive_ros2cli.errors import CliError
 
 DESCRIPTION = 'Various topic related sub-commands'
@@ -80,12 +81,7 @@ def add_verbs(verbs) -> None:
 def list_main(args) -> int:
     with CliNode(args) as cli:
         topics = cli.topics(include_hidden=args.include_hidden_topics)
-    if args.count_topics:
-        print(len(topics))
-        return 0
-    for name, types in topics:
-        print(f"{name} [{', '.join(types)}]" if args.show_types else name)
-    return 0
+    return print_names_and_types(topics, args.count_topics, args.show_types)
 
 
 def _topic_type(cli: CliNode, topic: str, given: str | None, wait: float) -> str:
