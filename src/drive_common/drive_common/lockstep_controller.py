@@ -11,10 +11,19 @@ The measurement subscription is the node's own (``ros2 node info`` lists
 it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
 thread receives it directly, no executor hand-off per sample. A repeated
 measurement (the plant re-sends a first measurement it got no answer to) is
-answered with the same command, without a second core update. A second
+answered with the same command, without a second core update (and without a
+second telemetry sample). A second
 node of the same name, or a second publisher of the measurement or the
 command topic, in the domain makes the node refuse to run (exit code 2, the
 domain named).
+
+Telemetry (docs/architecture.md "Telemetry: blocks and live topics"): every
+answered sample goes into a status block (status + the measurement it acted
+on + the command it sent, bit-exact; ``telemetry.block_size`` samples per
+message) and the status topic carries the samples the live decimator keeps
+(``telemetry.live_period`` of sim time). A partial block is published when
+no measurement arrived for one poll (HOLD_FLUSH s: the plant holds between
+goals) and at stop.
 """
 from __future__ import annotations
 
@@ -29,11 +38,14 @@ from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, Graph
                                       graph_conflict)
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
-from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
+from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD, Decimator, nanoseconds
+from drive_common.telemetry_blocks import BlockPacker, stamp_ns
+from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
+HOLD_FLUSH = 0.1           # s without a measurement after which a partial block goes out
 
 
 @dataclass(frozen=True)
@@ -47,6 +59,8 @@ class LockstepChannels:
     command_topic: str
     status_type: type | None     # None: the controller publishes no status
     status_topic: str
+    block_type: type | None = None   # status block (telemetry_blocks.BLOCK_PARTS); None: none
+    block_topic: str = ''
 
 
 class LockstepControllerNode(Node):
@@ -78,9 +92,15 @@ class LockstepControllerNode(Node):
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)
         self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
-                                                  STREAM_QOS) if channels.status_type else None)
+                                                  LIVE_QOS) if channels.status_type else None)
+        self._block_pub = (self.create_publisher(channels.block_type, channels.block_topic,
+                                                 BLOCK_QOS) if channels.block_type else None)
         self._command_msg = ReusedMessage(channels.command_type)
         self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
+        self._packer = (BlockPacker(channels.block_type, self._telemetry('block_size'))
+                        if channels.block_type else None)
+        self._live = Decimator(self._telemetry('live_period'))
+        self._block_lock = threading.RLock()   # the answering thread and stop() flush
         self._last_step, self._last_measurement, self._last_command = -1, None, None
         # A thread waits on the measurement subscription directly (lockstep_io) and
         # answers each sample; parameters and services stay on this node's executor.
@@ -97,7 +117,8 @@ class LockstepControllerNode(Node):
         import rclpy
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
-                self._receiver.poll(0.1)
+                if not self._receiver.poll(HOLD_FLUSH):
+                    self._flush_block()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
                     return
@@ -114,6 +135,10 @@ class LockstepControllerNode(Node):
         """End the answering thread and wait for it (before the node is destroyed)."""
         self._stop.set()
         self._thread.join(timeout=STOP_WAIT)
+        try:
+            self._flush_block()
+        except Exception:  # noqa: BLE001 - the context may already be shut down
+            pass
 
     def destroy_node(self) -> None:
         self.stop()
@@ -143,5 +168,38 @@ class LockstepControllerNode(Node):
         self._command_pub.publish(self._last_command)
         self._last_step, self._last_measurement = msg.step, msg
         if self._status_pub is not None:
-            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
+            self._publish_status(status, msg, stamp)
         self.samples_answered += 1
+
+    # --- telemetry --------------------------------------------------------
+    def _telemetry(self, name: str):
+        """telemetry.<name> of the node (the defaults if its schema has no telemetry)."""
+        default = {'block_size': DEFAULT_BLOCK_SIZE, 'live_period': DEFAULT_LIVE_PERIOD}[name]
+        return self.parameters.values.get('telemetry.' + name, default)
+
+    def _publish_status(self, status, measurement, stamp) -> None:
+        """The sample into the status block (published when full); the live status if kept."""
+        ns = stamp_ns(stamp)
+        if self._packer is not None:
+            size = self._telemetry('block_size')
+            with self._block_lock:
+                if size != self._packer.size:       # changed while the plant held
+                    self._flush_block()
+                    self._packer = BlockPacker(self._channels.block_type, size)
+                block = self._packer.append(ns, status, measurement, self._last_command)
+            if block is not None:
+                self._block_pub.publish(block)
+        period = self._telemetry('live_period')
+        if nanoseconds(period) != self._live.period_ns:
+            self._live = Decimator(period)
+        if self._live.keep(ns):
+            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
+
+    def _flush_block(self) -> None:
+        """Publish the partial status block, if any."""
+        if self._packer is None:
+            return
+        with self._block_lock:
+            block = self._packer.flush()
+        if block is not None:
+            self._block_pub.publish(block)
