@@ -308,8 +308,7 @@ def test_dtc_status_blocks_carry_every_sample_bit_exact_across_holds(start_node,
 
 def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
         start_node, ros_session):
-    from rclpy.serialization import serialize_message
-
+    from drive_testing.block_probe import message_bits
     from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
     start_node('dtc_controller', 'dtc_controller',
                parameters={'backemf_table_path': str(BACKEMF_TABLE), 'torque_reference': 0.5,
@@ -326,7 +325,7 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
                            encoder_angle=0.3, mechanical_speed=30.0, hall_code=1)
     msg.phase_current = [2.0, -2.0, 0.0]
     pub.publish(msg)
-    first = serialize_message(msg)
+    first = message_bits(msg)
     wait_until(lambda: len(gates) == 1 and len(statuses) == 1, 30.0, what='first answer')
     pub.publish(msg)                                       # the plant re-sends it
     wait_until(lambda: len(gates) == 2, 30.0, what='the repeated answer')
@@ -340,6 +339,6 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
     wait_until(lambda: len(blocks.records) >= 2, 30.0, what='the status blocks')
     assert [status.step for status, _, _ in blocks.records] == [0, 1]
     (status, measurement, command), _ = blocks.records
-    assert serialize_message(measurement) == first
-    assert serialize_message(command) == serialize_message(gates[0])
-    assert serialize_message(status) == serialize_message(statuses[0])
+    assert message_bits(measurement) == first
+    assert message_bits(command) == message_bits(gates[0])
+    assert message_bits(status) == message_bits(statuses[0])

@@ -28,6 +28,7 @@ goals) and at stop.
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -46,6 +47,7 @@ from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
 HOLD_FLUSH = 0.1           # s without a measurement after which a partial block goes out
+MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
 
 @dataclass(frozen=True)
@@ -157,6 +159,8 @@ class LockstepControllerNode(Node):
         if msg.step == self._last_step and msg == self._last_measurement:
             self._command_pub.publish(self._last_command)   # a re-sent sample: same answer
             return
+        if not self.samples_answered:
+            self._match_telemetry_readers()
         with self._lock:
             pending, self._pending = self._pending, None
         if pending is not None:
@@ -172,6 +176,20 @@ class LockstepControllerNode(Node):
         self.samples_answered += 1
 
     # --- telemetry --------------------------------------------------------
+    def _match_telemetry_readers(self) -> None:
+        """Before the first answer (sim time starts with it): every reader of the status and
+        block topics already in the graph (a recorder, a test) is matched, or it would miss
+        the first samples; at most MATCH_WAIT s, as the plant does for its own topics."""
+        publishers = [p for p in (self._status_pub, self._block_pub) if p is not None]
+        deadline = time.monotonic() + MATCH_WAIT
+        while any(p.get_subscription_count() < self.count_subscribers(p.topic_name)
+                  for p in publishers):
+            if time.monotonic() > deadline or self._stop.is_set():
+                self.get_logger().warning('some telemetry subscribers were not matched '
+                                          'before the first sample')
+                return
+            time.sleep(0.01)
+
     def _telemetry(self, name: str):
         """telemetry.<name> of the node (the defaults if its schema has no telemetry)."""
         default = {'block_size': DEFAULT_BLOCK_SIZE, 'live_period': DEFAULT_LIVE_PERIOD}[name]

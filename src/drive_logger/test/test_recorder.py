@@ -236,11 +236,12 @@ def test_default_recording_takes_the_blocks_and_stays_off_the_lockstep_topics(
         ros_session, start_node, tmp_path, measurement_factory):
     """Default topics: blocks, /diagnostics, /clock, parameter events; no subscriber on a
     per-sample lockstep or live topic; every block published is in the bag, bit-exact."""
-    from rclpy.serialization import serialize_message
+    from rclpy.serialization import deserialize_message
 
     from drive_common import topics
     from drive_common.telemetry_blocks import BlockPacker
     from drive_logger.graph_topics import DEFAULT_TOPICS, LOCKSTEP_TOPICS
+    from drive_testing.block_probe import message_bits
     from dtc_msgs.msg import PlantState, PlantStateBlock
     assert topics.PLANT_STATE_BLOCK in DEFAULT_TOPICS
     assert not set(DEFAULT_TOPICS) & set(LOCKSTEP_TOPICS + [topics.PLANT_STATE, topics.DTC_STATUS])
@@ -256,12 +257,13 @@ def test_default_recording_takes_the_blocks_and_stays_off_the_lockstep_topics(
         state = PlantState(step=k, mechanical_speed=0.1 * k)
         block = packer.append(25_000 * k, state)
         if block is not None:
-            published.append(serialize_message(block))
+            published.append(message_bits(block))
             block_pub.publish(block)
         meas_pub.publish(measurement_factory(k))
     assert _stop(recorder) == 0, recorder.output()
     from drive_logger.bag_reader import BagReader
     reader = BagReader(bag)
     assert set(reader.topics) <= {'/' + t.lstrip('/') for t in DEFAULT_TOPICS}
-    recorded = [m.data for m in reader.messages() if m.topic == '/plant/state_block']
+    recorded = [message_bits(deserialize_message(m.data, PlantStateBlock))
+                for m in reader.messages() if m.topic == '/plant/state_block']
     assert recorded == published and len(published) == 10

@@ -7,6 +7,11 @@ messages the node would have published per sample, bit-exact.
 """
 from __future__ import annotations
 
+import array
+import struct
+
+import numpy as np
+
 from drive_common.telemetry_blocks import expand
 from drive_common.topics import BLOCK_QOS
 
@@ -32,15 +37,36 @@ class BlockSamples:
         self.first.extend(record[0] for record in records)
 
 
+
+def _bits(value):
+    """A value in comparable form: floats by their IEEE-754 bytes (NaN payloads, signed zeros)."""
+    if hasattr(value, 'get_fields_and_field_types'):
+        return message_bits(value)
+    if isinstance(value, float):
+        return struct.pack('<d', value)
+    if isinstance(value, np.ndarray):
+        return value.dtype.str, value.tobytes()
+    if isinstance(value, array.array):
+        return value.typecode, value.tobytes()
+    if isinstance(value, (list, tuple)):
+        return tuple(_bits(v) for v in value)
+    return value
+
+
+def message_bits(msg) -> tuple:
+    """Every field of msg, header included, as comparable bits (equal iff bit-identical).
+
+    Not the serialized bytes: CDR alignment padding is not guaranteed to be zero.
+    """
+    return tuple((name, _bits(getattr(msg, name))) for name in msg.get_fields_and_field_types())
+
+
 def same_bits(msg, sample) -> bool:
     """msg carries every field of sample (a core sample or a message) bit for bit.
 
-    The header is msg's own (check stamps separately); the comparison is on
-    the serialized bytes, so NaN payloads and signed zeros count.
+    The header is msg's own (check stamps separately).
     """
-    from rclpy.serialization import serialize_message
-
     from drive_common.conversions import ReusedMessage
     expected = ReusedMessage(type(msg)).fill(sample)
     expected.header = msg.header
-    return serialize_message(expected) == serialize_message(msg)
+    return message_bits(expected) == message_bits(msg)

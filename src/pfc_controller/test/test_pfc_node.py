@@ -17,9 +17,7 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
 
     from drive_common import topics
     from drive_common.conversions import time_msg
-    from rclpy.serialization import serialize_message
-
-    from drive_testing.block_probe import BlockSamples
+    from drive_testing.block_probe import BlockSamples, message_bits
     from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus, PfcStatusBlock
 
     # live_period 0: pfc/status carries every sample (default: 1 ms of sim time).
@@ -50,7 +48,7 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
         msg = PfcMeasurement(step=step, rectified_voltage=20.0, inductor_current=1.0,
                              output_voltage=75.0)
         msg.header.stamp = time_msg(step * 12.5e-6)
-        sent[step] = serialize_message(msg)
+        sent[step] = message_bits(msg)
         pub.publish(msg)
 
     for step in (7, 8, 9):
@@ -83,9 +81,9 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     wait_until(lambda: len(blocks.records) >= 4, 10.0, what='status blocks of steps 7..10')
     assert [status.step for status, _, _ in blocks.records] == [7, 8, 9, 10]
     for status, measurement, duty in blocks.records:
-        assert serialize_message(measurement) == sent[status.step]
-        assert serialize_message(duty) == serialize_message(duties[status.step])
-        assert serialize_message(status) == serialize_message(statuses[status.step])
+        assert message_bits(measurement) == sent[status.step]
+        assert message_bits(duty) == message_bits(duties[status.step])
+        assert message_bits(status) == message_bits(statuses[status.step])
 
     bad = call(client.set_parameters([Parameter('voltage_kp', value=-1.0)]))
     assert not bad.results[0].successful and 'voltage_kp' in bad.results[0].reason
