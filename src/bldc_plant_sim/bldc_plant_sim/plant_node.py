@@ -60,6 +60,7 @@ from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
 from dtc_msgs.action import Run
+from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.telemetry import Decimator, nanoseconds
 from drive_common.telemetry_blocks import BlockPacker
 from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
@@ -520,7 +521,7 @@ class PlantNode(Node):
         with self._state_lock:   # the reset service and stop() flush from other threads
             block = self._state_packer().append(stamp, state)
             if block is not None:
-                self._block_pub.publish(block)
+                self._block_pub.publish(serialize_zero_padded(block))
             if self._live_decimator().keep(stamp):
                 self._state_pub.publish(self._state_msg.fill(state, self.core.time))
         self._publish_clock()
@@ -550,7 +551,7 @@ class PlantNode(Node):
         with self._state_lock:
             block = self._packer.flush()
             if block is not None:
-                self._block_pub.publish(block)
+                self._block_pub.publish(serialize_zero_padded(block))
 
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""

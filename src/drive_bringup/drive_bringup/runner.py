@@ -240,15 +240,17 @@ class GraphRunner:
                       + (f' + recorder -> {bag_dir}' if self.record else ''))
         started = time.monotonic()
         final_step, final_time = 0, 0.0
+        held = 0.0      # s of wall time spent waiting for partial blocks at holds
         for event in sc.events:
             if event.time > final_time:
                 final_step, final_time = self._run_goal(executor, event.time, started)
+                held += self._wait_status_blocks(executor, block_ends, final_step)
             self._set_parameters(node, executor, event.node, event.parameters)
             self.progress(f'[{sc.name}] t = {event.time:.6f} s: {event.node} '
                           + ', '.join(f'{k} = {v}' for k, v in event.parameters.items()))
         if sc.duration > final_time:
             final_step, final_time = self._run_goal(executor, sc.duration, started)
-        wall = time.monotonic() - started
+        wall = time.monotonic() - started - held
         self._wait_status_blocks(executor, block_ends, final_step)
         self.progress(f'[{sc.name}] done: {final_time:.4f} s sim in {wall:.1f} s wall '
                       f'({final_step / wall:.0f} samples/s)')
@@ -270,9 +272,15 @@ class GraphRunner:
                 node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
         return ends
 
-    def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> None:
-        """Wait until each controller's last partial block is out (it flushes once the plant
-        holds), so the recorder, stopped next, has every sample of the run."""
+    def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> float:
+        """Wait at a hold until each controller's partial block is out (it flushes once no
+        measurement came for HOLD_FLUSH s); the wall time waited.
+
+        So every hold of the run closes the controllers' blocks, whatever the wall time
+        between goals (the same block boundaries, hence the same message data, in every
+        run of a scenario), and the recorder, stopped after the last hold, has every sample.
+        """
+        begun = time.monotonic()
         from bldc_plant_sim.core.lockstep import LockstepSchedule
         plant = {**self.scenario.node_parameters['plant'],
                  'pfc_enabled': 'pfc_controller' in self.scenario.nodes}
@@ -283,6 +291,7 @@ class GraphRunner:
                 last = (final_step - 1) // ticks[key] * ticks[key]   # last sample answered
                 self._spin_while_waiting(executor, lambda: end[0] >= last, 30.0,
                                          f'the last {key} status block (step {last})')
+        return time.monotonic() - begun
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         """Advance the plant to target (s); (final step, final time) or RunFailed."""

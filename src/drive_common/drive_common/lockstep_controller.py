@@ -22,8 +22,8 @@ answered sample goes into a status block (status + the measurement it acted
 on + the command it sent, bit-exact; ``telemetry.block_size`` samples per
 message) and the status topic carries the samples the live decimator keeps
 (``telemetry.live_period`` of sim time). A partial block is published when
-no measurement arrived for one poll (HOLD_FLUSH s: the plant holds between
-goals) and at stop.
+no measurement arrived for HOLD_FLUSH s of wall time (the plant holds
+between goals) and at stop.
 """
 from __future__ import annotations
 
@@ -34,6 +34,7 @@ from typing import Any, Callable
 
 from rclpy.node import Node
 
+from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, from_message
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
@@ -46,7 +47,8 @@ from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
-HOLD_FLUSH = 0.1           # s without a measurement after which a partial block goes out
+HOLD_FLUSH = 0.5           # s without a measurement after which a partial block goes out
+POLL = 0.1                 # s per wait for measurements (the stop flag is checked between)
 MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
 
@@ -117,9 +119,12 @@ class LockstepControllerNode(Node):
 
     def _answer_samples(self) -> None:
         import rclpy
+        idle_since = time.monotonic()
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
-                if not self._receiver.poll(HOLD_FLUSH):
+                if self._receiver.poll(POLL):
+                    idle_since = time.monotonic()
+                elif time.monotonic() - idle_since >= HOLD_FLUSH:
                     self._flush_block()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
@@ -206,7 +211,7 @@ class LockstepControllerNode(Node):
                     self._packer = BlockPacker(self._channels.block_type, size)
                 block = self._packer.append(ns, status, measurement, self._last_command)
             if block is not None:
-                self._block_pub.publish(block)
+                self._block_pub.publish(serialize_zero_padded(block))
         period = self._telemetry('live_period')
         if nanoseconds(period) != self._live.period_ns:
             self._live = Decimator(period)
@@ -220,4 +225,4 @@ class LockstepControllerNode(Node):
         with self._block_lock:
             block = self._packer.flush()
         if block is not None:
-            self._block_pub.publish(block)
+            self._block_pub.publish(serialize_zero_padded(block))
