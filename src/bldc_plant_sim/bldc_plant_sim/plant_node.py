@@ -53,16 +53,16 @@ from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
+from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, time_msg
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
-from dtc_msgs.action import Run
-from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.telemetry import Decimator, nanoseconds
 from drive_common.telemetry_blocks import BlockPacker
+from dtc_msgs.action import Run
 from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
                           PlantState, PlantStateBlock)
 from dtc_msgs.srv import ResetProtection
