@@ -222,6 +222,10 @@ def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_nod
     assert not result.successful and 'inverter.topology' in result.reason
     assert client.get('inverter.topology') == 6
     assert math.isclose(client.get('dc_link.voltage'), 10.0)
+    for size in (0, -3, 10_001):                      # block sizes outside 1..10000
+        result = client.set(**{'telemetry.block_size': size})[0]
+        assert not result.successful and 'telemetry.block_size' in result.reason, result.reason
+    assert client.get('telemetry.block_size') == 40
 
 
 def test_motor_and_topology_change_only_while_held(start_node, ros_session):
