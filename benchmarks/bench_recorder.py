@@ -44,9 +44,12 @@ class MeasuredRunner(GraphRunner):
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('--duration', type=float, default=1.0, help='sim seconds (default 1.0)')
+    parser.add_argument('--duration', type=float, default=None,
+                        help='sim seconds, at most the scenario\'s 0.12 s (default: all of it)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(SCENARIO)).shortened(args.duration)
+    scenario = load_scenario(find_scenario(SCENARIO))
+    if args.duration is not None:
+        scenario = scenario.shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         runner = MeasuredRunner(scenario, Path(tmp) / 'run', domain_id=domain,
                                 progress=lambda m: None)
