@@ -46,7 +46,8 @@ def _measurement(step: int, angle: float) -> DriveMeasurement:
 
 def test_answers_each_step_and_applies_runtime_changes(start_node, ros_session, backemf_table):
     start_node('dtc_controller', 'dtc_controller',
-               parameters={'backemf_table_path': str(backemf_table), 'torque_reference': 0.5})
+               parameters={'backemf_table_path': str(backemf_table), 'torque_reference': 0.5,
+                           'telemetry.live_period': 0.0})   # dtc/status: every sample
     node = ros_session.node('dtc_probe')
     gates, statuses = [], []
     pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)

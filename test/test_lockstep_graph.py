@@ -22,7 +22,8 @@ from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
 from drive_testing.harness import wait_until
 from dtc_msgs.action import Run
-from dtc_msgs.msg import PlantState
+from drive_testing.block_probe import BlockSamples, same_bits
+from dtc_msgs.msg import PlantStateBlock
 
 pytestmark = pytest.mark.ros
 
@@ -39,12 +40,11 @@ def _done(future, timeout: float, what: str):
 
 
 def _states(session, name: str) -> list:
-    """plant/state as received by a new test node, once its subscription matched the plant."""
-    states: list = []
-    sub = session.node(name).create_subscription(PlantState, topics.PLANT_STATE, states.append,
-                                                 topics.STREAM_QOS)
-    wait_until(lambda: sub.get_publisher_count() >= 1, 30.0, what='plant/state matched')
-    return states
+    """Every plant sample (plant/state_block) received by a new test node, once matched."""
+    probe = BlockSamples(session.node(name), PlantStateBlock, topics.PLANT_STATE_BLOCK)
+    wait_until(lambda: probe.subscription.get_publisher_count() >= 1, 30.0,
+               what='plant/state_block matched')
+    return probe.first
 
 
 def _start_pair(start_node, **kwargs):
@@ -172,9 +172,9 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
         assert _headless_equal([s for s in states if s.step <= 8000], 8000) > 7000
     # What is left of the two graphs runs correctly, or fails: never a wrong success.
     if plant_b.alive():
-        states_b: list = []
-        sub = ros_session.node('state_probe_b').create_subscription(
-            PlantState, topics.PLANT_STATE, states_b.append, topics.STREAM_QOS)
+        probe_b = BlockSamples(ros_session.node('state_probe_b'), PlantStateBlock,
+                               topics.PLANT_STATE_BLOCK)
+        states_b, sub = probe_b.first, probe_b.subscription
         wait_until(lambda: sub.get_publisher_count() >= 1 or not plant_b.alive(), 30.0)
         client_b = ActionClient(ros_session.node('client_b'), Run, topics.RUN_ACTION)
         wait_until(lambda: client_b.server_is_ready() or not plant_b.alive(), 30.0)
@@ -194,9 +194,8 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
 def test_hand_started_flow_controller_seconds_after_the_plant_makes_a_real_run(
         start_node, ros_session):
     """README: terminal 1 starts the plant with run_until, terminal 2 the controller later."""
-    states = []
-    ros_session.node('state_probe').create_subscription(PlantState, topics.PLANT_STATE,
-                                                        states.append, topics.STREAM_QOS)
+    states = BlockSamples(ros_session.node('state_probe'), PlantStateBlock,
+                          topics.PLANT_STATE_BLOCK).first
     plant = start_node('bldc_plant_sim', 'plant',
                        parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 56.57,
                                    'run_until': 0.05})
@@ -249,13 +248,74 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     assert not states[-1].safe_state and list(states[-1].applied_switch_on) == list(PATTERN)
 
 
+def test_dtc_status_blocks_carry_every_sample_bit_exact_across_holds(start_node, ros_session):
+    """Plant + dtc_controller: both nodes' blocks equal the headless co-simulation sample for
+    sample (status, the measurement it acted on, the command it sent), across a hold and a
+    second goal; partial blocks go out at the hold; the live topics carry every 10th sample."""
+    from dtc_controller.core.controller import DtcCore
+    from dtc_controller.parameters import SCHEMA as DTC_SCHEMA
+    from dtc_msgs.msg import DtcStatus, DtcStatusBlock
+    telemetry = {'telemetry.block_size': 7, 'telemetry.live_period': 250e-6}
+    dtc = {'mode': 'two_phase_six_switch', 'backemf_table_path': str(BACKEMF_TABLE),
+           'torque_reference': 0.5}
+    start_node('dtc_controller', 'dtc_controller', parameters={**dtc, **telemetry})
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, **telemetry})
+    node = ros_session.node('block_probe')
+    plant_blocks = BlockSamples(node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
+    status_blocks = BlockSamples(node, DtcStatusBlock, topics.DTC_STATUS_BLOCK)
+    live: list = []
+    node.create_subscription(DtcStatus, topics.DTC_STATUS, live.append, topics.STREAM_QOS)
+    wait_until(lambda: status_blocks.subscription.get_publisher_count() >= 1
+               and plant_blocks.subscription.get_publisher_count() >= 1, 30.0, what='block topics')
+    client = ActionClient(node, Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    for target, last in ((0.0031, 123), (0.0041, 163)):      # a hold at step 124, then 164
+        handle = _done(client.send_goal_async(Run.Goal(target_time=target)), 30.0, 'acceptance')
+        result = _done(handle.get_result_async(), 120.0, 'result').result
+        assert result.success, result.message
+        wait_until(lambda: status_blocks.records and status_blocks.records[-1][0].step == last,
+                   30.0, what=f'status block flushed at the hold (step {last})')
+    wait_until(lambda: plant_blocks.first and plant_blocks.first[-1].step == 164, 30.0,
+               what='plant block flushed at step 164')
+
+    measurements = []
+
+    class Recorded(DtcCore):
+        def update(self, sample):
+            measurements.append(sample)
+            return super().update(sample)
+
+    trajectory = CoSimulation(PlantCore(PLANT), Recorded(DTC_SCHEMA.resolve(dtc)),
+                              record_every=1).run(steps=164)
+    # Every sample once (none lost, none doubled by the holds), bit-exact.
+    assert [s.step for s in plant_blocks.first] == list(range(165))
+    for state in plant_blocks.first:
+        assert same_bits(state, trajectory.states[state.step]), state.step
+    assert [r[0].step for r in status_blocks.records] == list(range(164))
+    assert max(b.count for b in status_blocks.blocks) == 7
+    for status, measurement, command in status_blocks.records:
+        k = status.step
+        assert status.header.stamp.nanosec == measurement.header.stamp.nanosec == 25_000 * k
+        assert same_bits(status, trajectory.dtc_status[k]), k
+        assert same_bits(measurement, measurements[k]), k
+        assert same_bits(command, trajectory.commands[k][0]), k
+    assert len({tuple(c.switch_on) for _, _, c in status_blocks.records}) >= 2   # it switched
+    wait_until(lambda: live and live[-1].step == 160, 30.0, what='live status 160')
+    assert [s.step for s in live] == list(range(0, 161, 10))
+    for status in live:
+        assert same_bits(status, trajectory.dtc_status[status.step]), status.step
+
+
 def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
         start_node, ros_session):
-    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+    from drive_testing.block_probe import message_bits
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
     start_node('dtc_controller', 'dtc_controller',
-               parameters={'backemf_table_path': str(BACKEMF_TABLE), 'torque_reference': 0.5})
+               parameters={'backemf_table_path': str(BACKEMF_TABLE), 'torque_reference': 0.5,
+                           'telemetry.live_period': 0.0})
     node = ros_session.node('resender')
     gates, statuses = [], []
+    blocks = BlockSamples(node, DtcStatusBlock, topics.DTC_STATUS_BLOCK)
     pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
     node.create_subscription(GateCommand, topics.GATE_COMMAND, gates.append, topics.LOCKSTEP_QOS)
     node.create_subscription(DtcStatus, topics.DTC_STATUS, statuses.append, topics.STREAM_QOS)
@@ -265,6 +325,7 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
                            encoder_angle=0.3, mechanical_speed=30.0, hall_code=1)
     msg.phase_current = [2.0, -2.0, 0.0]
     pub.publish(msg)
+    first = message_bits(msg)
     wait_until(lambda: len(gates) == 1 and len(statuses) == 1, 30.0, what='first answer')
     pub.publish(msg)                                       # the plant re-sends it
     wait_until(lambda: len(gates) == 2, 30.0, what='the repeated answer')
@@ -273,3 +334,11 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
     pub.publish(msg)
     wait_until(lambda: len(statuses) == 2, 30.0, what='answer to step 1')
     assert [s.step for s in statuses] == [0, 1]           # one core update per step
+    # The status blocks (flushed while no measurement comes): one sample per core update,
+    # each with the measurement it acted on and the command it sent, bit-exact.
+    wait_until(lambda: len(blocks.records) >= 2, 30.0, what='the status blocks')
+    assert [status.step for status, _, _ in blocks.records] == [0, 1]
+    (status, measurement, command), _ = blocks.records
+    assert message_bits(measurement) == first
+    assert message_bits(command) == message_bits(gates[0])
+    assert message_bits(status) == message_bits(statuses[0])

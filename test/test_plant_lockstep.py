@@ -6,6 +6,8 @@
 - The commanding node killed mid-run: the plant applies the safe state,
   reports it, and still answers its action and its parameters.
 - Bad parameters are rejected with a reason and the old value is kept.
+- Ground truth travels in blocks (plant/state_block): every sample, bit-exact,
+  partial blocks flushed at each hold; plant/state carries every M-th sample.
 """
 import math
 import time
@@ -21,7 +23,8 @@ from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
 from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
-from dtc_msgs.msg import PlantState
+from drive_testing.block_probe import BlockSamples, same_bits
+from dtc_msgs.msg import PlantState, PlantStateBlock
 
 pytestmark = pytest.mark.ros
 
@@ -36,19 +39,25 @@ def _future_result(future, timeout: float, what: str):
 
 
 class PlantClient:
-    """Test-side view of a running plant: Run goals, parameters, recorded ground truth."""
+    """Test-side view of a running plant: Run goals, parameters, recorded ground truth.
+
+    states: every sample, from plant/state_block; live: plant/state (decimated);
+    blocks: the block messages as received.
+    """
 
     def __init__(self, session) -> None:
         self.node = session.node('plant_test_client')
-        self.states: list = []
-        self.node.create_subscription(PlantState, topics.PLANT_STATE, self.states.append,
+        probe = BlockSamples(self.node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
+        self.states, self.blocks = probe.first, probe.blocks
+        self.live: list = []
+        self.node.create_subscription(PlantState, topics.PLANT_STATE, self.live.append,
                                       topics.STREAM_QOS)
         self.action = ActionClient(self.node, Run, topics.RUN_ACTION)
         self.params = AsyncParameterClient(self.node, '/plant')
         wait_until(lambda: self.action.server_is_ready(), 30.0, what='plant/run action server')
         assert self.params.wait_for_services(timeout_sec=30.0)
-        wait_until(lambda: self.node.count_publishers(topics.PLANT_STATE) >= 1, 30.0,
-                   what='plant/state publisher')
+        wait_until(lambda: self.node.count_publishers(topics.PLANT_STATE_BLOCK) >= 1, 30.0,
+                   what='plant/state_block publisher')
         time.sleep(0.5)  # let the state subscription match before the run starts
 
     def run(self, target: float, relative: bool = False, timeout: float = 120.0):
@@ -102,6 +111,32 @@ def test_ros_graph_equals_headless_loop_sample_for_sample(start_node, ros_sessio
     # The run did something physical: V_ab drove current from phase a to b.
     last = by_step[400]
     assert last.phase_current[0] > 1.0 and last.phase_current[1] < -1.0
+
+
+def test_blocks_carry_every_sample_bit_exact_across_holds(start_node, ros_session):
+    # 7 samples per block: neither hold (step 124, step 164) ends a full block.
+    _start_graph(start_node, {'telemetry.block_size': 7, 'telemetry.live_period': 250e-6})
+    client = PlantClient(ros_session)
+    assert client.run(0.0031).success                       # hold at step 124
+    wait_until(lambda: client.states and client.states[-1].step == 124, 10.0,
+               what='the partial block flushed at the hold')
+    assert client.blocks[-1].count == 125 % 7                # 17 full blocks + the partial one
+    assert client.run(0.001, relative=True).success          # hold at step 164
+    wait_until(lambda: client.states[-1].step == 164, 10.0, what='the second partial block')
+
+    # Every sample once, in order: none lost, none doubled by the hold.
+    assert [s.step for s in client.states] == list(range(165))
+    assert all(b.count <= 7 for b in client.blocks)
+    trajectory = CoSimulation(PlantCore(PLANT), FixedGateCore(PATTERN), record_every=1).run(steps=164)
+    truth = dict(zip(trajectory.steps, trajectory.states))
+    for state in client.states:
+        assert state.header.stamp.sec * 10**9 + state.header.stamp.nanosec == state.step * 25_000
+        assert same_bits(state, truth[state.step]), state.step
+    # The live topic: every 10th sample (250 us of sim time at 25 us), the same bits.
+    wait_until(lambda: client.live and client.live[-1].step == 160, 10.0, what='live sample 160')
+    assert [s.step for s in client.live] == list(range(0, 161, 10))
+    for state in client.live:
+        assert same_bits(state, truth[state.step]), state.step
 
 
 def test_run_action_stops_exactly_and_holds(start_node, ros_session):
@@ -187,6 +222,10 @@ def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_nod
     assert not result.successful and 'inverter.topology' in result.reason
     assert client.get('inverter.topology') == 6
     assert math.isclose(client.get('dc_link.voltage'), 10.0)
+    for size in (0, -3, 10_001):                      # block sizes outside 1..10000
+        result = client.set(**{'telemetry.block_size': size})[0]
+        assert not result.successful and 'telemetry.block_size' in result.reason, result.reason
+    assert client.get('telemetry.block_size') == 40
 
 
 def test_motor_and_topology_change_only_while_held(start_node, ros_session):
@@ -223,8 +262,11 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     assert reset.wait_for_service(timeout_sec=30.0)
     answer = _future_result(reset.call_async(ResetProtection.Request()), 30.0, 'reset')
     assert answer.success, answer.message
-    wait_until(lambda: not client.states[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
+    # The reset's sample goes out on the live topic only (a block would repeat step 160).
+    wait_until(lambda: client.live and client.live[-1].step == 160 and
+               not client.live[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
                10.0, what='trip cleared in plant/state')
+    assert [s.step for s in client.states] == list(range(161))
 
 
 def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):

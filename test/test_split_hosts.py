@@ -26,6 +26,7 @@ import textwrap
 import pytest
 
 from drive_common.netns import PREFIX, VirtualHosts, remove_stale, unavailable_reason
+from drive_common.telemetry_blocks import expand
 from drive_logger.bag_reader import BagReader
 
 pytestmark = [pytest.mark.ros,
@@ -35,12 +36,27 @@ pytestmark = [pytest.mark.ros,
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.012          # s: covers the torque step at 9.4 ms
 CUT_AT = 0.004            # s: the controller host's link goes down here
-LOCKSTEP_TOPICS = ('/drive/measurement', '/drive/gate_command', '/dtc/status', '/plant/state')
+RECORDED_TOPICS = ('/dtc/status_block', '/plant/state_block')   # every sample, in blocks
 
 
 def run_module(module, *args, timeout=300):
     return subprocess.run([sys.executable, '-m', module, *args],
                           capture_output=True, text=True, timeout=timeout)
+
+
+def _samples(reader, topic: str) -> list[tuple]:
+    """The per-sample messages of a bag's block topic, in order."""
+    from rclpy.serialization import deserialize_message
+
+    from drive_logger.ros_types import message_class
+    block_type = message_class(reader.topics[topic].type)
+    return [record for m in reader.messages([topic])
+            for record in expand(deserialize_message(m.data, block_type))]
+
+
+def _plant_states(reader) -> list:
+    """Every plant/state sample of a bag, from its plant/state_block messages."""
+    return [state for (state,) in _samples(reader, '/plant/state_block')]
 
 
 def bag_data(bag_dir) -> dict[str, list[bytes]]:
@@ -86,8 +102,9 @@ def test_split_run_records_the_single_host_message_data(split_run, single_host_r
     assert 'host controller: 10.213.0.2' in result.stdout
     split, single = bag_data(out / 'bag'), bag_data(single_host_run / 'bag')
     samples = round(DURATION * 30000)
-    assert len(split['/drive/gate_command']) == samples
-    for topic in LOCKSTEP_TOPICS:
+    commands = [m.step for m, _, _ in _samples(BagReader(out / 'bag'), '/dtc/status_block')]
+    assert commands == list(range(samples))
+    for topic in RECORDED_TOPICS:
         assert split[topic] == single[topic], f'{topic} differs between split and single host'
 
 
@@ -103,7 +120,7 @@ def test_link_cut_puts_the_plant_in_the_safe_state(tmp_path):
     errors = [m.status[0].message for _, m in reader.decoded_messages(['/diagnostics'])
               if m.status[0].level in (2, b'\x02')]
     assert any(e.startswith('safe state: no gate command') for e in errors), errors
-    states = [m for _, m in reader.decoded_messages(['/plant/state'])]
+    states = _plant_states(reader)
     cut_step = round(CUT_AT * 30000)
     before = [s for s in states if s.step <= cut_step]
     after = [s for s in states if s.step > cut_step + 1]
@@ -140,8 +157,7 @@ def test_cable_pulled_during_a_run_goal_puts_the_plant_in_the_safe_state(tmp_pat
     fault = re.search(r'safe state at t = ([0-9.]+) s: no gate command for step (\d+)', stderr)
     assert fault, stderr
     assert 0.0 < float(fault.group(1)) < duration
-    steps = [m.step for _, m in BagReader(out / 'bag').decoded_messages(['/plant/state'])
-             if m.safe_state]
+    steps = [m.step for m in _plant_states(BagReader(out / 'bag')) if m.safe_state]
     assert steps and steps[0] == int(fault.group(2)) + 1 and steps[-1] == round(duration * rate)
 
 

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from drive_common.parameters import ParameterError, ParameterSpec, schema
+from drive_common.telemetry import TELEMETRY_PARAMETERS
 
 MOTORS_DIR = Path(__file__).resolve().parent.parent / 'motors'
 """Motor files in the source tree (the symlink install points back here)."""
@@ -237,7 +238,7 @@ def _cross_checks(p: Mapping[str, Any]) -> None:
         raise ParameterError('motor.backemf.table_file: required when motor.backemf.shape is table')
 
 
-PLANT_NODE_SCHEMA = schema(PLANT_SPECS, _cross_checks)
+PLANT_NODE_SCHEMA = schema(PLANT_SPECS + TELEMETRY_PARAMETERS, _cross_checks)
 """The plant node's parameters (declared by the ROS wrapper, used by PlantCore)."""
 
 

@@ -67,15 +67,18 @@ from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
 from drive_common import topics
+from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, time_msg
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.telemetry import Decimator, nanoseconds
+from drive_common.telemetry_blocks import BlockPacker
 from dtc_msgs.action import Run
 from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
-                          PlantState)
+                          PlantState, PlantStateBlock)
 from dtc_msgs.srv import ResetProtection
 
 COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
@@ -205,8 +208,13 @@ class PlantNode(Node):
                                                   self._duty_in.put, qos, callback_group=direct)
         self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
                                         with_info=True)
-        self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.STREAM_QOS)
-        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.STREAM_QOS)
+        # Ground truth: every sample in blocks (bags), a decimated live topic (people).
+        self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.LIVE_QOS)
+        self._block_pub = self.create_publisher(PlantStateBlock, topics.PLANT_STATE_BLOCK,
+                                                topics.BLOCK_QOS)
+        self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.LIVE_QOS)
+        self._packer = BlockPacker(PlantStateBlock, self.parameters['telemetry.block_size'])
+        self._live = Decimator(self.parameters['telemetry.live_period'])
         self._drive_msg = ReusedMessage(DriveMeasurement)
         self._pfc_msg = ReusedMessage(PfcMeasurement)
         self._resend_drive = lambda: self._drive_pub.publish(self._drive_msg.msg)
@@ -217,7 +225,7 @@ class PlantNode(Node):
                               self._invalid_duty)
         self._pipelined = False              # for the run under way: see the module docstring
         self._state_msg = ReusedMessage(PlantState)
-        self._state_lock = threading.Lock()
+        self._state_lock = threading.RLock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
 
         self._action = ActionServer(self, Run, topics.RUN_ACTION, execute_callback=self._execute,
@@ -345,6 +353,10 @@ class PlantNode(Node):
         self._stopping.set()
         if self._busy.acquire(timeout=STOP_WAIT):
             self._busy.release()
+        try:
+            self._flush_state_block()
+        except Exception:  # noqa: BLE001 - the context may already be shut down
+            pass
 
     # --- stepping ---------------------------------------------------------
     def _halted(self) -> str | None:
@@ -376,7 +388,7 @@ class PlantNode(Node):
             self._receiver.poll(0.01)
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples.
-        outputs = [self._drive_pub, self._pfc_pub, self._state_pub]
+        outputs = [self._drive_pub, self._pfc_pub, self._state_pub, self._block_pub]
         while any(pub.get_subscription_count() < self.count_subscribers(pub.topic_name)
                   for pub in outputs):
             if time.monotonic() > deadline or self._halted():
@@ -473,6 +485,7 @@ class PlantNode(Node):
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             self._gate.awaiting = self._duty.awaiting = None
+            self._flush_state_block()     # sim time holds: a bag taken now has every sample
             self._running = False
 
     def _drain(self) -> None:
@@ -585,18 +598,49 @@ class PlantNode(Node):
             self.schedule.hold(channel.which, channel.command_of(msg))
 
     def _publish_state_once(self) -> None:
-        """plant/state and /clock at t_k, for every state_ticks-th step, each step once."""
+        """Ground truth and /clock at t_k, for every state_ticks-th step, each step once."""
         step = self.core.step
         if step != self._state_sent_step and step % self.schedule.state_ticks == 0:
             self._state_sent_step = step
             self._publish_state()
 
     def _publish_state(self) -> None:
-        with self._state_lock:   # the reset service publishes from an executor thread
-            self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))
+        """Sample k into plant/state_block; plant/state if the live decimator keeps it; /clock."""
+        state, stamp = self.core.state(), nanoseconds(self.core.time)
+        with self._state_lock:   # the reset service and stop() flush from other threads
+            block = self._state_packer().append(stamp, state)
+            if block is not None:
+                self._block_pub.publish(serialize_zero_padded(block))
+            if self._live_decimator().keep(stamp):
+                self._state_pub.publish(self._state_msg.fill(state, self.core.time))
+        self._publish_clock()
+
+    def _publish_clock(self) -> None:
+        """/clock at t_k every clock_ticks steps (clock_period, default 1 ms of sim time)."""
         clock_ticks = self.schedule.clock_ticks
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
+
+    def _state_packer(self) -> BlockPacker:
+        """The block packer, rebuilt (after a flush) when telemetry.block_size changed."""
+        size = self.parameters['telemetry.block_size']
+        if size != self._packer.size:
+            self._flush_state_block()
+            self._packer = BlockPacker(PlantStateBlock, size)
+        return self._packer
+
+    def _live_decimator(self) -> Decimator:
+        """The live-topic decimator, rebuilt when telemetry.live_period changed."""
+        if nanoseconds(self.parameters['telemetry.live_period']) != self._live.period_ns:
+            self._live = Decimator(self.parameters['telemetry.live_period'])
+        return self._live
+
+    def _flush_state_block(self) -> None:
+        """Publish the partial block (sim time holds: end of a run, reset, stop)."""
+        with self._state_lock:
+            block = self._packer.flush()
+            if block is not None:
+                self._block_pub.publish(serialize_zero_padded(block))
 
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""
@@ -643,7 +687,13 @@ class PlantNode(Node):
     def _reset(self, request, response):
         ok, message = self.core.reset_protection()
         response.success, response.message = ok, message
-        self._publish_state()
+        # Sim time holds: the blocks are complete up to here; the reset's extra
+        # sample of the same step goes out on the live topic only (a block
+        # would repeat the step).
+        self._flush_state_block()
+        with self._state_lock:
+            self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))
+        self._publish_clock()
         return response
 
     def destroy_node(self) -> None:

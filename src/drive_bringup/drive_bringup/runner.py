@@ -36,10 +36,14 @@ NODE_PROGRAMS = {
     'dtc_controller': ('dtc_controller', 'dtc_controller'),
     'pfc_controller': ('pfc_controller', 'pfc_controller'),
 }
-DEFAULT_RECORD_TOPICS = [topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND, topics.PLANT_STATE,
-                         topics.DTC_STATUS, topics.CLOCK, topics.DIAGNOSTICS,
-                         '/parameter_events']   # the events' changes, for compare_replay
-PFC_RECORD_TOPICS = [topics.PFC_MEASUREMENT, topics.DUTY_COMMAND, topics.PFC_STATUS]
+# Every sample in blocks, no subscriber on a per-sample lockstep publish
+# (docs/architecture.md "Telemetry: blocks and live topics").
+DEFAULT_RECORD_TOPICS = [topics.PLANT_STATE_BLOCK, topics.DTC_STATUS_BLOCK, topics.CLOCK,
+                         topics.DIAGNOSTICS,
+                         topics.PARAMETER_EVENTS]   # the events' changes, for compare_replay
+PFC_RECORD_TOPICS = [topics.PFC_STATUS_BLOCK]
+LOCKSTEP_RECORD_TOPICS = [topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND]   # record.lockstep
+PFC_LOCKSTEP_RECORD_TOPICS = [topics.PFC_MEASUREMENT, topics.DUTY_COMMAND]
 
 
 class RunFailed(RuntimeError):
@@ -63,12 +67,12 @@ def _absolute_topic(name: str) -> str:
 
 
 def record_topics(scenario: Scenario) -> list[str]:
-    if scenario.record_topics:
-        return [_absolute_topic(t) for t in scenario.record_topics]
-    names = list(DEFAULT_RECORD_TOPICS)
-    if 'pfc_controller' in scenario.nodes:
-        names += PFC_RECORD_TOPICS
-    return [_absolute_topic(t) for t in names]
+    """record.topics, else the default blocks; record.lockstep adds the raw lockstep topics."""
+    pfc = 'pfc_controller' in scenario.nodes
+    names = list(scenario.record_topics) or DEFAULT_RECORD_TOPICS + (PFC_RECORD_TOPICS if pfc else [])
+    if scenario.record_lockstep:
+        names += LOCKSTEP_RECORD_TOPICS + (PFC_LOCKSTEP_RECORD_TOPICS if pfc else [])
+    return list(dict.fromkeys(_absolute_topic(t) for t in names))
 
 
 class GraphRunner:
@@ -199,10 +203,11 @@ class GraphRunner:
         from drive_logger.graph_topics import known_type
         from drive_logger.ros_types import message_class
         streamed = {_absolute_topic(n) for n in (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND,
-                                                 topics.PLANT_STATE, topics.DTC_STATUS, topics.CLOCK)}
+                                                 topics.PLANT_STATE, topics.DTC_STATUS, topics.CLOCK,
+                                                 topics.PLANT_STATE_BLOCK, topics.DTC_STATUS_BLOCK)}
         if 'pfc_controller' in self.scenario.nodes:
             streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
-                                                      topics.PFC_STATUS)}
+                                                      topics.PFC_STATUS, topics.PFC_STATUS_BLOCK)}
         wanted = [t for t in record_topics(self.scenario) if t in streamed and known_type(t)]
         probes = [node.create_subscription(message_class(known_type(t)), t, lambda _msg: None,
                                            topics.STREAM_QOS, raw=True)
@@ -232,6 +237,7 @@ class GraphRunner:
         if sc.controller is not None:
             node_names['controller'] = '/' + sc.controller.node_name
         self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
+        block_ends = self._watch_status_blocks(node) if self.record else {}
         self._wait_ready(node, executor, self._action)
         self._spin_while_waiting(
             executor, lambda: all(c.services_are_ready() for c in self._param_clients.values()),
@@ -240,19 +246,58 @@ class GraphRunner:
                       + (f' + recorder -> {bag_dir}' if self.record else ''))
         started = time.monotonic()
         final_step, final_time = 0, 0.0
+        held = 0.0      # s of wall time spent waiting for partial blocks at holds
         for event in sc.events:
             if event.time > final_time:
                 final_step, final_time = self._run_goal(executor, event.time, started)
+                held += self._wait_status_blocks(executor, block_ends, final_step)
             self._set_parameters(node, executor, event.node, event.parameters)
             self.progress(f'[{sc.name}] t = {event.time:.6f} s: {event.node} '
                           + ', '.join(f'{k} = {v}' for k, v in event.parameters.items()))
         if sc.duration > final_time:
             final_step, final_time = self._run_goal(executor, sc.duration, started)
-        wall = time.monotonic() - started
+        wall = time.monotonic() - started - held
+        self._wait_status_blocks(executor, block_ends, final_step)
         self.progress(f'[{sc.name}] done: {final_time:.4f} s sim in {wall:.1f} s wall '
                       f'({final_step / wall:.0f} samples/s)')
         return RunResult(sc.name, bag_dir if self.record else None, final_time, final_step, wall,
                          final_step / wall if wall > 0 else 0.0, self.log_dir)
+
+    def _watch_status_blocks(self, node) -> dict[str, list[int]]:
+        """Follow the controllers' status blocks: topic -> [last step seen] (-1: none yet)."""
+        from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock
+        watched = {'dtc_controller': (DtcStatusBlock, topics.DTC_STATUS_BLOCK, 'dtc_period'),
+                   'pfc_controller': (PfcStatusBlock, topics.PFC_STATUS_BLOCK, 'pfc_period')}
+        ends = {}
+        for key, (block_type, topic, _) in watched.items():
+            if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario):
+                end = ends[key] = [-1]
+
+                def on_block(block, end=end):
+                    end[0] = max(end[0], block.first_step + (block.count - 1) * block.step_stride)
+                node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
+        return ends
+
+    def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> float:
+        """Wait at a hold until each controller's partial block is out (it flushes once no
+        measurement came for HOLD_FLUSH s); the wall time waited.
+
+        So every hold of the run closes the controllers' blocks, whatever the wall time
+        between goals (the same block boundaries, hence the same message data, in every
+        run of a scenario), and the recorder, stopped after the last hold, has every sample.
+        """
+        begun = time.monotonic()
+        from bldc_plant_sim.core.lockstep import LockstepSchedule
+        plant = {**self.scenario.node_parameters['plant'],
+                 'pfc_enabled': 'pfc_controller' in self.scenario.nodes}
+        schedule = LockstepSchedule.from_params(plant, plant['base_tick'])
+        ticks = {'dtc_controller': schedule.dtc_ticks, 'pfc_controller': schedule.pfc_ticks}
+        for key, end in ends.items():
+            if ticks[key] and final_step > 0:
+                last = (final_step - 1) // ticks[key] * ticks[key]   # last sample answered
+                self._spin_while_waiting(executor, lambda: end[0] >= last, 30.0,
+                                         f'the last {key} status block (step {last})')
+        return time.monotonic() - begun
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         """Advance the plant to target (s); (final step, final time) or RunFailed."""

@@ -27,7 +27,8 @@ Schema (keys marked * are required)::
       - time*: float           # s, 0 <= time < duration
         node*: plant | dtc_controller | pfc_controller | controller
         parameters*: {...}
-    record: {enabled: bool, topics: [str, ...]}
+    record: {enabled: bool, topics: [str, ...], lockstep: bool}   # lockstep: also the raw
+                               # per-sample lockstep topics (default: blocks only)
     metrics: {name: {...options}}   # names: drive_analysis.registry
     figures: [str, ...]
     checks:                    # rows of the reproduction table
@@ -149,6 +150,7 @@ class Scenario:
     seed_reference: str = ''
     record: bool = True
     record_topics: list[str] = field(default_factory=list)
+    record_lockstep: bool = False       # also record the raw lockstep topics
     metrics: dict[str, dict] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
     checks: list[Check] = field(default_factory=list)
@@ -315,12 +317,14 @@ def load_scenario(path: str | Path) -> Scenario:
         raise _fail(path, 'events', 'events must be in time order')
 
     record = _mapping(raw.get('record'), path, 'record')
-    extra = sorted(set(record) - {'enabled', 'topics'})
+    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep'})
     if extra:
-        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics)')
+        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep)')
     enabled = record.get('enabled', True)
-    if not isinstance(enabled, bool):
-        raise _fail(path, 'record.enabled', f'expected true or false, got {enabled!r}')
+    lockstep = record.get('lockstep', False)
+    for key, value in (('enabled', enabled), ('lockstep', lockstep)):
+        if not isinstance(value, bool):
+            raise _fail(path, f'record.{key}', f'expected true or false, got {value!r}')
     topics = record.get('topics') or []
     if not isinstance(topics, list) or not all(isinstance(t, str) for t in topics):
         raise _fail(path, 'record.topics', 'expected a list of topic names')
@@ -370,7 +374,7 @@ def load_scenario(path: str | Path) -> Scenario:
                     overrides=overrides, events=events,
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
-                    record=enabled, record_topics=list(topics),
+                    record=enabled, record_topics=list(topics), record_lockstep=lockstep,
                     metrics=metrics, figures=list(figures), checks=checks, controller=controller)
 
 

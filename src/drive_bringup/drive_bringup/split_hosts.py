@@ -68,13 +68,14 @@ class SplitHostRunner(GraphRunner):
     def _wait_ready(self, node, executor, action) -> None:
         self._state_seen = -1
         if self.record:
-            from dtc_msgs.msg import PlantState
-            node.create_subscription(PlantState, topics.PLANT_STATE, self._on_state,
-                                     topics.STREAM_QOS)
+            from dtc_msgs.msg import PlantStateBlock
+            node.create_subscription(PlantStateBlock, topics.PLANT_STATE_BLOCK, self._on_state,
+                                     topics.BLOCK_QOS)
         super()._wait_ready(node, executor, action)
 
-    def _on_state(self, msg) -> None:
-        self._state_seen = max(self._state_seen, msg.step)
+    def _on_state(self, block) -> None:
+        self._state_seen = max(self._state_seen,
+                               block.first_step + (block.count - 1) * block.step_stride)
 
     def _drive(self, node, executor, bag_dir):
         result = super()._drive(node, executor, bag_dir)
@@ -100,7 +101,7 @@ class SplitHostRunner(GraphRunner):
             executor.spin_once(timeout_sec=0.05)
             self._check_alive()
             if time.monotonic() > deadline:
-                self.progress(f'warning: plant/state step {last} did not reach the supervisor '
+                self.progress(f'warning: plant/state_block step {last} did not reach the supervisor '
                               f'host within 30 s (last seen {self._state_seen})')
                 return
 

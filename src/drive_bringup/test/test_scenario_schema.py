@@ -67,6 +67,8 @@ def test_own_controller_entry_gives_its_program_schema_and_events(tmp_path):
      'record.enabled', 'expected true or false'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {topics: ["not a topic!!"]}\n',
      'record.topics[0]', 'not a valid ROS topic name'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {lockstep: 1}\n',
+     'record.lockstep', 'expected true or false'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nfigures: [no_such_figure]\n',
      'figures[0]', 'unknown figure'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nmetrics: {bogus: {x: 1}}\n',
@@ -102,3 +104,17 @@ def test_shipped_scenarios_are_valid():
     for path in paths:
         sc = load_scenario(path)
         assert sc.name == path.stem, f'{path}: name must equal the file name'
+
+
+def test_default_recording_is_the_blocks_and_lockstep_topics_only_on_request(tmp_path):
+    """No recorder subscription on a per-sample topic by default (issue 14); record.lockstep
+    adds the raw lockstep topics, record.topics replaces the list."""
+    from drive_bringup.runner import record_topics
+    base = 'name: x\nduration: 0.1\nnodes: {plant: {}, dtc_controller: {}}\n'
+    default = record_topics(load_scenario(write(tmp_path, base)))
+    assert default == ['/plant/state_block', '/dtc/status_block', '/clock', '/diagnostics',
+                       '/parameter_events']
+    lockstep = record_topics(load_scenario(write(tmp_path, base + 'record: {lockstep: true}\n')))
+    assert lockstep == default + ['/drive/measurement', '/drive/gate_command']
+    listed = record_topics(load_scenario(write(tmp_path, base + 'record: {topics: [plant/state]}\n')))
+    assert listed == ['/plant/state']

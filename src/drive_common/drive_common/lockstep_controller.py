@@ -14,31 +14,47 @@ The measurement subscription is the node's own (``ros2 node info`` lists
 it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
 thread receives it directly, no executor hand-off per sample. A repeated
 measurement (the plant re-sends a first measurement it got no answer to) is
-answered with the same command, without a second core update. A second
+answered with the same command, without a second core update (and without a
+second telemetry sample). A second
 node of the same name, or a second publisher of the measurement or the
 command topic, in the domain makes the node refuse to run (exit code 2, the
 domain named).
+
+Telemetry (docs/architecture.md "Telemetry: blocks and live topics"): every
+answered sample goes into a status block (status + the measurement it acted
+on + the command it sent, bit-exact; ``telemetry.block_size`` samples per
+message) and the status topic carries the samples the live decimator keeps
+(``telemetry.live_period`` of sim time). A partial block is published when
+no measurement arrived for HOLD_FLUSH s of wall time (the plant holds
+between goals) and at stop.
 """
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
 from rclpy.node import Node
 
+from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, from_message
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
-from drive_common.topics import LOCKSTEP_QOS, STREAM_QOS
+from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD, Decimator, nanoseconds
+from drive_common.telemetry_blocks import BlockPacker, stamp_ns
+from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 
 
 __all__ = ['LockstepChannels', 'LockstepControllerNode']
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
+HOLD_FLUSH = 0.5           # s without a measurement after which a partial block goes out
+POLL = 0.1                 # s per wait for measurements (the stop flag is checked between)
+MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
 
 @dataclass(frozen=True)
@@ -52,6 +68,8 @@ class LockstepChannels:
     command_topic: str
     status_type: type | None     # None: the controller publishes no status
     status_topic: str
+    block_type: type | None = None   # status block (telemetry_blocks.BLOCK_PARTS); None: none
+    block_topic: str = ''
 
 
 class LockstepControllerNode(Node):
@@ -83,9 +101,15 @@ class LockstepControllerNode(Node):
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)
         self._status_pub = (self.create_publisher(channels.status_type, channels.status_topic,
-                                                  STREAM_QOS) if channels.status_type else None)
+                                                  LIVE_QOS) if channels.status_type else None)
+        self._block_pub = (self.create_publisher(channels.block_type, channels.block_topic,
+                                                 BLOCK_QOS) if channels.block_type else None)
         self._command_msg = ReusedMessage(channels.command_type)
         self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
+        self._packer = (BlockPacker(channels.block_type, self._telemetry('block_size'))
+                        if channels.block_type else None)
+        self._live = Decimator(self._telemetry('live_period'))
+        self._block_lock = threading.RLock()   # the answering thread and stop() flush
         self._last_step, self._last_measurement, self._last_command = -1, None, None
         # A thread waits on the measurement subscription directly (lockstep_io) and
         # answers each sample; parameters and services stay on this node's executor.
@@ -100,9 +124,13 @@ class LockstepControllerNode(Node):
 
     def _answer_samples(self) -> None:
         import rclpy
+        idle_since = time.monotonic()
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
-                self._receiver.poll(0.1)
+                if self._receiver.poll(POLL):
+                    idle_since = time.monotonic()
+                elif time.monotonic() - idle_since >= HOLD_FLUSH:
+                    self._flush_block()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
                     return
@@ -119,6 +147,10 @@ class LockstepControllerNode(Node):
         """End the answering thread and wait for it (before the node is destroyed)."""
         self._stop.set()
         self._thread.join(timeout=STOP_WAIT)
+        try:
+            self._flush_block()
+        except Exception:  # noqa: BLE001 - the context may already be shut down
+            pass
 
     def destroy_node(self) -> None:
         self.stop()
@@ -137,6 +169,8 @@ class LockstepControllerNode(Node):
         if msg.step == self._last_step and msg == self._last_measurement:
             self._command_pub.publish(self._last_command)   # a re-sent sample: same answer
             return
+        if not self.samples_answered:
+            self._match_telemetry_readers()
         with self._lock:
             pending, self._pending = self._pending, None
         if pending is not None:
@@ -148,5 +182,52 @@ class LockstepControllerNode(Node):
         self._command_pub.publish(self._last_command)
         self._last_step, self._last_measurement = msg.step, msg
         if self._status_pub is not None:
-            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
+            self._publish_status(status, msg, stamp)
         self.samples_answered += 1
+
+    # --- telemetry --------------------------------------------------------
+    def _match_telemetry_readers(self) -> None:
+        """Before the first answer (sim time starts with it): every reader of the status and
+        block topics already in the graph (a recorder, a test) is matched, or it would miss
+        the first samples; at most MATCH_WAIT s, as the plant does for its own topics."""
+        publishers = [p for p in (self._status_pub, self._block_pub) if p is not None]
+        deadline = time.monotonic() + MATCH_WAIT
+        while any(p.get_subscription_count() < self.count_subscribers(p.topic_name)
+                  for p in publishers):
+            if time.monotonic() > deadline or self._stop.is_set():
+                self.get_logger().warning('some telemetry subscribers were not matched '
+                                          'before the first sample')
+                return
+            time.sleep(0.01)
+
+    def _telemetry(self, name: str):
+        """telemetry.<name> of the node (the defaults if its schema has no telemetry)."""
+        default = {'block_size': DEFAULT_BLOCK_SIZE, 'live_period': DEFAULT_LIVE_PERIOD}[name]
+        return self.parameters.values.get('telemetry.' + name, default)
+
+    def _publish_status(self, status, measurement, stamp) -> None:
+        """The sample into the status block (published when full); the live status if kept."""
+        ns = stamp_ns(stamp)
+        if self._packer is not None:
+            size = self._telemetry('block_size')
+            with self._block_lock:
+                if size != self._packer.size:       # changed while the plant held
+                    self._flush_block()
+                    self._packer = BlockPacker(self._channels.block_type, size)
+                block = self._packer.append(ns, status, measurement, self._last_command)
+            if block is not None:
+                self._block_pub.publish(serialize_zero_padded(block))
+        period = self._telemetry('live_period')
+        if nanoseconds(period) != self._live.period_ns:
+            self._live = Decimator(period)
+        if self._live.keep(ns):
+            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
+
+    def _flush_block(self) -> None:
+        """Publish the partial status block, if any."""
+        if self._packer is None:
+            return
+        with self._block_lock:
+            block = self._packer.flush()
+        if block is not None:
+            self._block_pub.publish(serialize_zero_padded(block))

@@ -26,7 +26,7 @@ TELEMETRY_PARAMETERS = (
                   min_value=1, max_value=MAX_BLOCK_SIZE, runtime=False),
     ParameterSpec('telemetry.live_period', DEFAULT_LIVE_PERIOD,
                   'sim time between samples on the per-sample live topics; 0 = every sample',
-                  unit='s', min_value=0.0),
+                  unit='s', min_value=0.0, max_value=1.0),
 )
 """Parameters of every node that publishes telemetry (add them to the node's schema)."""
 

@@ -16,6 +16,7 @@ PFC_STATUS = 'pfc/status'
 PLANT_STATE_BLOCK = 'plant/state_block'
 DTC_STATUS_BLOCK = 'dtc/status_block'
 PFC_STATUS_BLOCK = 'pfc/status_block'
+PARAMETER_EVENTS = '/parameter_events'
 RUN_ACTION = 'plant/run'
 RESET_PROTECTION_SERVICE = 'plant/reset_protection'
 DIAGNOSTICS = '/diagnostics'
@@ -23,6 +24,8 @@ CLOCK = '/clock'
 
 LOCKSTEP_DEPTH = 64
 STREAM_DEPTH = 10000
+BLOCK_DEPTH = 1000
+LIVE_DEPTH = 100
 
 LOCKSTEP_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -43,9 +46,39 @@ STREAM_QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-"""QoS of the streamed topics nobody waits on (plant/state, dtc/status, pfc/status).
+"""QoS of per-sample streamed topics nobody waits on, recorded at full rate (raw lockstep copies).
 
 The writer keeps up to STREAM_DEPTH unacknowledged samples, so a reader
 that falls behind for a while (the recorder during a disk flush) still
 receives every sample; the plant never blocks on it.
+"""
+
+BLOCK_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=BLOCK_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""QoS of the full-rate telemetry blocks (plant/state_block, dtc/status_block, pfc/status_block).
+
+RELIABLE, KEEP_LAST BLOCK_DEPTH: 1000 blocks are 1 s of sim time at the
+default 40 samples of 25 us per block (about 10 s of wall time at the
+graph's rate), so a recorder starved of CPU catches up without losing a
+block; the publisher never blocks on it (KEEP_ALL would stall the lockstep
+loop on a slow reader). The writer's history grows only as far as a reader
+lags (about 13 kB per PlantStateBlock of 40 samples).
+"""
+
+LIVE_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=LIVE_DEPTH,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""QoS of the decimated per-sample live topics (plant/state, dtc/status, pfc/status).
+
+Shallow: about 1 kHz of sim time for people and live tools; a reader that
+falls behind by more than LIVE_DEPTH samples loses the oldest (the bag
+keeps every sample through the blocks). Reliable, so reliable and
+best-effort readers (``ros2 topic echo``, the recorder) both match.
 """

@@ -20,17 +20,33 @@ GRAPH_TOPIC_TYPES = {
     t.PLANT_STATE: 'dtc_msgs/msg/PlantState',
     t.DTC_STATUS: 'dtc_msgs/msg/DtcStatus',
     t.PFC_STATUS: 'dtc_msgs/msg/PfcStatus',
+    t.PLANT_STATE_BLOCK: 'dtc_msgs/msg/PlantStateBlock',
+    t.DTC_STATUS_BLOCK: 'dtc_msgs/msg/DtcStatusBlock',
+    t.PFC_STATUS_BLOCK: 'dtc_msgs/msg/PfcStatusBlock',
     t.CLOCK: 'rosgraph_msgs/msg/Clock',
     t.DIAGNOSTICS: 'diagnostic_msgs/msg/DiagnosticArray',
 }
-"""Default recording: every topic of the drive graph."""
+"""Every topic of the drive graph and its type."""
 
 OPTIONAL_TOPIC_TYPES = {
     '/parameter_events': 'rcl_interfaces/msg/ParameterEvent',
     '/rosout': 'rcl_interfaces/msg/Log',
 }
 
-DEFAULT_TOPICS = list(GRAPH_TOPIC_TYPES)
+LOCKSTEP_TOPICS = [t.DRIVE_MEASUREMENT, t.GATE_COMMAND, t.PFC_MEASUREMENT, t.DUTY_COMMAND]
+"""The per-sample lockstep topics: recorded only on request (a second subscriber costs the loop)."""
+
+BLOCK_TOPICS = [t.PLANT_STATE_BLOCK, t.DTC_STATUS_BLOCK, t.PFC_STATUS_BLOCK]
+"""Full-rate telemetry: every sample of ground truth, controller status, measurements and commands."""
+
+DEFAULT_TOPICS = BLOCK_TOPICS + [t.DIAGNOSTICS, t.CLOCK, t.PARAMETER_EVENTS]
+"""Default recording: the blocks, /diagnostics, /clock (decimated) and parameter changes.
+
+Neither the lockstep topics nor the decimated live topics (plant/state,
+dtc/status, pfc/status): the status blocks hold the measurements and
+commands bit-exact, and no recorder subscription sits on a per-sample
+publish (docs/architecture.md "Telemetry: blocks and live topics").
+"""
 
 
 def known_type(name: str) -> str | None:

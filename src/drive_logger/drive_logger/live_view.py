@@ -33,7 +33,8 @@ compare ``forwarded <topic>`` on /diagnostics with what a viewer received.
 Parameters (read at start):
 - ``topics`` (string[]): ``name`` or ``name:pkg/msg/Type``; default plant/state,
   dtc/status, pfc/status, /diagnostics. A topic nobody publishes is still advertised.
-- ``decimation_period`` (s, 0.001): per topic, at most one message per this much sim time (0 = all).
+- ``decimation_period`` (s, 0): per topic, at most one message per this much sim time (0 = all:
+  the default topics are already decimated by their nodes, ``telemetry.live_period``).
 - ``topic_periods`` (string[], ``['/diagnostics=0']``): per-topic ``name=seconds`` overrides.
 - ``time_period`` (s, 0.001): server-time broadcasts from /clock, at most one per this much sim time.
 - ``host`` ('127.0.0.1'), ``port`` (8765; 0 = any free port; the log says which).
@@ -109,7 +110,7 @@ class LiveViewNode(Node):
         ro = ParameterDescriptor(read_only=True)
         self.declare_parameter('topics', list(DEFAULT_TOPICS),
                                ParameterDescriptor(read_only=True, description='name or name:pkg/msg/Type'))
-        self.declare_parameter('decimation_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))
+        self.declare_parameter('decimation_period', 0.0, ParameterDescriptor(read_only=True, description='s of sim time'))
         self.declare_parameter('topic_periods', ['/diagnostics=0'],
                                ParameterDescriptor(read_only=True, description='name=seconds overrides'))
         self.declare_parameter('time_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))

@@ -263,7 +263,8 @@ def test_a_viewer_that_never_reads_does_not_stall_the_plant(start_node):
     from drive_testing.harness import wait_until
     from websockets.exceptions import ConnectionClosed
 
-    start_node('dtc_controller', 'dtc_controller', parameters=DTC)
+    every = {'telemetry.live_period': 0.0}      # the nodes' live topics at full rate
+    start_node('dtc_controller', 'dtc_controller', parameters={**DTC, **every})
     # every sample taken and forwarded, a tiny SDK outbox: the stalled viewer's queue overflows at once
     live, port = _start_live_view(start_node, decimation_period=0.0, time_period=0.0, message_backlog_size=8,
                                   qos_depth=64, batch_period=0.0)
@@ -271,7 +272,7 @@ def test_a_viewer_that_never_reads_does_not_stall_the_plant(start_node):
     stalled.pump(lambda: stalled.channel('/plant/state') and stalled.channel('/dtc/status'), 30.0, 'channels')
     stalled.subscribe(['/plant/state', '/dtc/status'])
     try:
-        plant = start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'run_until': 0.1})
+        plant = start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'run_until': 0.1, **every})
         line = wait_until(lambda: re.search(r'run_until finished: (.*)', plant.output()), 300.0,
                           what='the plant to reach run_until with a stalled viewer')
         assert line.group(1).startswith('reached t = 0.1') and 'fault' not in line.group(1), plant.output()[-2000:]

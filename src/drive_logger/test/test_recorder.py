@@ -230,3 +230,40 @@ def test_wrongly_typed_parameter_is_refused_before_writing(start_node, tmp_path)
     assert recorder.process.wait(timeout=20) == 2
     assert 'drain_timeout' in recorder.output() and 'Traceback' not in recorder.output()
     assert not bag.exists()
+
+
+def test_default_recording_takes_the_blocks_and_stays_off_the_lockstep_topics(
+        ros_session, start_node, tmp_path, measurement_factory):
+    """Default topics: blocks, /diagnostics, /clock, parameter events; no subscriber on a
+    per-sample lockstep or live topic; every block published is in the bag, bit-exact."""
+    from rclpy.serialization import deserialize_message
+
+    from drive_common import topics
+    from drive_common.telemetry_blocks import BlockPacker
+    from drive_logger.graph_topics import DEFAULT_TOPICS, LOCKSTEP_TOPICS
+    from drive_testing.block_probe import message_bits
+    from dtc_msgs.msg import PlantState, PlantStateBlock
+    assert topics.PLANT_STATE_BLOCK in DEFAULT_TOPICS
+    assert not set(DEFAULT_TOPICS) & set(LOCKSTEP_TOPICS + [topics.PLANT_STATE, topics.DTC_STATUS])
+    bag = tmp_path / 'bag'
+    recorder = start_node('drive_logger', 'recorder', parameters={'output': str(bag)})
+    node = ros_session.node('publisher')
+    block_pub = node.create_publisher(PlantStateBlock, topics.PLANT_STATE_BLOCK, topics.BLOCK_QOS)
+    meas_pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_for_recorder(node, DEFAULT_TOPICS, timeout=20.0)
+    assert meas_pub.get_subscription_count() == 0 and node.count_subscribers(topics.PLANT_STATE) == 0
+    packer, published = BlockPacker(PlantStateBlock, 40), []
+    for k in range(400):
+        state = PlantState(step=k, mechanical_speed=0.1 * k)
+        block = packer.append(25_000 * k, state)
+        if block is not None:
+            published.append(message_bits(block))
+            block_pub.publish(block)
+        meas_pub.publish(measurement_factory(k))
+    assert _stop(recorder) == 0, recorder.output()
+    from drive_logger.bag_reader import BagReader
+    reader = BagReader(bag)
+    assert set(reader.topics) <= {'/' + t.lstrip('/') for t in DEFAULT_TOPICS}
+    recorded = [message_bits(deserialize_message(m.data, PlantStateBlock))
+                for m in reader.messages() if m.topic == '/plant/state_block']
+    assert recorded == published and len(published) == 10

@@ -30,11 +30,12 @@ def make_core(params: dict) -> DtcCore:
 
 class DtcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+        from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
         super().__init__('dtc_controller', schema=SCHEMA, make_core=make_core,
                          check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
                                                    DriveSample, GateCommand, topics.GATE_COMMAND,
-                                                   DtcStatus, topics.DTC_STATUS), **kwargs)
+                                                   DtcStatus, topics.DTC_STATUS,
+                                                   DtcStatusBlock, topics.DTC_STATUS_BLOCK), **kwargs)
 
 
 def main(args=None) -> int:

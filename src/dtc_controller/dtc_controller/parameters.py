@@ -14,6 +14,7 @@ the simulation is held, or the plant refuses the gates (safe state).
 from __future__ import annotations
 
 from drive_common.parameters import ParameterError, ParameterSpec, schema
+from drive_common.telemetry import TELEMETRY_PARAMETERS
 
 MODES = ('two_phase_six_switch', 'two_phase_four_switch', 'three_phase_dtifc', 'three_phase_pmsm',
          'three_phase_four_switch')
@@ -110,5 +111,5 @@ def _check_flux_reference(snapshot) -> None:
         raise ParameterError('flux_reference: must be > 0 Wb when flux control uses a constant reference')
 
 
-SCHEMA = schema(_SPECS, _check_flux_reference)
+SCHEMA = schema(_SPECS + TELEMETRY_PARAMETERS, _check_flux_reference)
 """The dtc_controller node's ParameterSchema."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 from typing import Any, Mapping
 
 from drive_common.parameters import ParameterError, ParameterSpec, schema
+from drive_common.telemetry import TELEMETRY_PARAMETERS
 
 
 def _check_consistency(p: Mapping[str, Any]) -> None:
@@ -104,4 +105,5 @@ PFC_SCHEMA = schema([
     ParameterSpec('sample_period', 12.5e-6,
                   'controller sample period T_s (12.5 us = 80 kHz); a multiple of the plant tick',
                   's', min_value=1.0e-7, max_value=1.0e-2, runtime=False),
+    *TELEMETRY_PARAMETERS,
 ], _check_consistency)

@@ -23,11 +23,12 @@ class PfcControllerNode(LockstepControllerNode):
     """Average current control boost PFC (000 ch. III) in the lockstep graph."""
 
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus
+        from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus, PfcStatusBlock
         super().__init__('pfc_controller', schema=PFC_SCHEMA, make_core=PfcCore,
                          check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(PfcMeasurement, topics.PFC_MEASUREMENT,
                                                    PfcSample, DutyCommand, topics.DUTY_COMMAND,
-                                                   PfcStatus, topics.PFC_STATUS), **kwargs)
+                                                   PfcStatus, topics.PFC_STATUS,
+                                                   PfcStatusBlock, topics.PFC_STATUS_BLOCK), **kwargs)
 
 
 def main(args=None) -> int:

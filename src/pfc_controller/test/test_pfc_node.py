@@ -17,10 +17,13 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
 
     from drive_common import topics
     from drive_common.conversions import time_msg
-    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus
+    from drive_testing.block_probe import BlockSamples, message_bits
+    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus, PfcStatusBlock
 
+    # live_period 0: pfc/status carries every sample (default: 1 ms of sim time).
     process = start_node('pfc_controller', 'pfc_controller',
-                         parameters={'voltage_reference': 85.0, 'voltage_reference_ramp_rate': 0.0})
+                         parameters={'voltage_reference': 85.0, 'voltage_reference_ramp_rate': 0.0,
+                                     'telemetry.live_period': 0.0})
     node = ros_session.node('pfc_test_driver')
     lock = threading.Lock()
     duties, statuses = {}, {}
@@ -36,6 +39,8 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     node.create_subscription(DutyCommand, topics.DUTY_COMMAND, on_duty, topics.LOCKSTEP_QOS)
     node.create_subscription(PfcStatus, topics.PFC_STATUS, on_status, topics.LOCKSTEP_QOS)
     pub = node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
+    blocks = BlockSamples(node, PfcStatusBlock, topics.PFC_STATUS_BLOCK)
+    sent = {}
     wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
     wait_until(lambda: node.count_publishers(topics.PFC_STATUS) >= 1, 20.0, what='status publisher')
 
@@ -43,6 +48,7 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
         msg = PfcMeasurement(step=step, rectified_voltage=20.0, inductor_current=1.0,
                              output_voltage=75.0)
         msg.header.stamp = time_msg(step * 12.5e-6)
+        sent[step] = message_bits(msg)
         pub.publish(msg)
 
     for step in (7, 8, 9):
@@ -70,6 +76,14 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     wait_until(lambda: 10 in statuses and 10 in duties, 10.0, what='answer to step 10')
     assert not statuses[10].enabled and not duties[10].enable and duties[10].duty == 0.0
     assert statuses[10].voltage_reference == pytest.approx(90.0)
+    # pfc/status_block (partial blocks flushed while no measurement comes): every answered
+    # sample once, with the measurement it acted on and the command it sent, bit-exact.
+    wait_until(lambda: len(blocks.records) >= 4, 10.0, what='status blocks of steps 7..10')
+    assert [status.step for status, _, _ in blocks.records] == [7, 8, 9, 10]
+    for status, measurement, duty in blocks.records:
+        assert message_bits(measurement) == sent[status.step]
+        assert message_bits(duty) == message_bits(duties[status.step])
+        assert message_bits(status) == message_bits(statuses[status.step])
 
     bad = call(client.set_parameters([Parameter('voltage_kp', value=-1.0)]))
     assert not bad.results[0].successful and 'voltage_kp' in bad.results[0].reason
