@@ -72,7 +72,8 @@ class LockstepControllerNode(Node):
         self._channels = channels
         self._lock = threading.Lock()
         self._pending: dict[str, Any] | None = None
-        self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters)
+        self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters, sim_time=lambda: (
+            None if self._last_measurement is None else self._last_measurement.header.stamp))
         try:
             self.core = make_core(dict(self.parameters.values))
         except (ParameterError, ValueError, OSError) as exc:
