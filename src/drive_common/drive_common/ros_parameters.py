@@ -81,7 +81,9 @@ class SimStampedEvents:
     publisher. Re-stamping the event here touches only parameter events: the
     node's clock stays as it is, so timers, the action server's goal stamps,
     the time source and every other thread never see a borrowed time (which
-    swapping ``node._clock`` for the duration of a set would risk).
+    swapping ``node._clock`` for the duration of a set would risk). The result
+    is what rclpy gives a node that runs on sim time (``use_sim_time``); the
+    drive nodes make sim time, so they cannot take it from /clock.
 
     sim_time: the node's sim time, in s or as the builtin_interfaces/Time of
         a sample (the plant: its current time; a controller: the stamp of the
