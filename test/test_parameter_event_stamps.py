@@ -19,6 +19,7 @@ from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
 from drive_common.conversions import time_msg
 from drive_common.waiting import wait_until
+from drive_logger.message_definitions import is_sim_stamp
 from dtc_msgs.action import Run
 from dtc_msgs.msg import DriveMeasurement
 
@@ -65,7 +66,7 @@ def test_a_change_at_a_hold_is_stamped_with_the_hold_sim_time(start_node, ros_se
     _set(clients['dtc_controller'], 'torque_reference', 0.3)
     wait_until(lambda: changes_of('/plant') and changes_of('/dtc_controller'), 30.0, what='events')
     assert _ns(changes_of('/plant')[-1].stamp) == 0
-    assert _ns(changes_of('/dtc_controller')[-1].stamp) > 1_000_000_000 * 1_000_000_000
+    assert not is_sim_stamp(_ns(changes_of('/dtc_controller')[-1].stamp))
 
     action = ActionClient(probe, Run, topics.RUN_ACTION)
     wait_until(action.server_is_ready, 30.0, what='plant/run')
@@ -92,3 +93,35 @@ def test_a_change_at_a_hold_is_stamped_with_the_hold_sim_time(start_node, ros_se
     assert result.final_time == pytest.approx(HOLD, abs=1e-9)
     assert changes_of('/dtc_controller')[-1].stamp == last.header.stamp
     assert _ns(time_msg(HOLD)) - _ns(last.header.stamp) == pytest.approx(1e9 / 30000, abs=2)
+
+
+def test_an_rclpy_without_the_event_publisher_is_refused_not_left_on_wall_time():
+    from drive_common.ros_parameters import SimStampedEvents
+
+    class NoPublisher:
+        def get_name(self):
+            return 'plant'
+
+    with pytest.raises(RuntimeError, match='plant: .*cannot be stamped with sim time'):
+        SimStampedEvents.install(NoPublisher(), lambda: 0.0)
+
+
+def test_events_are_restamped_and_a_missing_sim_time_keeps_the_node_clock():
+    from builtin_interfaces.msg import Time
+    from drive_common.ros_parameters import SimStampedEvents
+    sent = []
+
+    class Publisher:
+        publish = staticmethod(sent.append)
+
+    now = [None]
+    events = SimStampedEvents(Publisher(), lambda: now[0])
+    wall = ParameterEvent(stamp=Time(sec=1_795_000_000, nanosec=7))
+    events.publish(wall)
+    assert sent[-1].stamp == Time(sec=1_795_000_000, nanosec=7)
+    now[0] = 0.0094
+    events.publish(ParameterEvent(stamp=Time(sec=1_795_000_000)))
+    assert sent[-1].stamp == Time(sec=0, nanosec=9_400_000)
+    now[0] = Time(sec=0, nanosec=9_366_667)                  # a sample's stamp
+    events.publish(ParameterEvent(stamp=Time(sec=1_795_000_000)))
+    assert sent[-1].stamp == Time(sec=0, nanosec=9_366_667)
