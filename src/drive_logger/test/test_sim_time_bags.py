@@ -1,8 +1,9 @@
 """Sim-time bags through the ROS graph (issue 13, items 6 and 10).
 
 - The same scenario recorded twice gives the same (topic, log time, data) for
-  every sim-stamped message, the drive nodes' /parameter_events included
-  (stamped with sim time, logged at their stamp); metadata.yaml and the MCAP summary agree with the
+  every sim-stamped message, and the same (log time, content) for the
+  scenario's parameter changes on /parameter_events (stamped with sim time by
+  the drive nodes, logged at their stamp); metadata.yaml and the MCAP summary agree with the
   sim times; rosbags and the mcap ROS 2 reader open the bag.
 - A recorder killed with SIGKILL mid-run leaves a bag that reindex completes:
   standard readers open it, and each topic holds a prefix of what the complete
@@ -69,10 +70,17 @@ def _scenario_change(data: bytes) -> bool:
 
 
 def _deterministic(by_topic: dict) -> dict:
-    """by_topic with only the scenario's parameter changes among the parameter events."""
+    """by_topic with only the scenario's parameter changes among the parameter events, decoded.
+
+    Decoded: rclpy publishes a ParameterEvent through the rmw, which leaves the CDR
+    alignment padding (after ParameterValue.type) unspecified, so two identical
+    events may differ in those bytes; every field is compared.
+    """
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
     out = dict(by_topic)
     if EVENTS in out:
-        out[EVENTS] = [(t, d) for t, d in out[EVENTS] if _scenario_change(d)]
+        out[EVENTS] = [(t, deserialize_message(d, ParameterEvent)) for t, d in out[EVENTS] if _scenario_change(d)]
     return out
 
 
@@ -90,10 +98,7 @@ def test_same_scenario_twice_gives_identical_data_and_log_times(reference_bags):
         assert first.get(topic) == second.get(topic), f'{topic} differs between two recordings'
     # the scenario's torque step at the hold at 9.4 ms: the controller's event is stamped with
     # the last sample it answered before the hold, and logged there
-    from rcl_interfaces.msg import ParameterEvent
-    from rclpy.serialization import deserialize_message
-    events = [(t, deserialize_message(d, ParameterEvent)) for t, d in first[EVENTS]]
-    changes = [(t, e) for t, e in events if e.node == '/dtc_controller' and e.changed_parameters]
+    changes = [(t, e) for t, e in first[EVENTS] if e.node == '/dtc_controller' and e.changed_parameters]
     assert [p.name for _, e in changes for p in e.changed_parameters] == ['torque_reference']
     (log_time, event), = changes
     assert is_sim_stamp(log_time) and log_time == event.stamp.sec * 1_000_000_000 + event.stamp.nanosec
