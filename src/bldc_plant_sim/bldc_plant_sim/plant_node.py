@@ -184,7 +184,7 @@ class PlantNode(Node):
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
         self.parameters = SchemaParameters(self, PLANT_NODE_SCHEMA, on_change=self._on_parameters,
-                                           is_running=lambda: self._running)
+                                           is_running=lambda: self._running, sim_time=lambda: self.core.time)
         explicit = {n for n in PLANT_NODE_SCHEMA.names() if n in self._parameter_overrides}
         try:
             params = effective_params(self.parameters.values, explicit=explicit)

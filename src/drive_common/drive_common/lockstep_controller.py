@@ -90,7 +90,9 @@ class LockstepControllerNode(Node):
         self._channels = channels
         self._lock = threading.Lock()
         self._pending: dict[str, Any] | None = None
-        self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters)
+        # Parameter events: sim time of the last answered sample (its command, stamped before sending).
+        self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters, sim_time=lambda: (
+            None if self._last_command is None else self._last_command.header.stamp))
         try:
             self.core = make_core(dict(self.parameters.values))
         except (ParameterError, ValueError, OSError) as exc:

@@ -6,15 +6,23 @@ validates through the schema. A rejected change keeps the old value and
 returns the reason to the caller (``ros2 param set`` prints it). Accepted
 changes are handed to ``on_change`` as a full new snapshot; the node swaps
 it in at its next sample boundary.
+
+With ``sim_time``, the node's ``/parameter_events`` carry sim time instead
+of the node's (wall) clock (:class:`SimStampedEvents`; docs/architecture.md
+"Bags").
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Union
 
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType, SetParametersResult)
 
+from drive_common.conversions import time_msg
 from drive_common.parameters import ParameterError, ParameterSchema, ParameterSpec
+
+SimTime = Union[float, Time, None]   # a node's sim time: s, a sample's stamp, or none yet
 
 _ROS_TYPES = {
     bool: ParameterType.PARAMETER_BOOL,
@@ -64,6 +72,48 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
     return desc
 
 
+class SimStampedEvents:
+    """Stands in for a node's ``/parameter_events`` publisher: stamps each event with sim time.
+
+    rclpy (Jazzy) stamps a ParameterEvent with ``node._clock.now()`` in
+    ``Node._set_parameters_atomically_common``, just before it calls
+    ``node._parameter_event_publisher.publish``; nothing else uses that
+    publisher. Re-stamping the event here touches only parameter events: the
+    node's clock stays as it is, so timers, the action server's goal stamps,
+    the time source and every other thread never see a borrowed time (which
+    swapping ``node._clock`` for the duration of a set would risk). The result
+    is what rclpy gives a node that runs on sim time (``use_sim_time``); the
+    drive nodes make sim time, so they cannot take it from /clock.
+
+    sim_time: the node's sim time, in s or as the builtin_interfaces/Time of
+        a sample (the plant: its current time; a controller: the stamp of the
+        last sample it answered), or None before it has one (the event keeps
+        rclpy's stamp, the node's clock).
+    """
+
+    def __init__(self, publisher, sim_time: Callable[[], SimTime]) -> None:
+        self._publisher = publisher
+        self._sim_time = sim_time
+
+    def publish(self, event) -> None:
+        now = self._sim_time()
+        if now is not None:
+            event.stamp = now if isinstance(now, Time) else time_msg(now)
+        self._publisher.publish(event)
+
+    def __getattr__(self, name: str):
+        return getattr(self._publisher, name)
+
+    @classmethod
+    def install(cls, node, sim_time: Callable[[], SimTime]) -> None:
+        """Wrap node's parameter event publisher (refuses an rclpy without it: no silent wall stamp)."""
+        publisher = getattr(node, '_parameter_event_publisher', None)
+        if publisher is None or not hasattr(publisher, 'publish'):
+            raise RuntimeError(f'{node.get_name()}: this rclpy has no Node._parameter_event_publisher; '
+                               'parameter events cannot be stamped with sim time')
+        node._parameter_event_publisher = cls(publisher, sim_time)
+
+
 class SchemaParameters:
     """Declared parameters of one node, validated by its schema.
 
@@ -72,11 +122,16 @@ class SchemaParameters:
     on_change: called with the new full snapshot before it is accepted; it
         may refuse by raising ParameterError (the old values are kept).
     is_running: returns True while runtime=False parameters must be refused.
+    sim_time: the node's sim time or None (see :class:`SimStampedEvents`);
+        given, every parameter event after the declaration carries it. The
+        declaration's own events (and rclpy's ``use_sim_time``) keep the
+        node's clock: the node has no sim time before its state exists.
     """
 
     def __init__(self, node, schema: ParameterSchema,
                  on_change: Callable[[dict[str, Any]], None] | None = None,
-                 is_running: Callable[[], bool] = lambda: False) -> None:
+                 is_running: Callable[[], bool] = lambda: False,
+                 sim_time: Callable[[], SimTime] | None = None) -> None:
         self._node = node
         self._schema = schema
         self._on_change = on_change
@@ -89,6 +144,8 @@ class SchemaParameters:
         except ParameterError as exc:
             raise ParameterError(f'{node.get_name()}: invalid start-up parameter: {exc}') from exc
         node.add_on_set_parameters_callback(self._on_set)
+        if sim_time is not None:
+            SimStampedEvents.install(node, sim_time)
 
     def __getitem__(self, name: str) -> Any:
         return self.values[name]

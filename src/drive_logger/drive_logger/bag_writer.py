@@ -28,7 +28,8 @@ import yaml
 from mcap.writer import CompressionType, Writer
 
 from drive_logger import qos_yaml
-from drive_logger.message_definitions import TypeDefinition, cdr_stamp_ns
+from drive_logger.message_definitions import (NODE_STAMP, SAMPLE_STAMP, TypeDefinition, cdr_stamp_ns,
+                                              is_sim_stamp)
 
 METADATA_VERSION = 9
 LOG_TIME_SOURCES = ('sim', 'wall')
@@ -259,22 +260,30 @@ class BagWriter:
 class SimTimeLog:
     """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; DESIGN.md §8, issue 13).
 
-    A message that carries its sample's sim time (:func:`message_definitions.carries_sim_stamp`)
-    is written at once, logged and published at that stamp. Any other message waits for the end
-    of the caller's wake-up (:meth:`end_of_wakeup`) and is logged at the latest sim time taken by
-    then, so a message taken in the same wake-up as later samples is not logged too early.
+    A message that carries its sample's sim time (kind SAMPLE_STAMP,
+    :func:`message_definitions.sim_stamp_kind`) is written at once, logged and
+    published at that stamp; so is a parameter event (NODE_STAMP) whose stamp
+    is a sim time (:func:`message_definitions.is_sim_stamp`: a drive node's).
+    Any other message (a wall-stamped parameter event of a node outside the
+    stack, an unstamped type) waits for the end of the caller's wake-up
+    (:meth:`end_of_wakeup`) and is logged at the latest sample stamp taken by
+    then, so a message taken in the same wake-up as later samples is not
+    logged too early, and a wall stamp never lands in the bag's time range.
     """
 
     def __init__(self, writer: BagWriter) -> None:
         self.writer = writer
-        self.now_ns = 0                 # latest sim stamp taken
+        self.now_ns = 0                 # latest sample stamp taken
         self._waiting: list[tuple[TopicRecord, bytes]] = []
 
-    def write(self, topic: TopicRecord, data: bytes, stamped: bool) -> None:
-        if stamped:
+    def write(self, topic: TopicRecord, data: bytes, kind: str) -> None:
+        """kind: the topic type's :func:`message_definitions.sim_stamp_kind`."""
+        if kind == SAMPLE_STAMP:
             stamp = cdr_stamp_ns(data)
             if stamp > self.now_ns:
                 self.now_ns = stamp
+            self.writer.write(topic, data, stamp, stamp)
+        elif kind == NODE_STAMP and is_sim_stamp(stamp := cdr_stamp_ns(data)):
             self.writer.write(topic, data, stamp, stamp)
         else:
             self._waiting.append((topic, data))

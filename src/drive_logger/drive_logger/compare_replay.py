@@ -132,9 +132,9 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
         else:
             event = deserialize_message(msg.data, ParameterEvent)
             if event.node == controller_node and event.changed_parameters:
-                # Sim log times: a change made while the graph held time at T is logged at T; the
-                # plant measured sample T before it held, so the change acts from the next sample
-                # (after every measurement stamped <= T, whatever the tie order); wall: arrival order.
+                # Sim log times: the controller stamps its event with the last sample it answered
+                # (at a hold at T: the one before T), so the change acts from the next sample
+                # (after every measurement stamped <= the log time); wall: arrival order.
                 index = (bisect.bisect_right([stamp for _, stamp, _ in measurements], msg.log_time)
                          if reader.log_time_source == 'sim' else len(measurements))
                 changes.setdefault(index, []).extend(

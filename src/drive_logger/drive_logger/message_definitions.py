@@ -149,6 +149,15 @@ def first_field_is_header(definition_text: str) -> bool:
     return False
 
 
+PARAMETER_EVENT_TYPE = 'rcl_interfaces/msg/ParameterEvent'
+SIM_TIME_LIMIT_NS = 10**18   # 1e9 s (2001-09-09 as a wall time): later stamps are wall times
+
+# How a type's leading builtin_interfaces/Time relates to sim time (sim_stamp_kind).
+SAMPLE_STAMP = 'sample'   # always the sim time of its sample
+NODE_STAMP = 'node'       # the publishing node's time: sim time from a drive node, else wall time
+NO_STAMP = ''             # no sim time in the data
+
+
 @lru_cache(maxsize=None)
 def carries_sim_stamp(type_name: str) -> bool:
     """True if a message of type_name carries the sim time of its sample in its first bytes.
@@ -158,10 +167,34 @@ def carries_sim_stamp(type_name: str) -> bool:
     itself. Both put a builtin_interfaces/Time (int32 sec, uint32 nanosec)
     right after the CDR encapsulation header. Other types that start with a
     Time (rcl_interfaces ParameterEvent, Log) are stamped by the publishing
-    node's clock, the wall clock in this graph, so they do not count.
+    node, so they do not count here (see :func:`sim_stamp_kind`).
     """
     full = normalize_type_name(type_name)
     return full == CLOCK_TYPE or first_field_is_header(message_text(full))
+
+
+def sim_stamp_kind(type_name: str) -> str:
+    """SAMPLE_STAMP, NODE_STAMP or NO_STAMP for type_name.
+
+    rcl_interfaces/ParameterEvent is NODE_STAMP: the drive nodes stamp their
+    parameter events with sim time (drive_common.ros_parameters.SimStampedEvents:
+    the plant's current time, a controller's last answered sample), every other
+    node (recorder, replay, live view, a CLI) with its wall clock; tell them
+    apart by :func:`is_sim_stamp`.
+    """
+    if carries_sim_stamp(type_name):
+        return SAMPLE_STAMP
+    return NODE_STAMP if normalize_type_name(type_name) == PARAMETER_EVENT_TYPE else NO_STAMP
+
+
+def is_sim_stamp(stamp_ns: int) -> bool:
+    """A node's stamp that is plausible as sim time: in [0, 1e9 s).
+
+    Wall clocks read > 1.7e9 s since the epoch; no simulation runs for 31
+    years. (A node whose wall clock reads before 2001, e.g. a board without a
+    real-time clock, would be taken as sim time.)
+    """
+    return 0 <= stamp_ns < SIM_TIME_LIMIT_NS
 
 
 def cdr_stamp_ns(data: bytes) -> int:

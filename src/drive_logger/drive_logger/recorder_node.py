@@ -27,9 +27,11 @@ Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
   'sim' (as ``ros2 bag record --use-sim-time``): a message that carries the
   sim time of its sample (a std_msgs/Header first, or rosgraph_msgs/Clock) is
   logged at that stamp, log and publish time alike, so two recordings of one
-  scenario hold the same times; any other message (/parameter_events, whose
-  stamp is its node's wall clock) is logged at the latest sim time the
-  recorder has taken, set once the wake-up that took it is done. 'wall': log
+  scenario hold the same times. A /parameter_events message is logged at its
+  stamp when that is a sim time (the drive nodes stamp their events with sim
+  time); any other message (a parameter event stamped by the wall clock of a
+  node outside the stack) is logged at the latest sim time the recorder has
+  taken, set once the wake-up that took it is done. 'wall': log
   time = receive time, publish time = send time (ns since the epoch).
 - ``flush_period`` (s, 0.5): at least this often (wall time) the current
   chunk is closed and the file fsynced, so a killed recorder loses at most
@@ -63,8 +65,8 @@ from drive_common.ros_parameters import SchemaParameters
 from drive_common.waiting import wait_until
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
-from drive_logger.message_definitions import (DefinitionNotFoundError, carries_sim_stamp, normalize_type_name,
-                                              type_definition)
+from drive_logger.message_definitions import (NO_STAMP, DefinitionNotFoundError, normalize_type_name,
+                                              sim_stamp_kind, type_definition)
 
 
 class RecorderConfigError(RuntimeError):
@@ -82,11 +84,11 @@ def message_class(type_name: str):
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
-    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamped')
+    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamp_kind')
 
     def __init__(self, name, type_name, definition, qos):
         self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
-        self.stamped = definition is not None and carries_sim_stamp(type_name)
+        self.stamp_kind = sim_stamp_kind(type_name) if definition is not None else NO_STAMP
         self.subscription = None
         self.record = None
         self.callback = None
@@ -228,13 +230,13 @@ class RecorderNode(Node):
                 if record is None:
                     record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
                 if sim_log is not None:
-                    sim_log.write(record, data, topic.stamped)
+                    sim_log.write(record, data, topic.stamp_kind)
                 else:
                     writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
         return on_message
 
     def end_of_wakeup(self) -> None:
-        """Log the unstamped messages of this wake-up at the sim time reached by it."""
+        """Log the messages of this wake-up without a sim stamp at the sim time reached by it."""
         if self.sim_log is not None:
             with self._lock:
                 self.sim_log.end_of_wakeup()

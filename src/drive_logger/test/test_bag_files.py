@@ -233,9 +233,16 @@ def test_which_types_carry_their_sample_sim_time():
     from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
     # every drive-graph type, also those whose .msg starts with constants (GateCommand, PlantState)
     assert all(carries_sim_stamp(t) for t in GRAPH_TOPIC_TYPES.values())
-    # stamped by the publishing node's (wall) clock: not sim time
+    # stamped by the publishing node: not the sim time of a sample
     assert not carries_sim_stamp('rcl_interfaces/msg/ParameterEvent')
     assert not carries_sim_stamp('rcl_interfaces/msg/Log')
+    from drive_logger.message_definitions import (NO_STAMP, NODE_STAMP, SAMPLE_STAMP, is_sim_stamp,
+                                                  sim_stamp_kind)
+    assert sim_stamp_kind('dtc_msgs/msg/GateCommand') == sim_stamp_kind('rosgraph_msgs/Clock') == SAMPLE_STAMP
+    assert sim_stamp_kind('rcl_interfaces/ParameterEvent') == NODE_STAMP   # sim from drive nodes
+    assert sim_stamp_kind('rcl_interfaces/msg/Log') == sim_stamp_kind('std_msgs/msg/String') == NO_STAMP
+    assert is_sim_stamp(0) and is_sim_stamp(3_600 * 10**9) and not is_sim_stamp(-1)
+    assert not is_sim_stamp(1_795_000_000 * 10**9)                      # a wall clock
     from dtc_msgs.msg import GateCommand
     from rosgraph_msgs.msg import Clock
     gate = GateCommand(step=7)
@@ -244,22 +251,29 @@ def test_which_types_carry_their_sample_sim_time():
     assert cdr_stamp_ns(serialize_message(Clock(clock=gate.header.stamp))) == 2_000_000_005
 
 
-def test_unstamped_messages_wait_for_the_sim_time_their_wake_up_reached(tmp_path, measurement_factory):
+def test_wall_stamped_messages_wait_for_the_sim_time_their_wake_up_reached(tmp_path, measurement_factory):
     from drive_logger.bag_writer import SimTimeLog
+    from drive_logger.message_definitions import NO_STAMP, NODE_STAMP, SAMPLE_STAMP
     from rcl_interfaces.msg import ParameterEvent
+    from std_msgs.msg import String
     writer = BagWriter(tmp_path / 'bag')
     meas = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'))
     events = writer.add_topic('/parameter_events', type_definition('rcl_interfaces/msg/ParameterEvent'))
+    notes = writer.add_topic('/notes', type_definition('std_msgs/msg/String'))
     log = SimTimeLog(writer)
-    event = ParameterEvent(node='/dtc_controller')
-    event.stamp.sec = 1_795_000_000                          # a node's wall clock: not used
-    log.write(meas, serialize_message(measurement_factory(3)), stamped=True)
-    log.write(events, serialize_message(event), stamped=False)   # taken before sample 4 in this wake-up
-    log.write(meas, serialize_message(measurement_factory(4)), stamped=True)
+    wall = ParameterEvent(node='/recorder')
+    wall.stamp.sec = 1_795_000_000                          # a wall clock: not used
+    sim = ParameterEvent(node='/dtc_controller')
+    sim.stamp.nanosec = 50_000                              # a drive node's sim stamp: logged there
+    log.write(meas, serialize_message(measurement_factory(3)), SAMPLE_STAMP)
+    log.write(events, serialize_message(wall), NODE_STAMP)   # taken before sample 4 in this wake-up
+    log.write(events, serialize_message(sim), NODE_STAMP)
+    log.write(meas, serialize_message(measurement_factory(4)), SAMPLE_STAMP)
     log.end_of_wakeup()
-    log.write(events, serialize_message(event), stamped=False)
+    log.write(notes, serialize_message(String(data='x')), NO_STAMP)
     log.end_of_wakeup()
     writer.close()
     times = [(m.topic, m.log_time, m.publish_time) for m in BagReader(tmp_path / 'bag').messages()]
     assert sorted(times) == sorted([('/drive/measurement', 75_000, 75_000), ('/drive/measurement', 100_000, 100_000),
-                                    ('/parameter_events', 100_000, 100_000), ('/parameter_events', 100_000, 100_000)])
+                                    ('/parameter_events', 50_000, 50_000), ('/parameter_events', 100_000, 100_000),
+                                    ('/notes', 100_000, 100_000)])

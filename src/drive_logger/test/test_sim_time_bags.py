@@ -1,7 +1,9 @@
 """Sim-time bags through the ROS graph (issue 13, items 6 and 10).
 
 - The same scenario recorded twice gives the same (topic, log time, data) for
-  every sim-stamped message; metadata.yaml and the MCAP summary agree with the
+  every sim-stamped message, and the same (log time, content) for the
+  scenario's parameter changes on /parameter_events (stamped with sim time by
+  the drive nodes, logged at their stamp); metadata.yaml and the MCAP summary agree with the
   sim times; rosbags and the mcap ROS 2 reader open the bag.
 - A recorder killed with SIGKILL mid-run leaves a bag that reindex completes:
   standard readers open it, and each topic holds a prefix of what the complete
@@ -21,12 +23,14 @@ from drive_bringup.runner import GraphRunner, RunFailed
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import intact_messages
+from drive_logger.message_definitions import cdr_stamp_ns, is_sim_stamp
 
 pytestmark = pytest.mark.ros
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.1              # s of sim time: 3000 samples at 30 kHz, the torque step at 9.4 ms included
-WALL_STAMPED = '/parameter_events'   # its data carry the publishing node's wall-clock stamp
+EVENTS = '/parameter_events'   # stamped by their node: sim time (drive nodes) or wall clock
+SCENARIO_EVENTS = load_scenario(find_scenario(SCENARIO)).events
 KILL_AFTER = 300            # measurements in flushed chunks before the recorder is killed
 
 
@@ -51,6 +55,35 @@ def _by_topic(bag: Path) -> dict[str, list[tuple[int, bytes]]]:
     return out
 
 
+def _scenario_change(data: bytes) -> bool:
+    """A parameter event of one of the scenario's changes (made once the graph is up).
+
+    Events of the nodes' start-up (rclpy's use_sim_time, the schema's declarations,
+    the plant's motor-file values) are recorded or not depending on whether the
+    recorder had matched the node yet, so they are left out of the comparison.
+    """
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
+    event = deserialize_message(data, ParameterEvent)
+    changed = {p.name for p in event.changed_parameters}
+    return any(event.node == '/' + e.node and changed and changed <= set(e.parameters) for e in SCENARIO_EVENTS)
+
+
+def _deterministic(by_topic: dict) -> dict:
+    """by_topic with only the scenario's parameter changes among the parameter events, decoded.
+
+    Decoded: rclpy publishes a ParameterEvent through the rmw, which leaves the CDR
+    alignment padding (after ParameterValue.type) unspecified, so two identical
+    events may differ in those bytes; every field is compared.
+    """
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
+    out = dict(by_topic)
+    if EVENTS in out:
+        out[EVENTS] = [(t, deserialize_message(d, ParameterEvent)) for t, d in out[EVENTS] if _scenario_change(d)]
+    return out
+
+
 @pytest.fixture(scope='module')
 def reference_bags(tmp_path_factory):
     root = tmp_path_factory.mktemp('sim_time_bags')
@@ -58,13 +91,21 @@ def reference_bags(tmp_path_factory):
 
 
 def test_same_scenario_twice_gives_identical_data_and_log_times(reference_bags):
-    first, second = (_by_topic(b) for b in reference_bags)
+    first, second = (_deterministic(_by_topic(b)) for b in reference_bags)
     samples = round(DURATION * 30000)
     assert len(first['/drive/measurement']) == samples
     for topic in set(first) | set(second):
-        if topic == WALL_STAMPED:
-            continue
         assert first.get(topic) == second.get(topic), f'{topic} differs between two recordings'
+    # the scenario's torque step at the hold at 9.4 ms: the controller's event is stamped with
+    # the last sample it answered before the hold, and logged there
+    changes = [(t, e) for t, e in first[EVENTS] if e.node == '/dtc_controller' and e.changed_parameters]
+    assert [p.name for _, e in changes for p in e.changed_parameters] == ['torque_reference']
+    (log_time, event), = changes
+    assert is_sim_stamp(log_time) and log_time == event.stamp.sec * 1_000_000_000 + event.stamp.nanosec
+    hold_step = round(0.0094 * 30000)
+    assert log_time == first['/drive/measurement'][hold_step - 1][0]    # the sample before the hold
+    # wall-stamped events (start-up declarations) land inside the bag's sim-time range
+    assert all(0 <= t <= DURATION * 1e9 for t, _ in _by_topic(reference_bags[0]).get(EVENTS, []))
     # log time = the sample's sim time: measurement k at k * 1/30 kHz (ns, rounded as the plant stamps it)
     times = [t for t, _ in first['/drive/measurement']]
     assert times[0] == 0 and times == sorted(times) and abs(times[-1] - (samples - 1) * 1e9 / 30000) < 1000
@@ -122,12 +163,11 @@ def test_sigkilled_recorder_bag_is_reindexed_to_what_it_had_flushed(reference_ba
     assert main([str(bag)]) == 0
     reindexed = _by_topic(bag)
     assert reindexed == intact                      # every flushed message is there, in file order
-    reference = _by_topic(reference_bags[0])
+    reference = _deterministic(_by_topic(reference_bags[0]))
     measured = len(reindexed['/drive/measurement'])
     assert KILL_AFTER <= measured < len(reference['/drive/measurement'])
-    for topic, messages in reindexed.items():
-        if topic != WALL_STAMPED:                    # nothing invented, nothing reordered
-            assert messages == reference[topic][:len(messages)], topic
+    for topic, messages in _deterministic(reindexed).items():   # nothing invented, nothing reordered
+        assert messages == reference[topic][:len(messages)], topic
 
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     counts = {e['topic_metadata']['name']: e['message_count'] for e in meta['topics_with_message_count']}
