@@ -253,7 +253,7 @@ def test_dtc_status_blocks_carry_every_sample_bit_exact_across_holds(start_node,
     sample (status, the measurement it acted on, the command it sent), across a hold and a
     second goal; partial blocks go out at the hold; the live topics carry every 10th sample."""
     from dtc_controller.core.controller import DtcCore
-    from dtc_controller.parameters import SCHEMA as DTC_SCHEMA
+    from dtc_controller.parameters import DTC_SCHEMA
     from dtc_msgs.msg import DtcStatus, DtcStatusBlock
     telemetry = {'telemetry.block_size': 7, 'telemetry.live_period': 250e-6}
     dtc = {'mode': 'two_phase_six_switch', 'backemf_table_path': str(BACKEMF_TABLE),

@@ -17,7 +17,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.serialization import serialize_message
 
-from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA
+from bldc_plant_sim.parameters import PLANT_SCHEMA
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
 from drive_common.waiting import wait_until
@@ -26,7 +26,7 @@ from drive_logger.bag_writer import BagWriter
 from drive_logger.message_definitions import type_definition
 from drive_logger.recorder_node import RECORDER_SCHEMA
 from drive_logger.replay_node import REPLAY_SCHEMA
-from dtc_controller.parameters import SCHEMA as DTC_SCHEMA
+from dtc_controller.parameters import DTC_SCHEMA
 from dtc_msgs.action import Run
 from dtc_msgs.msg import DriveMeasurement, DtcStatus, PlantState
 from pfc_controller.parameters import PFC_SCHEMA
@@ -35,7 +35,7 @@ pytestmark = pytest.mark.ros
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 PLANT_TABLE = str(Path(__file__).resolve().parents[1] / 'src/bldc_plant_sim/motors/ozturk_bldc_nonideal_backemf.csv')
-SCHEMAS = {'plant': PLANT_NODE_SCHEMA, 'dtc_controller': DTC_SCHEMA, 'pfc_controller': PFC_SCHEMA,
+SCHEMAS = {'plant': PLANT_SCHEMA, 'dtc_controller': DTC_SCHEMA, 'pfc_controller': PFC_SCHEMA,
            'recorder': RECORDER_SCHEMA, 'replay': REPLAY_SCHEMA}
 ANSWER_TIMEOUT = 30.0  # s: answered within a few seconds when idle; generous because CI machines are shared
 

@@ -238,7 +238,7 @@ def _cross_checks(p: Mapping[str, Any]) -> None:
         raise ParameterError('motor.backemf.table_file: required when motor.backemf.shape is table')
 
 
-PLANT_NODE_SCHEMA = schema(PLANT_SPECS + TELEMETRY_PARAMETERS, _cross_checks)
+PLANT_SCHEMA = schema(PLANT_SPECS + TELEMETRY_PARAMETERS, _cross_checks)
 """The plant node's parameters (declared by the ROS wrapper, used by PlantCore)."""
 
 
@@ -276,7 +276,7 @@ def load_motor_file(name: str) -> dict[str, Any]:
     params = data.get('parameters') if isinstance(data, dict) else None
     if not isinstance(params, dict):
         raise ParameterError(f'motor.file: {path} has no "parameters:" mapping')
-    unknown = sorted(set(params) - set(PLANT_NODE_SCHEMA.names()))
+    unknown = sorted(set(params) - set(PLANT_SCHEMA.names()))
     if unknown:
         raise ParameterError(f'motor.file: {path}: unknown parameter(s) ' + ', '.join(unknown))
     foreign = sorted(n for n in params if not n.startswith('motor.') and n not in MOTOR_FILE_EXTRAS
@@ -286,7 +286,7 @@ def load_motor_file(name: str) -> dict[str, Any]:
     clean = {}
     for key, value in params.items():
         try:
-            clean[key] = PLANT_NODE_SCHEMA[key].check(value)
+            clean[key] = PLANT_SCHEMA[key].check(value)
         except ParameterError as exc:
             raise ParameterError(f'motor.file: {path}: {exc}') from exc
     table = clean.get('motor.backemf.table_file')
@@ -298,7 +298,7 @@ def load_motor_file(name: str) -> dict[str, Any]:
 def _cross_check_with_file(values: dict[str, Any], file_name: str) -> dict[str, Any]:
     """Schema cross-checks of a merged snapshot; an error names the motor file that fed it."""
     try:
-        return PLANT_NODE_SCHEMA.validate_changes(values, {}, running=False)
+        return PLANT_SCHEMA.validate_changes(values, {}, running=False)
     except ParameterError as exc:
         if not file_name:
             raise
@@ -336,10 +336,10 @@ def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | 
     Returns a full validated snapshot; raises ParameterError (a file value
     or a cross-check involving one names the file).
     """
-    defaults = PLANT_NODE_SCHEMA.defaults()
-    requested = PLANT_NODE_SCHEMA.validate_changes(defaults, snapshot, running=False)
+    defaults = PLANT_SCHEMA.defaults()
+    requested = PLANT_SCHEMA.validate_changes(defaults, snapshot, running=False)
     start = previous is None
-    before = defaults if start else PLANT_NODE_SCHEMA.validate_changes(defaults, previous, running=False)
+    before = defaults if start else PLANT_SCHEMA.validate_changes(defaults, previous, running=False)
     used_before = before if previous_effective is None else dict(previous_effective)
     explicit = set(explicit)
     file_name = requested['motor.file']
@@ -368,11 +368,11 @@ def plant_params(motor: str | None = None, **overrides: Any) -> dict[str, Any]:
     an unknown name raises ParameterError. The snapshot keeps ``motor.file``
     empty: the file's values are already in it.
     """
-    unknown = sorted(set(overrides) - set(PLANT_NODE_SCHEMA.names()))
+    unknown = sorted(set(overrides) - set(PLANT_SCHEMA.names()))
     if unknown:
         raise ParameterError('unknown parameter(s): ' + ', '.join(unknown))
-    values = PLANT_NODE_SCHEMA.defaults()
+    values = PLANT_SCHEMA.defaults()
     if motor:
         values.update(load_motor_file(motor))
     values = _cross_check_with_file(values, motor or '')
-    return PLANT_NODE_SCHEMA.validate_changes(values, overrides, running=False)
+    return PLANT_SCHEMA.validate_changes(values, overrides, running=False)

@@ -65,7 +65,7 @@ from rosgraph_msgs.msg import Clock
 
 from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params
+from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, time_msg
@@ -183,9 +183,9 @@ class PlantNode(Node):
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
-        self.parameters = SchemaParameters(self, PLANT_NODE_SCHEMA, on_change=self._on_parameters,
+        self.parameters = SchemaParameters(self, PLANT_SCHEMA, on_change=self._on_parameters,
                                            is_running=lambda: self._running, sim_time=lambda: self.core.time)
-        explicit = {n for n in PLANT_NODE_SCHEMA.names() if n in self._parameter_overrides}
+        explicit = {n for n in PLANT_SCHEMA.names() if n in self._parameter_overrides}
         try:
             params = effective_params(self.parameters.values, explicit=explicit)
             self.core = PlantCore(params)
@@ -259,12 +259,12 @@ class PlantNode(Node):
         one by one, so the file's values (whose lists must agree in length)
         are set together here before the requested change itself.
         """
-        changes = {p.name: p.value for p in params if p.name in PLANT_NODE_SCHEMA}
+        changes = {p.name: p.value for p in params if p.name in PLANT_SCHEMA}
         if not changes:
             return params
         current = self.parameters.values
         try:
-            requested = PLANT_NODE_SCHEMA.validate_changes(current, changes,
+            requested = PLANT_SCHEMA.validate_changes(current, changes,
                                                            running=self._running)
             used = effective_params(requested, current)
             self._set_atomically({n: v for n, v in used.items()

@@ -6,17 +6,17 @@ from pathlib import Path
 import pytest
 
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.parameters import PLANT_NODE_SCHEMA, effective_params, load_motor_file, plant_params
+from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params, load_motor_file, plant_params
 from drive_common.parameters import ParameterError
 
 
 def test_every_parameter_is_described_and_runtime_flags_follow_the_issue():
-    for spec in PLANT_NODE_SCHEMA.specs:
+    for spec in PLANT_SCHEMA.specs:
         assert spec.description
         if isinstance(spec.default, float) and spec.name not in ('dc_link.initial_midpoint',
                                                                   'sensors.voltage_gain_error'):
             assert spec.unit or spec.name.startswith('motor.backemf'), spec.name
-    runtime = {s.name: s.runtime for s in PLANT_NODE_SCHEMA.specs}
+    runtime = {s.name: s.runtime for s in PLANT_SCHEMA.specs}
     for name in ('load.mode', 'load.torque', 'load.speed', 'sensors.current_noise',
                  'sensors.current_offset', 'inverter.v_ce', 'inverter.v_d', 'inverter.r_on'):
         assert runtime[name], name
@@ -45,8 +45,8 @@ def test_schema_rejects_bad_values_with_a_reason(changes, reason):
 def test_held_parameters_are_refused_while_running_and_runtime_ones_apply():
     snap = plant_params()
     with pytest.raises(ParameterError, match='held'):
-        PLANT_NODE_SCHEMA.validate_changes(snap, {'motor.resistance': 0.5}, running=True)
-    new = PLANT_NODE_SCHEMA.validate_changes(snap, {'load.torque': 0.5, 'inverter.v_d': 1.25}, running=True)
+        PLANT_SCHEMA.validate_changes(snap, {'motor.resistance': 0.5}, running=True)
+    new = PLANT_SCHEMA.validate_changes(snap, {'load.torque': 0.5, 'inverter.v_d': 1.25}, running=True)
     plant = PlantCore(snap)
     plant.reconfigure(new)
     assert plant.load.torque == 0.5 and plant.inverter.v_d == 1.25
@@ -78,7 +78,7 @@ def test_explicit_motor_parameters_override_the_motor_file_and_are_reported():
 
 def test_scenario_snapshot_with_motor_file_uses_the_scenario_values():
     # a scenario's plant block resolved through the schema (full snapshot, as the runner does)
-    snap = PLANT_NODE_SCHEMA.resolve({'motor.file': 'ozturk_bldc', 'motor.inertia': 1e-3})
+    snap = PLANT_SCHEMA.resolve({'motor.file': 'ozturk_bldc', 'motor.inertia': 1e-3})
     plant = PlantCore(snap)
     assert plant.motor.inertia == 1e-3 and plant.params['motor.inertia'] == 1e-3
     assert plant.params['motor.backemf.constant'] == pytest.approx(0.0573)
@@ -86,43 +86,43 @@ def test_scenario_snapshot_with_motor_file_uses_the_scenario_values():
 
 def test_reconfigure_while_held_changes_the_resistance_used_by_the_core():
     # headless flow: the requested snapshot keeps the defaults, the core keeps the effective one
-    requested = PLANT_NODE_SCHEMA.resolve({'motor.file': 'fstp_pm_blac'})
+    requested = PLANT_SCHEMA.resolve({'motor.file': 'fstp_pm_blac'})
     plant = PlantCore(requested)
     assert plant.motor.resistance == 0.466
-    requested = PLANT_NODE_SCHEMA.validate_changes(requested, {'motor.resistance': 2.0})
+    requested = PLANT_SCHEMA.validate_changes(requested, {'motor.resistance': 2.0})
     plant.reconfigure(requested)
     assert plant.motor.resistance == 2.0 and plant._R == 2.0 and plant.params['motor.resistance'] == 2.0
     assert plant._tau == pytest.approx(3.19e-3 / 2.0)
     # an unrelated change later keeps both the explicit value and the file's others
-    plant.reconfigure(PLANT_NODE_SCHEMA.validate_changes(requested, {'load.torque': 0.1}))
+    plant.reconfigure(PLANT_SCHEMA.validate_changes(requested, {'load.torque': 0.1}))
     assert plant.motor.resistance == 2.0 and plant.motor.inductance == 3.19e-3
     # node flow: the node reports (writes back) plant.params and sends changes on top of it
-    plant.reconfigure(PLANT_NODE_SCHEMA.validate_changes(plant.params, {'motor.resistance': 0.7}))
+    plant.reconfigure(PLANT_SCHEMA.validate_changes(plant.params, {'motor.resistance': 0.7}))
     assert plant.motor.resistance == 0.7 and plant.motor.pole_pairs == 1
 
 
 def test_effective_params_recipe_for_the_node():
     # start-up: declared values (defaults + overrides) -> values used, written back by the node
-    declared = PLANT_NODE_SCHEMA.resolve({'motor.file': 'fstp_pm_blac', 'motor.resistance': 2.0})
+    declared = PLANT_SCHEMA.resolve({'motor.file': 'fstp_pm_blac', 'motor.resistance': 2.0})
     used = effective_params(declared)
     assert used['motor.resistance'] == 2.0 and used['motor.self_inductance'] == 3.19e-3
     assert used['motor.pole_pairs'] == 1 and used['protection.peak_current'] == 10.0
     assert effective_params(used, used) == used                          # write-back is a fixed point
     # a start-up override equal to its default only counts as set when named in explicit
-    declared = PLANT_NODE_SCHEMA.resolve({'motor.file': 'fstp_pm_blac', 'motor.resistance': 0.315})
+    declared = PLANT_SCHEMA.resolve({'motor.file': 'fstp_pm_blac', 'motor.resistance': 0.315})
     assert effective_params(declared)['motor.resistance'] == 0.466
     assert effective_params(declared, explicit={'motor.resistance'})['motor.resistance'] == 0.315
     # runtime change while held: `ros2 param set /plant motor.resistance 0.9` acts and reads back
-    changed = PLANT_NODE_SCHEMA.validate_changes(used, {'motor.resistance': 0.9})
+    changed = PLANT_SCHEMA.validate_changes(used, {'motor.resistance': 0.9})
     assert effective_params(changed, used)['motor.resistance'] == 0.9
     # a new motor file replaces the file values, except names set in the same change
-    swap = PLANT_NODE_SCHEMA.validate_changes(used, {'motor.file': 'ozturk_bldc', 'motor.inertia': 5e-4})
+    swap = PLANT_SCHEMA.validate_changes(used, {'motor.file': 'ozturk_bldc', 'motor.inertia': 5e-4})
     new = effective_params(swap, used)
     assert new['motor.pole_pairs'] == 2 and new['motor.resistance'] == 0.315
     assert new['motor.inertia'] == 5e-4
     assert new['motor.backemf.shape'] == 'trapezoid'
     # names only the old file set go back to their defaults
-    assert new['motor.backemf.harmonic_orders'] == PLANT_NODE_SCHEMA['motor.backemf.harmonic_orders'].default
+    assert new['motor.backemf.harmonic_orders'] == PLANT_SCHEMA['motor.backemf.harmonic_orders'].default
     assert new['protection.peak_current'] == 24.0
 
 
@@ -155,14 +155,14 @@ def test_motor_file_cross_check_failure_names_the_file(tmp_path):
 # ---- defaults: 001 Table IV device drops, the 000 App. A motor file ---------------------------
 
 def test_device_drop_defaults_are_001_table_iv():
-    d = PLANT_NODE_SCHEMA.defaults()
+    d = PLANT_SCHEMA.defaults()
     assert (d['inverter.v_ce'], d['inverter.v_d'], d['inverter.r_on']) == (0.9, 1.25, 0.075)
     plant = PlantCore({})
     assert (plant.inverter.v_ce, plant.inverter.v_d, plant.inverter.r_on) == (0.9, 1.25, 0.075)
 
 
 def test_motor_defaults_are_the_000_appendix_a_motor_file():
-    d = PLANT_NODE_SCHEMA.defaults()
+    d = PLANT_SCHEMA.defaults()
     for key, value in load_motor_file('ozturk_bldc').items():
         assert d[key] == pytest.approx(value), key
 

@@ -53,8 +53,8 @@ from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.uris import resolve_path
 
 NODE_SCHEMAS = {
-    'plant': ('bldc_plant_sim.parameters', 'PLANT_NODE_SCHEMA'),
-    'dtc_controller': ('dtc_controller.parameters', 'SCHEMA'),
+    'plant': ('bldc_plant_sim.parameters', 'PLANT_SCHEMA'),
+    'dtc_controller': ('dtc_controller.parameters', 'DTC_SCHEMA'),
     'pfc_controller': ('pfc_controller.parameters', 'PFC_SCHEMA'),
 }
 CONTROLLER_KEYS = {'package', 'executable', 'core', 'node_name', 'parameters'}

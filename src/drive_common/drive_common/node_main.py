@@ -16,25 +16,8 @@ import sys
 import threading
 from typing import Callable
 
-from rclpy.callback_groups import CallbackGroup
-
 from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
-
-
-class NotSpun(CallbackGroup):
-    """Callback group the executor leaves alone: its entities are taken by the
-    node's own wait loop (:mod:`drive_common.lockstep_io`), while the rest of
-    the node (parameter services) is spun as usual."""
-
-    def can_execute(self, entity) -> bool:
-        return False
-
-    def beginning_execution(self, entity) -> bool:
-        return False
-
-    def ending_execution(self, entity) -> None:
-        pass
 
 
 def fail(reason: object, code: int = 2) -> int:

@@ -40,7 +40,7 @@ Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 The recorder takes messages in its own wait loop (the rclpy executor's
 per-callback cost is several times the recording cost): its subscriptions
 are in a callback group the executor leaves alone
-(:class:`drive_common.node_main.NotSpun`), and the executor serves only the
+(:class:`drive_common.lockstep_io.DirectCallbackGroup`), and the executor serves only the
 parameter services (parameters are read-only, fixed at start).
 
 Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
@@ -58,8 +58,8 @@ import time
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 
-from drive_common.lockstep_io import DirectReceiver
-from drive_common.node_main import NotSpun, run_node
+from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver
+from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.waiting import wait_until
@@ -127,7 +127,7 @@ class RecorderNode(Node):
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
         self._lock = threading.Lock()
-        self._not_spun = NotSpun()   # subscriptions: taken by TakeLoop, not the executor
+        self._not_spun = DirectCallbackGroup()   # subscriptions: taken by TakeLoop, not the executor
 
         # 1. Resolve every topic and its type before touching the disk.
         wanted = self._resolve_topics(p['topics'] or [], float(p['type_discovery_timeout']))

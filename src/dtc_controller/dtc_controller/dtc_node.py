@@ -2,7 +2,7 @@
 
 Answers each ``drive/measurement`` with a ``drive/gate_command`` for the
 same step and publishes ``dtc/status`` (docs/architecture.md "Time and lockstep", "DTC modes").
-Parameters are declared once from :data:`dtc_controller.parameters.SCHEMA` and a
+Parameters are declared once from :data:`dtc_controller.parameters.DTC_SCHEMA` and a
 change is validated by ``DtcCore.check`` (no throw-away core); references,
 bands and gains act at the next sample; a change of ``mode`` (or of any
 other non-runtime parameter) rebuilds the mode cleanly at the next sample
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from dtc_controller.core.backemf_table import BackEmfTableError
 from dtc_controller.core.controller import DtcCore
-from dtc_controller.parameters import SCHEMA
+from dtc_controller.parameters import DTC_SCHEMA
 from drive_common import topics
 from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
 from drive_common.node_main import run_node
@@ -31,7 +31,7 @@ def make_core(params: dict) -> DtcCore:
 class DtcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
-        super().__init__('dtc_controller', schema=SCHEMA, make_core=make_core,
+        super().__init__('dtc_controller', schema=DTC_SCHEMA, make_core=make_core,
                          check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
                                                    DriveSample, GateCommand, topics.GATE_COMMAND,
                                                    DtcStatus, topics.DTC_STATUS,

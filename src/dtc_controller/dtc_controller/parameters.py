@@ -111,5 +111,5 @@ def _check_flux_reference(snapshot) -> None:
         raise ParameterError('flux_reference: must be > 0 Wb when flux control uses a constant reference')
 
 
-SCHEMA = schema(_SPECS + TELEMETRY_PARAMETERS, _check_flux_reference)
+DTC_SCHEMA = schema(_SPECS + TELEMETRY_PARAMETERS, _check_flux_reference)
 """The dtc_controller node's ParameterSchema."""

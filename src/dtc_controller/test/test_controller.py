@@ -13,7 +13,7 @@ from drive_common.parameters import ParameterError
 from drive_common.samples import DriveSample
 from dtc_controller.core.controller import DtcCore, DtcStatusSample
 from dtc_controller.core.vectors import HIGH, LOW, MIDPOINT, OPEN, leg_states
-from dtc_controller.parameters import SCHEMA
+from dtc_controller.parameters import DTC_SCHEMA
 from dtc_test_tables import make_table
 
 MSG = Path(__file__).resolve().parents[2] / 'dtc_msgs' / 'msg' / 'DtcStatus.msg'
@@ -42,12 +42,12 @@ def test_core_imports_no_ros_and_no_plant():
 
 
 def test_schema_runtime_flags():
-    assert SCHEMA['mode'].runtime is False and 'held' in SCHEMA['mode'].describe()
+    assert DTC_SCHEMA['mode'].runtime is False and 'held' in DTC_SCHEMA['mode'].describe()
     for name in ('torque_reference', 'torque_band', 'speed_reference', 'speed_loop.kp', 'speed_loop.ki',
                  'flux_band', 'four_switch.split_band_divisor', 'flux_control.enabled'):
-        assert SCHEMA[name].runtime, name
+        assert DTC_SCHEMA[name].runtime, name
     with pytest.raises(ParameterError):
-        SCHEMA.validate_changes(SCHEMA.defaults(), {'mode': 'three_phase_pmsm'}, running=True)
+        DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), {'mode': 'three_phase_pmsm'}, running=True)
 
 
 def test_update_returns_gate_and_status(trap_table):
@@ -232,12 +232,12 @@ def test_check_validates_a_change_without_rebuilding_or_rereading_the_table(tmp_
 
 def test_modes_are_built_then_configured_and_reconfigured_in_place(trap_table):
     from dtc_controller.core.modes import MODE_CLASSES, mode_class
-    params = SCHEMA.validate_changes(SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})
+    params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})
     mode = mode_class('two_phase_four_switch').create(params, trap_table)
     assert mode.split_now is mode.split_tables[1] and mode.hyst_a.band == pytest.approx(0.02 / 1000.0)
     mode.configure(dict(params, rotation=-1, torque_band=0.04))
     assert mode.split_now is mode.split_tables[-1] and mode.table_now is mode.tables[-1]
     assert mode.hyst_a.band == pytest.approx(0.04 / 1000.0) and mode.torque_hyst.band == 0.04
-    assert set(MODE_CLASSES) == set(SCHEMA['mode'].choices)
+    assert set(MODE_CLASSES) == set(DTC_SCHEMA['mode'].choices)
     with pytest.raises(ValueError, match="unknown mode 'no_such_mode'"):
         mode_class('no_such_mode')

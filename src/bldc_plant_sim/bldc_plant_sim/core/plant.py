@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from drive_common.parameters import ParameterError
 from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
-from ..parameters import PLANT_NODE_SCHEMA, effective_params
+from ..parameters import PLANT_SCHEMA, effective_params
 from .dc_link import DcLink
 from .front_end import FrontEnd
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, Inverter
@@ -96,7 +96,7 @@ class EnergyLedger:
 class PlantCore:
     """The plant of docs/architecture.md "The plant" without ROS (API: "Core APIs").
 
-    params: a parameter snapshot of PLANT_NODE_SCHEMA (missing names take
+    params: a parameter snapshot of PLANT_SCHEMA (missing names take
     their defaults). With ``motor.file`` the file gives the motor's values and
     explicit parameters override it (:func:`~bldc_plant_sim.parameters.effective_params`);
     ``params`` holds the values actually used.
@@ -104,7 +104,7 @@ class PlantCore:
 
     def __init__(self, params: dict | None = None) -> None:
         p = self.validate(params or {})
-        self._requested = PLANT_NODE_SCHEMA.validate_changes(PLANT_NODE_SCHEMA.defaults(),
+        self._requested = PLANT_SCHEMA.validate_changes(PLANT_SCHEMA.defaults(),
                                                              params or {}, running=False)
         self.params = p
         self.base_tick = p['base_tick']
@@ -172,7 +172,7 @@ class PlantCore:
         The stored-energy baseline moves with a rebuilt part so the balance stays closed.
         """
         p = self.check_params(params)
-        requested = PLANT_NODE_SCHEMA.validate_changes(PLANT_NODE_SCHEMA.defaults(), params,
+        requested = PLANT_SCHEMA.validate_changes(PLANT_SCHEMA.defaults(), params,
                                                        running=False)
         old = self.params
         changed = {n for n in p if p[n] != old.get(n)}

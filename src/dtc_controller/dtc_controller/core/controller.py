@@ -1,7 +1,7 @@
 """DtcCore: the ROS-agnostic DTC controller, dispatching by the ``mode`` parameter.
 
 ``DtcCore(params, backemf)`` takes a (partial) parameter snapshot of
-:data:`dtc_controller.parameters.SCHEMA` (missing names take their
+:data:`dtc_controller.parameters.DTC_SCHEMA` (missing names take their
 defaults) and the back-EMF table (or None: then it is loaded from
 ``backemf_table_path`` when the mode needs one). ``update(sample)`` runs one
 controller sample; ``reconfigure(params)`` stores a new snapshot that takes
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from drive_common.samples import DriveSample, GateSample
 
-from ..parameters import SCHEMA
+from ..parameters import DTC_SCHEMA
 from .backemf_table import BackEmfTable
 from .modes import mode_class
 from .status import DtcStatusSample
@@ -25,7 +25,7 @@ class DtcCore:
     """One DTC controller; see the module doc."""
 
     def __init__(self, params: dict, backemf: BackEmfTable | None = None) -> None:
-        self.params = SCHEMA.validate_changes(SCHEMA.defaults(), dict(params))
+        self.params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), dict(params))
         self._backemf = backemf
         self._pending: dict | None = None
         self._build()
@@ -52,7 +52,7 @@ class DtcCore:
         mode cannot run with it, e.g. no table); the back-EMF file is read only when its path or
         the motor's pole pairs change.
         """
-        p = SCHEMA.validate_changes(self.params, dict(params))
+        p = DTC_SCHEMA.validate_changes(self.params, dict(params))
         mode_class(p['mode']).check(p, self._table_for(p))
         return p
 
@@ -63,11 +63,11 @@ class DtcCore:
     def reconfigure(self, params: dict) -> None:
         """Validate changes now (ParameterError on a bad value); apply them at the next sample."""
         base = self._pending if self._pending is not None else self.params
-        self._pending = SCHEMA.validate_changes(base, dict(params))
+        self._pending = DTC_SCHEMA.validate_changes(base, dict(params))
 
     def _apply_pending(self) -> None:
         new, self._pending = self._pending, None
-        structural = [n for n in SCHEMA.names() if not SCHEMA[n].runtime and new[n] != self.params[n]]
+        structural = [n for n in DTC_SCHEMA.names() if not DTC_SCHEMA[n].runtime and new[n] != self.params[n]]
         if self._table_changed(new):
             self._backemf = None
         self.params = new
