@@ -1,6 +1,6 @@
 """The ``plant`` node: lockstep time master over the ROS-agnostic PlantCore.
 
-DESIGN.md §3. Sim time only advances inside a ``plant/run`` action goal (or
+docs/architecture.md "Time and lockstep". Sim time only advances inside a ``plant/run`` action goal (or
 up to the ``run_until`` parameter at start-up): for each base tick k the
 node publishes the measurements of the controllers that are due (step = k),
 waits for their commands carrying step k (stale or future steps are

@@ -1,6 +1,6 @@
 """rosbag2-layout (Jazzy, metadata version 9) MCAP bag writer on the ``mcap`` library.
 
-Layout (DESIGN.md §8): a new directory ``<dir>`` holding ``<dir>_0.mcap`` and,
+Layout (docs/architecture.md "Bags"): a new directory ``<dir>`` holding ``<dir>_0.mcap`` and,
 once closed, ``metadata.yaml``. The MCAP file has profile ``ros2``, one
 ``ros2msg`` schema per type, one ``cdr`` channel per topic whose metadata holds
 ``offered_qos_profiles`` (the same YAML as metadata.yaml) and
@@ -258,7 +258,7 @@ class BagWriter:
 
 
 class SimTimeLog:
-    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; DESIGN.md §8, issue 13).
+    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; docs/architecture.md "Bags").
 
     A message that carries its sample's sim time (kind SAMPLE_STAMP,
     :func:`message_definitions.sim_stamp_kind`) is written at once, logged and

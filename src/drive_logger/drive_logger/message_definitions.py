@@ -3,7 +3,7 @@
 rosbag2 (Jazzy) writes one MCAP schema per type: encoding ``ros2msg``, text =
 the root ``.msg`` verbatim, then every dependency once, depth-first with each
 type's dependencies sorted, each as ``"\\n" + "=" * 80 + "\\nMSG: pkg/Type\\n"``
-followed by its text (DESIGN.md §8). The type hash (``RIHS01_...``) is read
+followed by its text (docs/architecture.md "Bags"). The type hash (``RIHS01_...``) is read
 from the ``.json`` type description rosidl installs next to the ``.msg``.
 Definitions are found under ``share/<pkg>/msg/`` of every prefix on
 ``AMENT_PREFIX_PATH``.
