@@ -87,7 +87,10 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
         if work is None:
             stop.wait()
         else:
-            work(node, stop)
+            try:
+                work(node, stop)
+            except ParameterError as exc:    # e.g. GraphConflict found by the node's own loop
+                failures.append(exc)
         getattr(node, 'stop', lambda: None)()   # end the node's own threads while the context lives
         rclpy.try_shutdown()          # ends a running action loop and the executor
         executor.shutdown(timeout_sec=2.0)

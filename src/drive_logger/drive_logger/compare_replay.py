@@ -122,7 +122,7 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     meas_cls, cmd_cls = classes
     from rcl_interfaces.msg import ParameterEvent
     from rclpy.parameter import parameter_value_to_python
-    measurements, commands, changes = [], {}, {}
+    measurements, commands, changes, events = [], {}, {}, []
     topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
     for msg in stream(topics):
         if msg.topic == measurement_topic:
@@ -132,13 +132,16 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
         else:
             event = deserialize_message(msg.data, ParameterEvent)
             if event.node == controller_node and event.changed_parameters:
-                # Sim log times: the controller stamps its event with the last sample it answered
-                # (at a hold at T: the one before T), so the change acts from the next sample
-                # (after every measurement stamped <= the log time); wall: arrival order.
-                index = (bisect.bisect_right([stamp for _, stamp, _ in measurements], msg.log_time)
-                         if reader.log_time_source == 'sim' else len(measurements))
-                changes.setdefault(index, []).extend(
-                    (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters)
+                events.append((msg.log_time, len(measurements), [
+                    (p.name, parameter_value_to_python(p.value)) for p in event.changed_parameters]))
+    # Sim log times: the controller stamps its event with the last sample it answered (at a hold
+    # at T: the one before T), so the change acts from the next sample, after every measurement
+    # stamped <= the log time -- counted over the whole bag (a measurement logged at the same
+    # time may come later in the stream); wall log times: arrival order.
+    stamps = [stamp for _, stamp, _ in measurements]
+    for log_time, arrived_after, change in events:
+        index = bisect.bisect_right(stamps, log_time) if reader.log_time_source == 'sim' else arrived_after
+        changes.setdefault(index, []).extend(change)
     return meas_cls, measurements, cmd_cls, commands, changes
 
 

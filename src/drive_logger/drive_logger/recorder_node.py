@@ -58,7 +58,7 @@ import time
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 
-from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver
+from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver, GraphConflict, graph_conflict
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
@@ -301,8 +301,12 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
         while not stop.is_set():
             if spin_once() and node.batch_period > 0.0:
                 stop.wait(node.batch_period)
-            if node.all_topics and time.monotonic() >= next_discovery:
-                node.discover()
+            if time.monotonic() >= next_discovery:
+                conflict = graph_conflict(node)      # a second /recorder: two graphs mixed
+                if conflict:
+                    raise GraphConflict(conflict)    # the bag is finalized; run_node exits 2
+                if node.all_topics:
+                    node.discover()
                 next_discovery = time.monotonic() + 0.5
         wait_until(lambda: not spin_once(), node.drain_timeout, 0.0,
                    raise_timeout=False)   # until a wake-up takes nothing, or drain_timeout
