@@ -121,11 +121,12 @@ def controller_node(core_class: type, node_name: str, *, status: bool = True, **
     check_core_class(core_class)
     from drive_common import topics
     from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
-    from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
 
     channels = LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT, DriveSample,
                                 GateCommand, topics.GATE_COMMAND,
-                                DtcStatus if status else None, topics.DTC_STATUS)
+                                DtcStatus if status else None, topics.DTC_STATUS,
+                                DtcStatusBlock if status else None, topics.DTC_STATUS_BLOCK)
     holder = []
 
     def report(text: str) -> None:
