@@ -37,6 +37,7 @@ KILL_AFTER = 300            # measurements in flushed chunks before the recorder
 def _run(out: Path, duration: float, watcher=None):
     scenario = load_scenario(find_scenario(SCENARIO))
     scenario.duration = duration
+    scenario.record_lockstep = True     # the raw lockstep topics too (on request): one message a sample
     with reserve_domain() as domain:
         runner = GraphRunner(scenario, out, domain_id=domain, progress=lambda _line: None)
         if watcher is not None:
