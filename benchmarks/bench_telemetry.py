@@ -45,10 +45,12 @@ from drive_common import topics
 from drive_common.waiting import wait_until
 from drive_testing.ceiling import measure_naive_round_trips, measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_logger.bag_reader import BagReader
 
 from bench_plant_ros import TS, plant_rate            # benchmarks/ is on sys.path when run as a script
 from bench_recorder import SCENARIO as BAG_SCENARIO, vm_hwm_mb
 from bench_scenario_ros import DEFAULT, CpuMeasuringRunner, bag_samples
+from timing import best_of
 
 PFC_SCENARIO = 'pfc_no_load_fig_3_5'
 PFC_TODAY = 1175.0        # samples/s, pfc_no_load_fig_3_5 recorded (issue 14)
@@ -100,7 +102,6 @@ def recorder_memory(source_bag: Path, out: Path, domain: int, sim_seconds: float
     """(recorder VmHWM MB, wall s, samples per block topic in its bag) for sim_seconds of blocks."""
     from rclpy.serialization import deserialize_message
 
-    from drive_logger.bag_reader import BagReader
     from drive_logger.readiness import wait_for_recorder
     from drive_logger.ros_types import message_class
 
@@ -157,6 +158,25 @@ def recorder_memory(source_bag: Path, out: Path, domain: int, sim_seconds: float
     return hwm, wall, {t: (counts.get(t, 0), cycles * per_cycle[t]) for t in streams}
 
 
+def chunk_compression_us(bag: Path, samples: int, chunk_size: int = 1 << 20) -> dict[str, float]:
+    """Uncompressed MB of the bag's messages and CPU us per sample of compressing them in chunks.
+
+    The calls mcap's writer makes per chunk (lz4.frame.compress, zstandard.compress, default
+    levels), on the recorder's default chunk size, best of 5 (benchmarks/timing.py).
+    """
+    import lz4.frame
+    import zstandard
+
+    from drive_logger.bag_reader import BagReader
+    data = b''.join(m.data for m in BagReader(bag).messages())
+    chunks = [data[i:i + chunk_size] for i in range(0, len(data), chunk_size)]
+    out = {'raw MB': len(data) / 1e6}
+    for name, compress in (('lz4', lz4.frame.compress), ('zstd', zstandard.compress)):
+        _, cpu, _ = best_of(5, lambda: None, lambda _: [compress(c) for c in chunks])
+        out[name] = 1e6 * cpu / samples
+    return out
+
+
 def goal(ok: bool) -> str:
     return 'met' if ok else 'MISSED'
 
@@ -164,13 +184,13 @@ def goal(ok: bool) -> str:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--quick', action='store_true', help='fewer samples and repeats (a smoke run)')
-    parser.add_argument('--repeats', type=int, default=None, help='default 3, --quick 1')
+    parser.add_argument('--repeats', type=int, default=None, help='default 5, --quick 1')
     parser.add_argument('--pfc-duration', type=float, default=None,
                         help='sim s of pfc_no_load_fig_3_5 (default 0.06, --quick 0.02)')
     parser.add_argument('--feed-rate', type=float, default=20000.0,
                         help='synthetic blocks, samples per wall second (default 20000)')
     args = parser.parse_args()
-    repeats = args.repeats or (1 if args.quick else 3)
+    repeats = args.repeats or (1 if args.quick else 5)
     samples = 2000 if args.quick else 8000
     pfc_s = args.pfc_duration or (0.02 if args.quick else 0.06)
     memory_s = 1.0 if args.quick else MEMORY_SIM_S
@@ -207,12 +227,16 @@ def main() -> int:
         bare, recorded = (sorted(runs[r], key=lambda r: r.wall_time)[repeats // 2] for r in (False, True))
         default_lost = lost_samples(recorded.bag, recorded.final_step)
 
+        default_blocks = {t: (n, BagReader(recorded.bag).topics[t].message_count)
+                          for t, (n, _) in bag_samples(recorded.bag).items()}
         bags = {}
         for compression in ('lz4', 'zstd'):
             progress(f'{BAG_SCENARIO} recorded, {compression}')
             run = run_graph(bag_scenario, tmp / f'bag_{compression}', domain, True, compression)
             run.lost = lost_samples(run.bag, run.final_step)
             bags[compression] = run
+
+        compression_cost = chunk_compression_us(bags['lz4'].bag, bags['lz4'].final_step)
 
         progress(f'{PFC_SCENARIO} recorded, {pfc_s} s sim')
         pfc_run = run_graph(pfc, tmp / 'pfc', domain, True)
@@ -236,11 +260,15 @@ def main() -> int:
          '', ''),
         ('computation_delay on, pipelined', f'{pipelined:.0f} samples/s', '', ''),
         ('  pipelined / project ceiling', f'{pipelined / ceiling:.2f}', '>= 1.40', goal(pipelined >= 1.4 * ceiling)),
+        ('  pipelined / sequential', f'{pipelined / delayed["sequential"]:.2f}', '', ''),
+        ('bag at 25 us, messages uncompressed',
+         f'{compression_cost["raw MB"] / bags["lz4"].final_time:.1f} MB/sim s', '', ''),
     ]
     for compression, run in bags.items():
         per_s = run.bag_mb / run.final_time
         rows.append((f'bag at 25 us, {compression}', f'{per_s:.1f} MB/sim s', '<= 6', goal(per_s <= 6)))
         rows.append((f'  recorder CPU per sample, {compression}', f'{run.cpu_us["recorder"]:.0f} us', '', ''))
+        rows.append((f'  of it chunk compression, {compression}', f'{compression_cost[compression]:.1f} us', '', ''))
     pfc_rate = pfc_run.samples_per_second
     rows.append((f'{PFC_SCENARIO} recorded (4 processes)', f'{pfc_rate:.0f} samples/s',
                  f'>= {2 * PFC_TODAY:.0f}', goal(pfc_rate >= 2 * PFC_TODAY)))
@@ -261,6 +289,8 @@ def main() -> int:
           f'{1e6 * recorded.final_time / max(recorded.final_step, 1):.1f} us), median of {repeats}; '
           f'computation_delay {samples} samples, best of {repeats}; '
           f'{BAG_SCENARIO} {bags["lz4"].final_step} samples; {PFC_SCENARIO} {pfc_run.final_step} samples')
+    print('default recorded bag: ' + ', '.join(f'{t} {n} samples in {m} blocks'
+                                               for t, (n, m) in default_blocks.items()))
     print(f'completeness: default recorded {"every sample" if not default_lost else default_lost}; '
           + '; '.join(f'{c} {"every sample" if not r.lost else r.lost}' for c, r in bags.items())
           + f'; synthetic feed {"every sample" if fed_ok else fed} '
