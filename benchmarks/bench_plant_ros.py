@@ -53,7 +53,8 @@ def plant_rate(context, env, samples: int, state_period: float, timeout: float =
             if result is not None:
                 executor.spin_until_future_complete(result, timeout_sec=timeout)
             if result is None or not result.done():
-                raise TimeoutError(f'Run goal to {target} s not done after {timeout} s ({plant})')
+                stage = 'no goal response' if result is None else 'goal accepted, no result'
+                raise TimeoutError(f'Run goal to {target} s: {stage} after {timeout} s ({plant})')
             return time.perf_counter() - start, result.result().result
 
         run(200 * TS)                                   # warm-up (matching, first samples)
