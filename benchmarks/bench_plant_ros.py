@@ -32,7 +32,9 @@ TS = 25e-6
 _CLIENTS = itertools.count()   # one client node name per run (same context)
 
 
-def plant_rate(context, env, samples: int, state_period: float, **plant) -> float:
+def plant_rate(context, env, samples: int, state_period: float, timeout: float = 120.0,
+               **plant) -> float:
+    """Plant samples per wall second against fixed_responder; TimeoutError if a Run goal hangs."""
     with NodeProcess('drive_testing', 'fixed_responder', env=env), \
             NodeProcess('bldc_plant_sim', 'plant', env=env,
                         parameters={'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0,
@@ -46,9 +48,13 @@ def plant_rate(context, env, samples: int, state_period: float, **plant) -> floa
         def run(target: float) -> tuple[float, object]:
             start = time.perf_counter()
             send = client.send_goal_async(Run.Goal(target_time=target, relative=False))
-            executor.spin_until_future_complete(send)
-            result = send.result().get_result_async()
-            executor.spin_until_future_complete(result)
+            executor.spin_until_future_complete(send, timeout_sec=timeout)
+            result = send.result().get_result_async() if send.done() else None
+            if result is not None:
+                executor.spin_until_future_complete(result, timeout_sec=timeout)
+            if result is None or not result.done():
+                stage = 'no goal response' if result is None else 'goal accepted, no result'
+                raise TimeoutError(f'Run goal to {target} s: {stage} after {timeout} s ({plant})')
             return time.perf_counter() - start, result.result().result
 
         run(200 * TS)                                   # warm-up (matching, first samples)

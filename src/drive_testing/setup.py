@@ -21,6 +21,7 @@ setup(
         'message_echo = drive_testing.message_echo:main',
         'fixed_responder = drive_testing.fixed_responder:main',
         'raw_responder = drive_testing.ceiling:main',
+        'naive_responder = drive_testing.ceiling:naive_main',
         'replay_responder = drive_testing.replay_responder:main',
     ]},
 )

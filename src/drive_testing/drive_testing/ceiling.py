@@ -7,6 +7,12 @@ does (a wait set on the reply subscription, no executor per message);
 the responder receives the same way.
 The plant's lockstep rate divided by this figure is the overhead ratio the
 benchmarks report.
+
+The naive ceiling is what plain rclpy gives without that care:
+``naive_responder`` replies from a subscription callback spun by a
+SingleThreadedExecutor (:func:`drive_common.node_main.run_node`), and
+:func:`measure_naive_round_trips` publishes one measurement and spins its
+own SingleThreadedExecutor until the reply's callback has run (issue 14).
 """
 from __future__ import annotations
 
@@ -80,5 +86,58 @@ def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> 
         node.destroy_node()
 
 
+class NaiveResponder(Node):
+    """Answers each measurement from a subscription callback (the textbook rclpy ping-pong)."""
+
+    def __init__(self, **kwargs) -> None:
+        from dtc_msgs.msg import DriveMeasurement, GateCommand
+        super().__init__('naive_responder', **kwargs)
+        pub = self.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+
+        def answer(msg) -> None:
+            pub.publish(GateCommand(topology=6, step=msg.step, header=msg.header))
+
+        self.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, answer,
+                                 topics.LOCKSTEP_QOS)
+
+
+def measure_naive_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> float:
+    """Round trips per wall second against a running naive_responder, probe spun by an executor."""
+    from dtc_msgs.msg import DriveMeasurement, GateCommand
+    from rclpy.executors import SingleThreadedExecutor
+    node = rclpy.create_node('naive_probe', context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    replies: set[int] = set()
+    pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
+    node.create_subscription(GateCommand, topics.GATE_COMMAND, lambda m: replies.add(m.step),
+                             topics.LOCKSTEP_QOS)
+    try:
+        wait_until(lambda: pub.get_subscription_count() >= 1
+                   and node.count_publishers(topics.GATE_COMMAND) >= 1,
+                   timeout, 0.01, 'naive_responder matched',
+                   pause=lambda t: executor.spin_once(timeout_sec=t))
+        for warm in range(2):
+            start = time.perf_counter()
+            for k in range(samples):
+                step = k + warm * samples
+                pub.publish(DriveMeasurement(step=step, phase_current=[1.0, -1.0, float('nan')]))
+                deadline = time.monotonic() + timeout
+                while step not in replies:
+                    executor.spin_once(timeout_sec=0.1)
+                    if step not in replies and time.monotonic() > deadline:
+                        raise TimeoutError(f'naive_responder did not answer step {step} in {timeout} s')
+                replies.discard(step)
+            elapsed = time.perf_counter() - start
+        return samples / elapsed
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+
+
 def main(args=None) -> int:
     return run_node(RawResponder, args)
+
+
+def naive_main(args=None) -> int:
+    return run_node(NaiveResponder, args)
