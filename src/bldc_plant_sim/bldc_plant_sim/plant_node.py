@@ -190,7 +190,7 @@ class PlantNode(Node):
             params = effective_params(self.parameters.values, explicit=explicit)
             self.core = PlantCore(params)
         except (ValueError, OSError) as exc:
-            raise ParameterError(f'plant: cannot start: {exc}') from exc
+            raise ParameterError(str(exc)) from exc   # run_node says 'cannot start'
         self.schedule = LockstepSchedule.from_params(params, self.core.base_tick)
         # The declared parameters show the values in use (a motor file's included) ...
         self._set_atomically({n: v for n, v in params.items() if v != self.parameters.values[n]})

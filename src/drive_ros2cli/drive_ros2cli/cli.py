@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 
@@ -61,6 +62,11 @@ def main(argv=None) -> int:
         return exc.code
     except KeyboardInterrupt:
         return int(signal.SIGINT)      # as upstream: Ctrl-C ends a streaming verb with code 2
+    except BrokenPipeError:
+        # The reader went away (`ros2 param list | head`): stop quietly, and keep Python's
+        # final flush of stdout from raising again at exit.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == '__main__':
