@@ -23,7 +23,9 @@ import subprocess
 import sys
 import time
 
+from bench_scenario_ros import cpu_seconds  # benchmarks/bench_scenario_ros.py
 from timing import best_of  # benchmarks/timing.py
+from drive_common.waiting import wait_until
 
 PACE_S = 200e-6
 SAMPLE_PERIOD_NS = 25_000          # 25 us samples, as the default scenario
@@ -81,11 +83,7 @@ def cpu_per_sample_us(step, count: int, subscriber: subprocess.Popen | None) -> 
 
 def _process_cpu(process: subprocess.Popen | None) -> float:
     """User + system CPU seconds of a child process (0 without one)."""
-    if process is None:
-        return 0.0
-    with open(f'/proc/{process.pid}/stat') as stat:
-        fields = stat.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    return cpu_seconds(process.pid) if process is not None else 0.0
 
 
 def main() -> int:
@@ -131,11 +129,8 @@ def main() -> int:
                     [sys.executable, '-c', SUBSCRIBER] + [t.__name__ for t in types],
                     env=isolated_env(domain))
                 try:
-                    deadline = time.monotonic() + 30.0
-                    while any(p.get_subscription_count() < 1 for p in publishers.values()):
-                        if time.monotonic() > deadline:
-                            raise RuntimeError('the subscriber did not match within 30 s')
-                        time.sleep(0.05)
+                    wait_until(lambda: all(p.get_subscription_count() >= 1 for p in publishers.values()),
+                               30.0, 0.05, 'the subscriber to match')
                     # Idle baseline with the same matched graph: pacing sleeps and the
                     # middleware's own threads, which process_time counts too.
                     idle = cpu_per_sample_us(lambda k: None, args.samples, subscriber)

@@ -19,25 +19,19 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import statistics
 import tempfile
 import threading
-import time
 from pathlib import Path
 
+from bench_scenario_ros import cpu_seconds  # benchmarks/bench_scenario_ros.py
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.waiting import wait_until
 from drive_testing.harness import reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
-
-
-def cpu_seconds(pid: int) -> float:
-    """User + system CPU time of a process (all its threads), s."""
-    fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 class Viewer(threading.Thread):
@@ -73,21 +67,18 @@ class LiveRunner(GraphRunner):
         super().__init__(*args, **kwargs)
         self.with_viewer, self.viewer = viewer, None
 
-    def _start(self, key, package, executable, parameters):
+    def _start(self, key, package, executable, parameters, node_name=None):
         if key == 'live_view':
             parameters = {**parameters, 'port': 0}
-        return super()._start(key, package, executable, parameters)
+        return super()._start(key, package, executable, parameters, node_name=node_name)
 
     def _wait_ready(self, *args):
         super()._wait_ready(*args)
         if 'live_view' not in self.processes:
             return
         live = self.processes['live_view']
-        deadline = time.monotonic() + 60.0
-        while not (match := re.search(r'live view ready: ws://[\d.]+:(\d+)', live.output())):
-            if time.monotonic() > deadline:
-                raise RuntimeError('live_view did not come up')
-            time.sleep(0.05)
+        match = wait_until(lambda: re.search(r'live view ready: ws://[\d.]+:(\d+)', live.output()),
+                           60.0, 0.05, 'live_view ready')
         if self.with_viewer:
             self.viewer = Viewer(int(match.group(1)))
             self.viewer.start()
@@ -122,9 +113,7 @@ def main() -> None:
     parser.add_argument('--duration', type=float, default=0.2, help='sim seconds per run')
     parser.add_argument('--repeats', type=int, default=3, help='runs of each variant (median)')
     args = parser.parse_args()
-    scenario = load_scenario(find_scenario(args.scenario))
-    scenario.duration = args.duration
-    scenario.events = [e for e in scenario.events if e.time < args.duration]
+    scenario = load_scenario(find_scenario(args.scenario)).with_duration(args.duration)
     variants = {'graph alone': (False, False), 'live_view, no viewer': (True, False),
                 'live_view + reading viewer': (True, True)}
     rates: dict[str, list[float]] = {name: [] for name in variants}

@@ -196,6 +196,13 @@ class Scenario:
         if not 0.0 < duration <= self.duration:
             raise ScenarioError(f'{self.path}: duration: {duration} s is outside '
                                 f'(0, {self.duration} s]')
+        return self.with_duration(duration)
+
+    def with_duration(self, duration: float) -> 'Scenario':
+        """A copy that runs ``duration`` s (> 0, shorter or longer: studies and benchmarks);
+        events at or after the end are dropped."""
+        if not duration > 0.0:
+            raise ScenarioError(f'{self.path}: duration: {duration} s must be > 0')
         return replace(self, duration=duration, events=[e for e in self.events if e.time < duration])
 
 

@@ -337,12 +337,11 @@ def _load_study(path: Path) -> Study:
             raise _fail(path, f'set.{target}', reason)
     if 'duration' in raw:      # a shorter run drops the scenario's events it would never reach
         duration = _number(raw['duration'], path, 'duration')
-        kept = [e for e in base.events if e.time < duration]
+        base = base.with_duration(duration)
         for target in fixed:
             match = EVENT_TARGET.fullmatch(target)
-            if match and int(match.group(1)) >= len(kept):
+            if match and int(match.group(1)) >= len(base.events):
                 raise _fail(path, f'set.{target}', f'the event is at or after duration = {duration} s')
-        base = dataclasses.replace(base, events=kept)
         fixed = {**fixed, 'duration': duration}
     try:
         base = apply_values(base, fixed)
