@@ -62,11 +62,10 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from drive_analysis.registry import lookup as metric_function   # the one metric registry
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-from drive_bringup.scenario import _mapping, _number, read_named_file  # the same checks as scenarios
+from drive_bringup.scenario import _known_metric, _mapping, _number, read_named_file  # the same checks as scenarios
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -353,10 +352,7 @@ def _load_study(path: Path) -> Study:
         raise _fail(path, 'metrics', 'no metrics: name some here or in the scenario')
     for metric, options in metrics.items():
         options = _mapping(options, path, f'metrics.{metric}')
-        try:
-            metric_function(options.get('metric', metric))
-        except KeyError as exc:
-            raise _fail(path, f'metrics.{metric}', exc.args[0]) from exc
+        _known_metric(path, f'metrics.{metric}', options.get('metric', metric))
     base = dataclasses.replace(base, metrics=metrics, checks=[], figures=[], record=False)
 
     sampling = raw.get('sampling', 'grid')

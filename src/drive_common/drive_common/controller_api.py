@@ -134,8 +134,7 @@ def controller_node(core_class: type, node_name: str, *, status: bool = True, **
 
     node = LockstepControllerNode(
         node_name, schema=core_class.SCHEMA, channels=channels,
-        make_core=lambda params: CheckedCore(core_class(params), report),
-        check=lambda snapshot: node.core.check(snapshot), **kwargs)
+        make_core=lambda params: CheckedCore(core_class(params), report), **kwargs)
     holder.append(node)
     return node
 

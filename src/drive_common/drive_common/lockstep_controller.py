@@ -78,8 +78,9 @@ class LockstepControllerNode(Node):
     schema: the node's parameter schema (declared once here).
     make_core: builds the core from a validated parameter snapshot; raises
         ParameterError (or ValueError/OSError for bad files) to refuse.
-    check: validates a changed snapshot the same way without building a core
-        (e.g. ``DtcCore.check``); default: build a throw-away core with make_core.
+    check: validates a changed snapshot the same way without building a core;
+        default: the core's own ``check`` (``DtcCore.check``, ``PfcCore.check``), else
+        a throw-away core built with make_core.
     """
 
     def __init__(self, node_name: str, *, schema: ParameterSchema,
@@ -98,7 +99,7 @@ class LockstepControllerNode(Node):
         except (ParameterError, ValueError, OSError) as exc:
             # Do not start half-configured: the caller (main) reports and exits.
             raise ParameterError(str(exc)) from exc
-        self._check = check or make_core
+        self._check = check or getattr(self.core, 'check', None) or make_core
         self.samples_answered = 0
         self._command_pub = self.create_publisher(channels.command_type, channels.command_topic,
                                                   LOCKSTEP_QOS)

@@ -13,8 +13,8 @@ between the namespaces made here.
 
 :class:`VirtualHosts` creates them (unique names, so parallel runs never
 collide), gives the command prefix that runs a program in a host
-(``ip netns exec <name>``), the ROS environment for a host, cuts and
-restores a host's link (``ip link set eth0 down``), and always tears
+(``ip netns exec <name>``), the ROS environment for a host, cuts a
+host's link (``ip link set eth0 down``), and always tears
 everything down: it kills what still runs inside, deletes the namespaces,
 and also removes namespaces left behind by a run that was SIGKILLed
 (their creator's pid is in the name).
@@ -222,9 +222,3 @@ class VirtualHosts:
     def cut(self, host: str) -> None:
         """Pull host's cable: its eth0 goes down (loopback stays up)."""
         _ip('-n', self.namespaces[host], 'link', 'set', 'eth0', 'down')
-
-    def restore(self, host: str) -> None:
-        """Plug host's cable back in (link up, multicast route again)."""
-        ns = self.namespaces[host]
-        _ip('-n', ns, 'link', 'set', 'eth0', 'up')
-        self._route_multicast(ns)

@@ -130,7 +130,7 @@ def _per_sample_streams(samples: HeadlessSamples):
             yield stamp, 2, status, _fill(types[status][0], stat, stamp)
 
 
-PARAMETER_EVENTS = 'parameter_events'
+PARAMETER_EVENTS = names.PARAMETER_EVENTS.lstrip('/')   # _Bag.write adds the '/'
 
 
 def _write_parameter_events(bag: '_Bag', samples: HeadlessSamples) -> None:

@@ -32,7 +32,7 @@ class DtcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
         super().__init__('dtc_controller', schema=DTC_SCHEMA, make_core=make_core,
-                         check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
+                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
                                                    DriveSample, GateCommand, topics.GATE_COMMAND,
                                                    DtcStatus, topics.DTC_STATUS,
                                                    DtcStatusBlock, topics.DTC_STATUS_BLOCK), **kwargs)

@@ -25,7 +25,7 @@ class PfcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatus, PfcStatusBlock
         super().__init__('pfc_controller', schema=PFC_SCHEMA, make_core=PfcCore,
-                         check=lambda snapshot: self.core.check(snapshot), channels=LockstepChannels(PfcMeasurement, topics.PFC_MEASUREMENT,
+                         channels=LockstepChannels(PfcMeasurement, topics.PFC_MEASUREMENT,
                                                    PfcSample, DutyCommand, topics.DUTY_COMMAND,
                                                    PfcStatus, topics.PFC_STATUS,
                                                    PfcStatusBlock, topics.PFC_STATUS_BLOCK), **kwargs)
