@@ -67,15 +67,14 @@ from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
-from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, time_msg
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
-from drive_common.telemetry import Decimator, nanoseconds
-from drive_common.telemetry_blocks import BlockPacker
+from drive_common.telemetry import nanoseconds
+from drive_common.telemetry_blocks import BlockStream
 from dtc_msgs.action import Run
 from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
                           PlantState, PlantStateBlock)
@@ -213,8 +212,9 @@ class PlantNode(Node):
         self._block_pub = self.create_publisher(PlantStateBlock, topics.PLANT_STATE_BLOCK,
                                                 topics.BLOCK_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.LIVE_QOS)
-        self._packer = BlockPacker(PlantStateBlock, self.parameters['telemetry.block_size'])
-        self._live = Decimator(self.parameters['telemetry.live_period'])
+        self._telemetry = BlockStream(PlantStateBlock, self._block_pub.publish,
+                                      self.parameters['telemetry.block_size'],
+                                      self.parameters['telemetry.live_period'])
         self._drive_msg = ReusedMessage(DriveMeasurement)
         self._pfc_msg = ReusedMessage(PfcMeasurement)
         self._resend_drive = lambda: self._drive_pub.publish(self._drive_msg.msg)
@@ -288,6 +288,7 @@ class PlantNode(Node):
         if pending is not None:
             self.core.reconfigure(pending)
             self.schedule = self.schedule.updated(pending, self.core.base_tick)
+            self._telemetry.retune(pending['telemetry.block_size'], pending['telemetry.live_period'])
 
     # --- action -----------------------------------------------------------
     def _accept_goal(self, goal) -> GoalResponse:
@@ -607,11 +608,8 @@ class PlantNode(Node):
     def _publish_state(self) -> None:
         """Sample k into plant/state_block; plant/state if the live decimator keeps it; /clock."""
         state, stamp = self.core.state(), nanoseconds(self.core.time)
-        with self._state_lock:   # the reset service and stop() flush from other threads
-            block = self._state_packer().append(stamp, state)
-            if block is not None:
-                self._block_pub.publish(serialize_zero_padded(block))
-            if self._live_decimator().keep(stamp):
+        with self._state_lock:   # the reset service publishes from an executor thread
+            if self._telemetry.append(stamp, state):
                 self._state_pub.publish(self._state_msg.fill(state, self.core.time))
         self._publish_clock()
 
@@ -621,26 +619,9 @@ class PlantNode(Node):
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
 
-    def _state_packer(self) -> BlockPacker:
-        """The block packer, rebuilt (after a flush) when telemetry.block_size changed."""
-        size = self.parameters['telemetry.block_size']
-        if size != self._packer.size:
-            self._flush_state_block()
-            self._packer = BlockPacker(PlantStateBlock, size)
-        return self._packer
-
-    def _live_decimator(self) -> Decimator:
-        """The live-topic decimator, rebuilt when telemetry.live_period changed."""
-        if nanoseconds(self.parameters['telemetry.live_period']) != self._live.period_ns:
-            self._live = Decimator(self.parameters['telemetry.live_period'])
-        return self._live
-
     def _flush_state_block(self) -> None:
         """Publish the partial block (sim time holds: end of a run, reset, stop)."""
-        with self._state_lock:
-            block = self._packer.flush()
-            if block is not None:
-                self._block_pub.publish(serialize_zero_padded(block))
+        self._telemetry.flush()
 
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""

@@ -37,14 +37,13 @@ from typing import Any, Callable
 
 from rclpy.node import Node
 
-from drive_common.cdr_padding import serialize_zero_padded
 from drive_common.conversions import ReusedMessage, from_message
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
-from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD, Decimator, nanoseconds
-from drive_common.telemetry_blocks import BlockPacker, stamp_ns
+from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
+from drive_common.telemetry_blocks import BlockStream, stamp_ns
 from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 
 
@@ -109,10 +108,9 @@ class LockstepControllerNode(Node):
                                                  BLOCK_QOS) if channels.block_type else None)
         self._command_msg = ReusedMessage(channels.command_type)
         self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
-        self._packer = (BlockPacker(channels.block_type, self._telemetry('block_size'))
-                        if channels.block_type else None)
-        self._live = Decimator(self._telemetry('live_period'))
-        self._block_lock = threading.RLock()   # the answering thread and stop() flush
+        self._telemetry = BlockStream(channels.block_type,
+                                      self._block_pub.publish if self._block_pub else None,
+                                      *self._telemetry_settings(self.parameters.values))
         self._last_step, self._last_measurement, self._last_command = -1, None, None
         # A thread waits on the measurement subscription directly (lockstep_io) and
         # answers each sample; parameters and services stay on this node's executor.
@@ -178,6 +176,7 @@ class LockstepControllerNode(Node):
             pending, self._pending = self._pending, None
         if pending is not None:
             self.core.reconfigure(pending)
+            self._telemetry.retune(*self._telemetry_settings(pending))
         sample = from_message(msg, self._channels.sample_type)
         command, status = self.core.update(sample)
         stamp = msg.header.stamp
@@ -203,34 +202,18 @@ class LockstepControllerNode(Node):
                 return
             time.sleep(0.01)
 
-    def _telemetry(self, name: str):
-        """telemetry.<name> of the node (the defaults if its schema has no telemetry)."""
-        default = {'block_size': DEFAULT_BLOCK_SIZE, 'live_period': DEFAULT_LIVE_PERIOD}[name]
-        return self.parameters.values.get('telemetry.' + name, default)
+    @staticmethod
+    def _telemetry_settings(values) -> tuple[int, float]:
+        """(telemetry.block_size, telemetry.live_period) of a snapshot (defaults if the
+        node's schema has no telemetry)."""
+        return (values.get('telemetry.block_size', DEFAULT_BLOCK_SIZE),
+                values.get('telemetry.live_period', DEFAULT_LIVE_PERIOD))
 
     def _publish_status(self, status, measurement, stamp) -> None:
         """The sample into the status block (published when full); the live status if kept."""
-        ns = stamp_ns(stamp)
-        if self._packer is not None:
-            size = self._telemetry('block_size')
-            with self._block_lock:
-                if size != self._packer.size:       # changed while the plant held
-                    self._flush_block()
-                    self._packer = BlockPacker(self._channels.block_type, size)
-                block = self._packer.append(ns, status, measurement, self._last_command)
-            if block is not None:
-                self._block_pub.publish(serialize_zero_padded(block))
-        period = self._telemetry('live_period')
-        if nanoseconds(period) != self._live.period_ns:
-            self._live = Decimator(period)
-        if self._live.keep(ns):
+        if self._telemetry.append(stamp_ns(stamp), status, measurement, self._last_command):
             self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
 
     def _flush_block(self) -> None:
         """Publish the partial status block, if any."""
-        if self._packer is None:
-            return
-        with self._block_lock:
-            block = self._packer.flush()
-        if block is not None:
-            self._block_pub.publish(serialize_zero_padded(block))
+        self._telemetry.flush()

@@ -22,6 +22,7 @@ are the inverse, per sample (bit-exact, NaN payloads kept) or per column.
 from __future__ import annotations
 
 import array
+import threading
 from dataclasses import dataclass
 from functools import lru_cache
 from operator import attrgetter
@@ -31,7 +32,7 @@ import numpy as np
 from dtc_msgs.msg import (DriveMeasurement, DtcStatus, DtcStatusBlock, DutyCommand, GateCommand,
                           PfcMeasurement, PfcStatus, PfcStatusBlock, PlantState, PlantStateBlock)
 
-from drive_common.telemetry import check_block_size
+from drive_common.telemetry import Decimator, check_block_size, nanoseconds
 
 BLOCK_PARTS: dict[type, tuple[tuple[str, type], ...]] = {
     PlantStateBlock: (('', PlantState),),
@@ -229,6 +230,51 @@ class BlockPacker:
                 data.frombytes(values.tobytes())   # C order: sample-major
                 setattr(block, column.name, data)
         return block
+
+
+class BlockStream:
+    """A node's full-rate block topic and its decimated live topic, for the plant and the
+    lockstep controllers alike: the packer (None: no block topic) and the live decimator,
+    retuned at a sample boundary when the telemetry parameters change; a block is
+    published (CDR padding zeroed) when full or flushed, from any thread.
+
+    publish: the block publisher's ``publish`` (takes the serialized block).
+    """
+
+    def __init__(self, block_type: type | None, publish, block_size: int, live_period: float) -> None:
+        from drive_common.cdr_padding import serialize_zero_padded   # rclpy: kept off pure imports
+        self._serialize, self._publish = serialize_zero_padded, publish
+        self._block_type = block_type
+        self._lock = threading.Lock()
+        self.packer = BlockPacker(block_type, block_size) if block_type is not None else None
+        self.live = Decimator(live_period)
+
+    def retune(self, block_size: int, live_period: float) -> None:
+        """New telemetry settings: a new block size publishes the open block first."""
+        if self.packer is not None and block_size != self.packer.size:
+            self.flush()
+            with self._lock:
+                self.packer = BlockPacker(self._block_type, block_size)
+        if nanoseconds(live_period) != self.live.period_ns:
+            self.live = Decimator(live_period)
+
+    def append(self, stamp_ns: int, *records) -> bool:
+        """Add one sample (publishing a full block); whether the live topic keeps it."""
+        if self.packer is not None:
+            with self._lock:
+                block = self.packer.append(stamp_ns, *records)
+            if block is not None:
+                self._publish(self._serialize(block))
+        return self.live.keep(stamp_ns)
+
+    def flush(self) -> None:
+        """Publish the partial block, if any (sim time holds, or the node stops)."""
+        if self.packer is None:
+            return
+        with self._lock:
+            block = self.packer.flush()
+        if block is not None:
+            self._publish(self._serialize(block))
 
 
 def _check_lengths(block, lay: BlockLayout) -> None:
