@@ -67,7 +67,7 @@ def main() -> int:
     lost = {t: n - in_blocks.get(t, (0, []))[0] for t, n in expected.items()
             if in_blocks.get(t, (0, []))[0] != n or in_blocks[t][1]}
     print(f'messages in the bag              : {counts}')
-    print(f'samples in the blocks            : '
+    print('samples in the blocks            : '
           + ', '.join(f'{t} {n} (step gaps: {len(gaps)})' for t, (n, gaps) in in_blocks.items()))
     print('nothing lost' if not lost else f'LOST messages (expected - recorded): {lost}')
     return 0 if not lost else 1

@@ -31,7 +31,6 @@ and met/missed:
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import tempfile
 import time

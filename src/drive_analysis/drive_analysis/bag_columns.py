@@ -70,12 +70,14 @@ def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dic
     if problems:
         raise BagReadError(f'bag {str(reader.path)!r}: blocks skip or repeat steps, not analysed: '
                            + '; '.join(problems[:5]) + (f' (+{len(problems) - 5} more)' if len(problems) > 5 else ''))
+    # Each block once: a status block carries three per-sample topics.
+    columns_of = {topic: [block_columns(b) for b in msgs] for topic, msgs in blocks.items()}
     out = {}
     for topic, (block_topic, part) in wanted.items():
         lay = layout(block_class(block_topic))
         msg_type = part_classes(block_topic)[part]
         by_source = {c.source: c.name for c in lay.columns + lay.per_block if c.part == part}
-        per_block = [block_columns(b) for b in blocks[block_topic]]
+        per_block = columns_of[block_topic]
         arrays = {'t': np.concatenate([c['time'] for c in per_block]) if per_block else np.zeros(0)}
         for name in msg_type.get_fields_and_field_types():
             if name == 'header':

@@ -32,7 +32,7 @@ import yaml
 from mcap.records import Channel, Message, Schema
 
 from drive_logger import qos_yaml
-from drive_logger.bag_reader import check_mcap_file, intact_records, log_time_record
+from drive_logger.bag_reader import MCAP_MAGIC, check_mcap_file, intact_records, log_time_record
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter
 from drive_logger.message_definitions import TypeDefinition
 
@@ -107,7 +107,7 @@ def _salvage_into(data: Path, tmp: Path, bag: Path) -> tuple[BagWriter, list[str
     """Stream the intact records of data into a complete bag written to tmp; (writer, problems)."""
     problems: list[str] = []
     with open(data, 'rb') as stream:
-        if stream.read(8) != b'\x89MCAP0\r\n':
+        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
             raise ReindexError(f'data file {str(data)!r} is not an MCAP file (bad magic)')
         stream.seek(0)
         records = intact_records(stream, problems, str(data))

@@ -35,12 +35,13 @@ from pathlib import Path
 
 import yaml
 
-from drive_common.processes import NodeProcess, ros_arguments
+from drive_common.processes import NodeProcess
 from drive_common.waiting import WaitTimeout, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
-from drive_logger.replay_node import clock_cdr, header_stamp_ns
+from drive_logger.message_definitions import cdr_stamp_ns
+from drive_logger.replay_node import clock_cdr
 
 
 class CompareError(RuntimeError):
@@ -126,7 +127,7 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
     for msg in stream(topics):
         if msg.topic == measurement_topic:
-            measurements.append((deserialize_message(msg.data, meas_cls).step, header_stamp_ns(msg.data), msg.data))
+            measurements.append((deserialize_message(msg.data, meas_cls).step, cdr_stamp_ns(msg.data), msg.data))
         elif msg.topic == command_topic:
             commands[deserialize_message(msg.data, cmd_cls).step] = msg.data
         else:
@@ -139,8 +140,9 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     # stamped <= the log time -- counted over the whole bag (a measurement logged at the same
     # time may come later in the stream); wall log times: arrival order.
     stamps = [stamp for _, stamp, _ in measurements]
+    sim = reader.log_time_source == 'sim'
     for log_time, arrived_after, change in events:
-        index = bisect.bisect_right(stamps, log_time) if reader.log_time_source == 'sim' else arrived_after
+        index = bisect.bisect_right(stamps, log_time) if sim else arrived_after
         changes.setdefault(index, []).extend(change)
     return meas_cls, measurements, cmd_cls, commands, changes
 

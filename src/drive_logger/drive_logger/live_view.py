@@ -55,7 +55,6 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-import time
 
 import foxglove
 import rclpy

@@ -46,7 +46,7 @@ from drive_common.waiting import wait_until
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
-from drive_logger.message_definitions import cdr_stamp_ns as header_stamp_ns  # noqa: F401 (compare_replay)
+from drive_logger.message_definitions import cdr_stamp_ns
 from drive_logger.message_definitions import first_field_is_header as has_header, message_text
 
 CLOCK_TOPIC = '/clock'
@@ -173,7 +173,7 @@ class ReplayNode(Node):
                 if delay > 0 and stop.wait(delay):
                     return
             if msg.topic in stamped:
-                stamp = header_stamp_ns(msg.data)
+                stamp = cdr_stamp_ns(msg.data)
                 if last_clock is None or stamp > last_clock:
                     self.clock_publisher.publish(clock_cdr(stamp))
                     last_clock = stamp
