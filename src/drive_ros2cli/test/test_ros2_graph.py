@@ -18,8 +18,9 @@ def _settled(ros2, args, ready, what):
     outputs = []
 
     def ask() -> bool:
-        outputs.append(ros2.ok(*args))
-        return ready(outputs[-1])
+        result = ros2(*args)
+        outputs.append(result.out)
+        return result.code == 0 and ready(result.out)
 
     wait_until(ask, 120.0, 0.5, what)
     return outputs[-1]
@@ -55,10 +56,14 @@ def test_node_list_and_info(drive_graph):
 
 def test_topic_list_and_info(drive_graph):
     ros2 = drive_graph
-    listed = ros2.ok('topic', 'list', '-t').splitlines()
+    listed = _settled(ros2, ('topic', 'list', '-t'),
+                      lambda out: {'/plant/state [dtc_msgs/msg/PlantState]',
+                                   '/drive/gate_command [dtc_msgs/msg/GateCommand]'} <= set(out.splitlines()),
+                      'both nodes\' topics listed').splitlines()
     assert '/plant/state [dtc_msgs/msg/PlantState]' in listed
     assert '/drive/gate_command [dtc_msgs/msg/GateCommand]' in listed
-    assert '/plant/state' in ros2.ok('topic', 'list').splitlines()
+    assert '/plant/state' in _settled(ros2, ('topic', 'list'), lambda out: '/plant/state' in out.splitlines(),
+                                      '/plant/state listed').splitlines()
 
     # counts need both processes' endpoints discovered: give discovery the time a loaded machine needs
     info = _settled(ros2, ('topic', 'info', '/drive/measurement', '--spin-time', '3'),
@@ -143,8 +148,11 @@ def _looks_numeric(text):
 
 def test_service_verbs(drive_graph):
     ros2 = drive_graph
-    assert '/plant/reset_protection [dtc_msgs/srv/ResetProtection]' in ros2.ok('service', 'list', '-t').splitlines()
-    assert ros2.ok('service', 'type', '/plant/reset_protection').strip() == 'dtc_msgs/srv/ResetProtection'
+    service = '/plant/reset_protection [dtc_msgs/srv/ResetProtection]'
+    assert service in _settled(ros2, ('service', 'list', '-t'), lambda out: service in out.splitlines(),
+                               'the plant\'s service listed').splitlines()
+    assert _settled(ros2, ('service', 'type', '/plant/reset_protection'), lambda out: out.strip(),
+                    'its type').strip() == 'dtc_msgs/srv/ResetProtection'
     called = ros2.ok('service', 'call', '/plant/reset_protection', 'dtc_msgs/srv/ResetProtection')
     assert 'requester: making request: dtc_msgs.srv.ResetProtection_Request()' in called
     assert 'response:\ndtc_msgs.srv.ResetProtection_Response(success=True' in called
