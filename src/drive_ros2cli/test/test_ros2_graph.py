@@ -163,8 +163,10 @@ def test_service_verbs(drive_graph):
 def test_action_verbs_echo_and_bag(drive_graph, tmp_path):
     """send_goal drives the plant; echo sees its state; bag record/info/play see the same run."""
     ros2 = drive_graph
-    assert ros2.ok('action', 'list', '-t').splitlines() == ['/plant/run [dtc_msgs/action/Run]']
-    info = ros2.ok('action', 'info', '/plant/run').splitlines()
+    assert _settled(ros2, ('action', 'list', '-t'), lambda out: out.strip(),
+                    'the plant\'s action listed').splitlines() == ['/plant/run [dtc_msgs/action/Run]']
+    info = _settled(ros2, ('action', 'info', '/plant/run'), lambda out: 'Action servers: 1' in out,
+                    'its server').splitlines()
     assert info == ['Action: /plant/run', 'Action clients: 0', 'Action servers: 1', '    /plant']
 
     echo = ros2.start('topic', 'echo', '--once', '/plant/state', '--field', 'step', '--timeout', '120',
