@@ -50,6 +50,7 @@ waits for it before the node is destroyed (Ctrl-C at any moment).
 """
 from __future__ import annotations
 
+import struct
 import threading
 import time
 from dataclasses import dataclass
@@ -67,12 +68,14 @@ from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
-from drive_common.conversions import ReusedMessage, time_msg
+from drive_common.conversions import ReusedMessage, sec_nanosec, time_msg
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
+from drive_common.lockstep_wire import LockstepWire
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.samples import DriveSample, DutySample, GateSample, PfcSample
 from drive_common.telemetry import nanoseconds
 from drive_common.telemetry_blocks import BlockStream
 from dtc_msgs.action import Run
@@ -201,10 +204,17 @@ class PlantNode(Node):
         self._drive_pub = self.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
         self._pfc_pub = self.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
         self._gates_in, self._duty_in = _Inbox(), _Inbox()
-        self._gate_sub = self.create_subscription(GateCommand, topics.GATE_COMMAND,
-                                                  self._gates_in.put, qos, callback_group=direct)
-        self._duty_sub = self.create_subscription(DutyCommand, topics.DUTY_COMMAND,
-                                                  self._duty_in.put, qos, callback_group=direct)
+        # Measurements out and commands in as CDR bytes (drive_common.lockstep_wire).
+        self._drive_wire = LockstepWire(DriveMeasurement, DriveSample)
+        self._pfc_wire = LockstepWire(PfcMeasurement, PfcSample)
+        self._gate_sub = self.create_subscription(
+            GateCommand, topics.GATE_COMMAND,
+            self._receive(self._gates_in, topics.GATE_COMMAND, GateCommand, GateSample), qos,
+            callback_group=direct, raw=True)
+        self._duty_sub = self.create_subscription(
+            DutyCommand, topics.DUTY_COMMAND,
+            self._receive(self._duty_in, topics.DUTY_COMMAND, DutyCommand, DutySample), qos,
+            callback_group=direct, raw=True)
         self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
                                         with_info=True)
         # Ground truth: every sample in blocks (bags), a decimated live topic (people).
@@ -215,10 +225,9 @@ class PlantNode(Node):
         self._telemetry = BlockStream(PlantStateBlock, self._block_pub.publish,
                                       self.parameters['telemetry.block_size'],
                                       self.parameters['telemetry.live_period'])
-        self._drive_msg = ReusedMessage(DriveMeasurement)
-        self._pfc_msg = ReusedMessage(PfcMeasurement)
-        self._resend_drive = lambda: self._drive_pub.publish(self._drive_msg.msg)
-        self._resend_pfc = lambda: self._pfc_pub.publish(self._pfc_msg.msg)
+        self._last_sent = {'drive': b'', 'pfc': b''}     # serialized last measurement of each
+        self._resend_drive = lambda: self._drive_pub.publish(self._last_sent['drive'])
+        self._resend_pfc = lambda: self._pfc_pub.publish(self._last_sent['pfc'])
         self._gate = _Channel('gate', self._gates_in, _gate_command, self._resend_drive,
                               self._wrong_topology)
         self._duty = _Channel('duty', self._duty_in, _duty_command, self._resend_pfc,
@@ -534,6 +543,24 @@ class PlantNode(Node):
                 self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
         return msg
 
+    def _receive(self, inbox: _Inbox, topic: str, msg_type: type, sample_type: type):
+        """The raw subscription callback of one command topic: decode, then into the inbox.
+
+        A message that cannot be decoded is dropped with a warning: its step stays
+        unanswered and the usual timeout puts the plant in the safe state.
+        """
+        wire = LockstepWire(msg_type, sample_type)
+
+        def receive(data: bytes, info) -> None:
+            try:
+                command = wire.decode(data)[0]
+            except (ValueError, struct.error) as exc:
+                self.get_logger().warning(f'{topic}: malformed message dropped: {exc}',
+                                          throttle_duration_sec=1.0)
+                return
+            inbox.put(command, info)
+        return receive
+
     def _wrong_topology(self, msg) -> str | None:
         """Why a gate command cannot be applied, or None (switch_on is bool[6] by its type)."""
         if msg.topology != self.core.topology:
@@ -559,10 +586,16 @@ class PlantNode(Node):
         """One base tick of the lockstep protocol."""
         k = self.core.step
         due_dtc, due_pfc = self.schedule.due(k)
-        if due_dtc:
-            self._drive_pub.publish(self._drive_msg.fill(self.core.drive_sample(), self.core.time))
-        if due_pfc:
-            self._pfc_pub.publish(self._pfc_msg.fill(self.core.pfc_sample(), self.core.time))
+        if due_dtc or due_pfc:
+            sec, nanosec = sec_nanosec(self.core.time)
+            if due_dtc:
+                data = self._last_sent['drive'] = self._drive_wire.encode(
+                    self.core.drive_sample(), sec, nanosec)
+                self._drive_pub.publish(data)
+            if due_pfc:
+                data = self._last_sent['pfc'] = self._pfc_wire.encode(
+                    self.core.pfc_sample(), sec, nanosec)
+                self._pfc_pub.publish(data)
         # Ground truth at t_k goes out while the controllers compute their answers.
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']

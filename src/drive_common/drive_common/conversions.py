@@ -13,14 +13,14 @@ from typing import Any
 from builtin_interfaces.msg import Time
 
 
-def _sec_nanosec(seconds: float) -> tuple[int, int]:
+def sec_nanosec(seconds: float) -> tuple[int, int]:
     """(sec, nanosec) of a sim time in seconds, rounded to the nanosecond."""
     return divmod(int(round(seconds * 1e9)), 1_000_000_000)
 
 
 def time_msg(seconds: float) -> Time:
     """builtin_interfaces/Time of a sim time in seconds (rounded to the nanosecond)."""
-    sec, nanosec = _sec_nanosec(seconds)
+    sec, nanosec = sec_nanosec(seconds)
     return Time(sec=sec, nanosec=nanosec)
 
 
@@ -68,7 +68,7 @@ class ReusedMessage:
             msg.header.stamp = stamp
         elif time is not None:
             header_stamp = msg.header.stamp
-            header_stamp.sec, header_stamp.nanosec = _sec_nanosec(time)
+            header_stamp.sec, header_stamp.nanosec = sec_nanosec(time)
         return msg
 
 

@@ -8,7 +8,9 @@ same step and publishes its status (docs/architecture.md, "Time and lockstep"). 
 ROS-agnostic core object with ``update(sample) -> (command, status)`` and
 ``reconfigure(params)``; this class only converts messages, declares the
 node's parameter schema and swaps accepted parameter changes in at the next
-sample boundary.
+sample boundary. Measurements are taken and commands published as CDR bytes
+converted straight from and into the core's samples
+(:mod:`drive_common.lockstep_wire`: no message objects on the hot path).
 
 The measurement subscription is the node's own (``ros2 node info`` lists
 it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
@@ -37,13 +39,16 @@ from typing import Any, Callable
 
 from rclpy.node import Node
 
-from drive_common.conversions import ReusedMessage, from_message
+from builtin_interfaces.msg import Time
+
+from drive_common.conversions import ReusedMessage
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict)
+from drive_common.lockstep_wire import LockstepWire
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
-from drive_common.telemetry_blocks import BlockStream, stamp_ns
+from drive_common.telemetry_blocks import BlockStream
 from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
 
 
@@ -92,7 +97,8 @@ class LockstepControllerNode(Node):
         self._pending: dict[str, Any] | None = None
         # Parameter events: sim time of the last answered sample (its command, stamped before sending).
         self.parameters = SchemaParameters(self, schema, on_change=self._on_parameters, sim_time=lambda: (
-            None if self._last_command is None else self._last_command.header.stamp))
+            None if self._last_stamp is None else Time(sec=self._last_stamp[0],
+                                                       nanosec=self._last_stamp[1])))
         try:
             self.core = make_core(dict(self.parameters.values))
         except (ParameterError, ValueError, OSError) as exc:
@@ -106,17 +112,18 @@ class LockstepControllerNode(Node):
                                                   LIVE_QOS) if channels.status_type else None)
         self._block_pub = (self.create_publisher(channels.block_type, channels.block_topic,
                                                  BLOCK_QOS) if channels.block_type else None)
-        self._command_msg = ReusedMessage(channels.command_type)
+        self._measurement_wire = LockstepWire(channels.measurement_type, channels.sample_type)
+        self._command_wire: LockstepWire | None = None    # built for the core's command type
         self._status_msg = ReusedMessage(channels.status_type) if channels.status_type else None
         self._telemetry = BlockStream(channels.block_type,
                                       self._block_pub.publish if self._block_pub else None,
                                       *self._telemetry_settings(self.parameters.values))
-        self._last_step, self._last_measurement, self._last_command = -1, None, None
+        self._last_measurement = self._last_command = self._last_stamp = None   # bytes, bytes, (sec, ns)
         # A thread waits on the measurement subscription directly (lockstep_io) and
         # answers each sample; parameters and services stay on this node's executor.
         self._receiver = DirectReceiver(self.context, [self.create_subscription(
             channels.measurement_type, channels.measurement_topic, self._on_measurement,
-            LOCKSTEP_QOS, callback_group=DirectCallbackGroup())])
+            LOCKSTEP_QOS, callback_group=DirectCallbackGroup(), raw=True)])
         self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._answer_samples, daemon=True,
@@ -166,8 +173,9 @@ class LockstepControllerNode(Node):
         with self._lock:
             self._pending = snapshot
 
-    def _on_measurement(self, msg) -> None:
-        if msg.step == self._last_step and msg == self._last_measurement:
+    def _on_measurement(self, data: bytes) -> None:
+        """One serialized measurement: core update, command out, then telemetry."""
+        if data == self._last_measurement:
             self._command_pub.publish(self._last_command)   # a re-sent sample: same answer
             return
         if not self.samples_answered:
@@ -177,14 +185,16 @@ class LockstepControllerNode(Node):
         if pending is not None:
             self.core.reconfigure(pending)
             self._telemetry.retune(*self._telemetry_settings(pending))
-        sample = from_message(msg, self._channels.sample_type)
+        sample, sec, nanosec = self._measurement_wire.decode(data)
         command, status = self.core.update(sample)
-        stamp = msg.header.stamp
-        self._last_command = self._command_msg.fill(command, stamp=stamp)
+        wire = self._command_wire
+        if wire is None or type(command) is not wire.sample_type:
+            wire = self._command_wire = LockstepWire(self._channels.command_type, type(command))
+        self._last_command = wire.encode(command, sec, nanosec)
         self._command_pub.publish(self._last_command)
-        self._last_step, self._last_measurement = msg.step, msg
+        self._last_measurement, self._last_stamp = data, (sec, nanosec)
         if self._status_pub is not None:
-            self._publish_status(status, msg, stamp)
+            self._publish_status(status, sample, command, sec, nanosec)
         self.samples_answered += 1
 
     # --- telemetry --------------------------------------------------------
@@ -209,10 +219,11 @@ class LockstepControllerNode(Node):
         return (values.get('telemetry.block_size', DEFAULT_BLOCK_SIZE),
                 values.get('telemetry.live_period', DEFAULT_LIVE_PERIOD))
 
-    def _publish_status(self, status, measurement, stamp) -> None:
+    def _publish_status(self, status, measurement, command, sec: int, nanosec: int) -> None:
         """The sample into the status block (published when full); the live status if kept."""
-        if self._telemetry.append(stamp_ns(stamp), status, measurement, self._last_command):
-            self._status_pub.publish(self._status_msg.fill(status, stamp=stamp))
+        if self._telemetry.append(sec * 1_000_000_000 + nanosec, status, measurement, command):
+            self._status_pub.publish(self._status_msg.fill(status, stamp=Time(sec=sec,
+                                                                              nanosec=nanosec)))
 
     def _flush_block(self) -> None:
         """Publish the partial status block, if any."""

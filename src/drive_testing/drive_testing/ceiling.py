@@ -3,8 +3,9 @@
 ``raw_responder`` answers each DriveMeasurement with a GateCommand of the
 same step and nothing else; :func:`measure_round_trips` publishes
 measurements one at a time and waits for each reply the way the plant node
-does (a wait set on the reply subscription, no executor per message);
-the responder receives the same way.
+does (a wait set on the reply subscription, no executor per message, the
+messages serialized and converted by :mod:`drive_common.lockstep_wire`);
+the responder receives and answers the same way.
 The plant's lockstep rate divided by this figure is the overhead ratio the
 benchmarks report.
 
@@ -25,28 +26,35 @@ from rclpy.node import Node
 from drive_common import topics
 from drive_common.node_main import run_node
 from drive_common.lockstep_io import DirectReceiver
+from drive_common.lockstep_wire import LockstepWire
+from drive_common.samples import ALL_OFF, DriveSample, GateSample
 from drive_common.waiting import wait_until
 
 
+def _wires() -> tuple[LockstepWire, LockstepWire]:
+    """The measurement and command wires of the DTC lockstep."""
+    from dtc_msgs.msg import DriveMeasurement, GateCommand
+    return LockstepWire(DriveMeasurement, DriveSample), LockstepWire(GateCommand, GateSample)
+
+
 class RawResponder(Node):
-    """Answers each measurement with a fixed command: rclpy publish/take and nothing else."""
+    """Answers each measurement with a fixed command: the lockstep nodes' publish/take, nothing else."""
 
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, GateCommand
         super().__init__('raw_responder', **kwargs)
-        self._reply = GateCommand(topology=6)
+        measurement, command = _wires()
         pub = self.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
 
-        def answer(msg) -> None:
-            self._reply.step = msg.step
-            self._reply.header.stamp = msg.header.stamp
-            pub.publish(self._reply)
+        def answer(data: bytes) -> None:
+            sample, sec, nanosec = measurement.decode(data)
+            pub.publish(command.encode(GateSample(sample.step, 6, ALL_OFF), sec, nanosec))
 
         # Same receive path as the lockstep nodes: a wait set, no executor per message.
         self._io = rclpy.create_node('raw_responder_io', context=self.context,
                                      start_parameter_services=False)
         receiver = DirectReceiver(self.context, [self._io.create_subscription(
-            DriveMeasurement, topics.DRIVE_MEASUREMENT, answer, topics.LOCKSTEP_QOS)])
+            DriveMeasurement, topics.DRIVE_MEASUREMENT, answer, topics.LOCKSTEP_QOS, raw=True)])
 
         def loop() -> None:
             while rclpy.ok(context=self.context):
@@ -63,22 +71,26 @@ def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> 
     from dtc_msgs.msg import DriveMeasurement, GateCommand
     node = rclpy.create_node('ceiling_probe', context=context)
     replies: dict[int, object] = {}
+    measurement, command = _wires()
     pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
+
+    def reply(data: bytes) -> None:
+        sample = command.decode(data)[0]
+        replies[sample.step] = sample
+
     receiver = DirectReceiver(context, [node.create_subscription(
-        GateCommand, topics.GATE_COMMAND, lambda m: replies.__setitem__(m.step, m),
-        topics.LOCKSTEP_QOS)])
+        GateCommand, topics.GATE_COMMAND, reply, topics.LOCKSTEP_QOS, raw=True)])
     try:
         wait_until(lambda: pub.get_subscription_count() >= 1
                    and node.count_publishers(topics.GATE_COMMAND) >= 1,
                    timeout, 0.01, 'raw_responder matched', pause=receiver.poll)
-        msg = DriveMeasurement()
-        msg.phase_current = [1.0, -1.0, float('nan')]
+        sample = DriveSample(0, 0.0, (1.0, -1.0, float('nan')), 0.0, 0.0, 0, 0.0, 0, 0.0)
         for warm in range(2):
             start = time.perf_counter()
             for k in range(samples):
-                msg.step = k + warm * samples
-                pub.publish(msg)
-                while replies.pop(msg.step, None) is None:
+                sample.step = k + warm * samples
+                pub.publish(measurement.encode(sample, 0, k))
+                while replies.pop(sample.step, None) is None:
                     receiver.poll(1.0)
             elapsed = time.perf_counter() - start
         return samples / elapsed

@@ -1,0 +1,144 @@
+"""The lockstep messages as CDR bytes, straight from and into the core samples.
+
+Each lockstep sample is one measurement out and one command back
+(DriveMeasurement/GateCommand, PfcMeasurement/DutyCommand). rclpy turns a
+received message into a Python message object field by field and a
+published one back into C: on this machine a typed take of a
+DriveMeasurement, converted to the core sample, costs about 16 us and a raw
+(serialized) take decoded here 4 us, and a typed publish 10 us against 4 us
+for bytes (``benchmarks/bench_lockstep_wire.py``, best case, one process;
+more under load), paid on the critical path at both ends of every sample. The lockstep nodes
+therefore publish and take these messages serialized (``Publisher.publish``
+takes bytes, ``create_subscription(..., raw=True)`` gives bytes) and convert
+bytes <-> the core's sample dataclass (:mod:`drive_common.samples`) here,
+with one precompiled :class:`struct.Struct` per message type.
+
+The bytes are exactly what rclpy's ``serialize_message`` makes of the same
+message (XCDR1 little endian: a 4-byte encapsulation header, each primitive
+aligned to its size from the header's end, a string as uint32 length + bytes
++ NUL, no padding after the last field), with every padding byte zero (as
+:mod:`drive_common.cdr_padding` does for the blocks), so any ROS reader
+(``ros2 topic echo``, a C++ controller, a bag) sees ordinary messages; the
+tests check both directions against rclpy. A message type qualifies when
+it is a ``std_msgs/Header`` followed by fixed-size primitives and arrays.
+"""
+from __future__ import annotations
+
+import struct
+from dataclasses import fields as dataclass_fields
+from functools import lru_cache
+from typing import Any
+
+ENCAPSULATION = b'\x00\x01\x00\x00'     # CDR, little endian
+_ORIGIN = 4                             # alignment counts from the encapsulation header's end
+
+# rosidl primitive -> (struct code, size in bytes)
+_PRIMITIVE = {
+    'boolean': ('?', 1), 'octet': ('B', 1), 'char': ('B', 1), 'int8': ('b', 1), 'uint8': ('B', 1),
+    'int16': ('h', 2), 'uint16': ('H', 2), 'int32': ('i', 4), 'uint32': ('I', 4),
+    'int64': ('q', 8), 'uint64': ('Q', 8), 'float': ('f', 4), 'double': ('d', 8),
+}
+
+
+def _padding(offset: int, size: int) -> int:
+    """Bytes of padding before an item of `size` at body offset `offset`."""
+    return -offset % size
+
+
+@lru_cache(maxsize=None)
+def _fields(msg_type: type) -> tuple[tuple[str, str, int], ...]:
+    """(name, primitive, count) of the fields after the header; TypeError if not fixed-size."""
+    items = list(msg_type.get_fields_and_field_types().items())
+    if not items or items[0] != ('header', 'std_msgs/Header'):
+        raise TypeError(f'{msg_type.__name__}: the first field must be std_msgs/Header header')
+    out = []
+    for name, kind in items[1:]:
+        element, count = kind, 1
+        if kind.endswith(']') and '[' in kind and not kind.endswith('[]'):
+            element, count = kind[:-1].split('[')
+            count = int(count)
+        if element not in _PRIMITIVE:
+            raise TypeError(f'{msg_type.__name__}.{name}: {kind} has no fixed CDR size')
+        out.append((name, element, count))
+    return tuple(out)
+
+
+def _tail_format(fields, offset: int) -> tuple[str, int]:
+    """struct format ('<'-less) of the fields from body offset `offset`; the end offset."""
+    parts = []
+    for _, element, count in fields:
+        code, size = _PRIMITIVE[element]
+        pad = _padding(offset, size)
+        if pad:
+            parts.append(f'{pad}x')
+        parts.append(f'{count}{code}' if count > 1 else code)
+        offset += pad + size * count
+    return ''.join(parts), offset
+
+
+class LockstepWire:
+    """CDR bytes <-> core sample for one lockstep message type.
+
+    msg_type: the dtc_msgs message (header + fixed fields). sample_type: the
+    core dataclass with the same field names (``time``, if it has one, is
+    the header stamp in s, :func:`drive_common.conversions.seconds`).
+    frame_id: the header frame_id written by :meth:`encode` (any is read).
+    """
+
+    def __init__(self, msg_type: type, sample_type: type, frame_id: str = '') -> None:
+        self.msg_type, self.sample_type = msg_type, sample_type
+        self._fields = _fields(msg_type)
+        names = [f.name for f in dataclass_fields(sample_type)]
+        missing = [n for n in names if n != 'time' and n not in {f[0] for f in self._fields}]
+        if missing:
+            raise TypeError(f'{sample_type.__name__}: no {msg_type.__name__} field for {missing}')
+        # Sample fields in dataclass order -> (index into the flat unpacked values, count);
+        # None: the header stamp in s.
+        spans, index = {}, 0
+        for name, _, count in self._fields:
+            spans[name] = (index, count)
+            index += count
+        self._spans = [None if n == 'time' else spans[n] for n in names]
+        # Encoding: the fixed frame_id gives one struct for the whole message.
+        frame = frame_id.encode() + b'\x00'
+        tail, _ = _tail_format(self._fields, 8 + 4 + len(frame))
+        self._frame = frame
+        self._encoder = struct.Struct(f'<iII{len(frame)}s{tail}')
+
+    @lru_cache(maxsize=8)
+    def _tail(self, residue: int) -> struct.Struct:
+        """The struct of the fields after a frame_id ending at body offset = residue (mod 8)."""
+        return struct.Struct('<' + _tail_format(self._fields, residue)[0])
+
+    def encode(self, sample, sec: int, nanosec: int) -> bytes:
+        """The serialized message of sample (field values by name) stamped (sec, nanosec)."""
+        values = []
+        for name, _, count in self._fields:
+            value = getattr(sample, name)
+            if count > 1:
+                if len(value) != count:
+                    raise ValueError(f'{self.msg_type.__name__}.{name}: {len(value)} values, '
+                                     f'expected {count}')
+                values.extend(value)
+            else:
+                values.append(value)
+        return ENCAPSULATION + self._encoder.pack(sec, nanosec, len(self._frame), self._frame,
+                                                  *values)
+
+    def decode(self, data: bytes) -> tuple[Any, int, int]:
+        """(sample, sec, nanosec) of a serialized message; ValueError names a malformed one."""
+        if len(data) < 16 or data[:2] != ENCAPSULATION[:2]:
+            raise ValueError(f'{self.msg_type.__name__}: not a little-endian CDR message '
+                             f'({len(data)} bytes)')
+        sec, nanosec, frame_length = struct.unpack_from('<iII', data, _ORIGIN)
+        offset = 12 + frame_length                     # body offset after the frame_id
+        tail = self._tail(offset % 8)
+        start = _ORIGIN + offset
+        if len(data) < start + tail.size:
+            raise ValueError(f'{self.msg_type.__name__}: {len(data)} bytes, the fields need '
+                             f'{start + tail.size}')
+        flat = tail.unpack_from(data, start)
+        args = [sec + nanosec * 1e-9 if span is None else
+                flat[span[0]] if span[1] == 1 else flat[span[0]:span[0] + span[1]]
+                for span in self._spans]
+        return self.sample_type(*args), sec, nanosec
