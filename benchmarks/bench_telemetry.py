@@ -9,8 +9,10 @@ and met/missed:
    (naive_responder: reply from a subscription callback, SingleThreadedExecutor;
    the probe spins its own SingleThreadedExecutor);
 2. the default scenario (plant + dtc_controller [+ recorder]) recorded and
-   unrecorded, interleaved, median of --repeats each; CPU per sample per
-   process from /proc (benchmarks/bench_scenario_ros.py);
+   unrecorded, interleaved, median of --repeats each, run for --graph-duration s
+   of sim time (default 0.3 s, 9000 samples: its own 0.04 s is 1200 samples, too
+   few to see the steady rate past start-up); CPU per sample per process from
+   /proc (benchmarks/bench_scenario_ros.py);
 3. the plant against fixed_responder with computation_delay on, sequential
    and pipelined, alternated, best of --repeats (benchmarks/bench_plant_ros.py);
 4. bag size per simulated second at T_s = 25 us (benchmarks/bench_recorder.py's
@@ -186,6 +188,8 @@ def main() -> int:
     parser.add_argument('--repeats', type=int, default=None, help='default 5, --quick 1')
     parser.add_argument('--pfc-duration', type=float, default=None,
                         help='sim s of pfc_no_load_fig_3_5 (default 0.06, --quick 0.02)')
+    parser.add_argument('--graph-duration', type=float, default=None,
+                        help='sim s of the default scenario runs (default 0.3, --quick 0.04)')
     parser.add_argument('--feed-rate', type=float, default=20000.0,
                         help='synthetic blocks, samples per wall second (default 20000)')
     args = parser.parse_args()
@@ -194,7 +198,8 @@ def main() -> int:
     pfc_s = args.pfc_duration or (0.02 if args.quick else 0.06)
     memory_s = 1.0 if args.quick else MEMORY_SIM_S
     began = time.perf_counter()
-    default = load_scenario(find_scenario(DEFAULT))
+    default = load_scenario(find_scenario(DEFAULT)).with_duration(
+        args.graph_duration or (0.04 if args.quick else 0.3))
     bag_scenario = load_scenario(find_scenario(BAG_SCENARIO))
     pfc = load_scenario(find_scenario(PFC_SCENARIO)).shortened(pfc_s)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
