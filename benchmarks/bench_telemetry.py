@@ -19,8 +19,9 @@ and met/missed:
    scenario, recorded through the graph) with lz4 and with zstd chunks, each with
    the recorder's CPU per sample and a loss check;
 5. the four-process PFC scenario pfc_no_load_fig_3_5, recorded, shortened to
-   --pfc-duration s of sim time (samples/s are plant samples per wall second of
-   the Run goals, as the 1,175 samples/s the issue measured);
+   --pfc-duration s of sim time (default 0.2 s, 16 000 plant samples; samples/s
+   are plant samples per wall second of the Run goals, as the 1,175 samples/s
+   the issue measured);
 6. recorder peak memory (VmHWM) for 10 s of sim time at 25 us (400 000 samples):
    the recorder alone, fed by a synthetic block publisher in this process that
    re-publishes the blocks of run 4's bag with their steps and stamps advanced,
@@ -187,7 +188,7 @@ def main() -> int:
     parser.add_argument('--quick', action='store_true', help='fewer samples and repeats (a smoke run)')
     parser.add_argument('--repeats', type=int, default=None, help='default 5, --quick 1')
     parser.add_argument('--pfc-duration', type=float, default=None,
-                        help='sim s of pfc_no_load_fig_3_5 (default 0.06, --quick 0.02)')
+                        help='sim s of pfc_no_load_fig_3_5 (default 0.2, --quick 0.02)')
     parser.add_argument('--graph-duration', type=float, default=None,
                         help='sim s of the default scenario runs (default 0.3, --quick 0.04)')
     parser.add_argument('--feed-rate', type=float, default=20000.0,
@@ -195,7 +196,7 @@ def main() -> int:
     args = parser.parse_args()
     repeats = args.repeats or (1 if args.quick else 5)
     samples = 2000 if args.quick else 8000
-    pfc_s = args.pfc_duration or (0.02 if args.quick else 0.06)
+    pfc_s = args.pfc_duration or (0.02 if args.quick else 0.2)
     memory_s = 1.0 if args.quick else MEMORY_SIM_S
     began = time.perf_counter()
     default = load_scenario(find_scenario(DEFAULT)).with_duration(

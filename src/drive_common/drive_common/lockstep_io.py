@@ -57,7 +57,15 @@ class DirectReceiver:
         self._wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0, context.handle)
 
     def poll(self, timeout: float) -> int:
-        """Wait up to timeout s (0: only what has arrived); dispatch every message; count them."""
+        """Dispatch every message; if none had arrived, wait up to timeout s (0: do not wait)
+        and dispatch what arrives; count them.
+
+        What has arrived is taken without the wait set (a pipelined peer's next
+        message is often there already, and a wait costs more than a take).
+        """
+        dispatched = self._dispatch(self._subscriptions)
+        if dispatched or timeout <= 0.0:
+            return dispatched
         wait_set = self._wait_set
         with ExitStack() as held:
             # Hold the handles while rcl waits on them: a destroy meanwhile is deferred.
@@ -66,12 +74,14 @@ class DirectReceiver:
             wait_set.clear_entities()
             for sub in self._subscriptions:
                 wait_set.add_subscription(sub.handle)
-            wait_set.wait(max(0, int(timeout * 1e9)))
+            wait_set.wait(int(timeout * 1e9))
         ready = wait_set.get_ready_entities('subscription')
+        return self._dispatch([sub for sub in self._subscriptions if sub.handle.pointer in ready])
+
+    def _dispatch(self, subscriptions) -> int:
+        """Take and hand over every message waiting on subscriptions; count them."""
         dispatched = 0
-        for sub in self._subscriptions:
-            if sub.handle.pointer not in ready:
-                continue
+        for sub in subscriptions:
             while True:
                 with sub.handle:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)
