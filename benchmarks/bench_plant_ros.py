@@ -26,6 +26,7 @@ from drive_common import topics
 from drive_testing.ceiling import measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 from drive_common.waiting import wait_until
+from drive_bringup.runner import send_run_goal
 from dtc_msgs.action import Run
 
 TS = 25e-6
@@ -45,16 +46,21 @@ def plant_rate(context, env, samples: int, state_period: float, timeout: float =
         client = ActionClient(node, Run, topics.RUN_ACTION)
         wait_until(lambda: (executor.spin_once(timeout_sec=0.05), client.server_is_ready())[1], 30.0)
 
+        def spin_for(done, seconds: float) -> bool:
+            return wait_until(done, seconds, 0.05, raise_timeout=False,
+                              pause=lambda s: executor.spin_once(timeout_sec=s))
+
         def run(target: float) -> tuple[float, object]:
             start = time.perf_counter()
-            send = client.send_goal_async(Run.Goal(target_time=target, relative=False))
-            executor.spin_until_future_complete(send, timeout_sec=timeout)
-            result = send.result().get_result_async() if send.done() else None
-            if result is not None:
-                executor.spin_until_future_complete(result, timeout_sec=timeout)
-            if result is None or not result.done():
-                stage = 'no goal response' if result is None else 'goal accepted, no result'
-                raise TimeoutError(f'Run goal to {target} s: {stage} after {timeout} s ({plant})')
+            try:
+                handle = send_run_goal(client, target, wait=spin_for)
+            except TimeoutError as exc:
+                raise TimeoutError(f'{exc} ({plant})') from exc
+            result = handle.get_result_async()
+            executor.spin_until_future_complete(result, timeout_sec=timeout)
+            if not result.done():
+                raise TimeoutError(f'Run goal to {target} s: accepted, no result after {timeout} s '
+                                   f'({plant})')
             return time.perf_counter() - start, result.result().result
 
         run(200 * TS)                                   # warm-up (matching, first samples)

@@ -20,6 +20,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
 from drive_common import topics
+from drive_common.telemetry import DEFAULT_BLOCK_SIZE
 from drive_testing.fixed_commands import FixedGateCore
 from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
@@ -225,7 +226,7 @@ def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_nod
     for size in (0, -3, 10_001):                      # block sizes outside 1..10000
         result = client.set(**{'telemetry.block_size': size})[0]
         assert not result.successful and 'telemetry.block_size' in result.reason, result.reason
-    assert client.get('telemetry.block_size') == 40
+    assert client.get('telemetry.block_size') == DEFAULT_BLOCK_SIZE
 
 
 def test_motor_and_topology_change_only_while_held(start_node, ros_session):

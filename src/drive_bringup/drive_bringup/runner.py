@@ -17,7 +17,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import rclpy
 from rclpy.action import ActionClient
@@ -131,13 +131,15 @@ class GraphRunner:
                 process.stop()
 
     # --- ROS client side ----------------------------------------------------------
-    def _spin_while_waiting(self, executor, predicate, timeout: float, what: str):
-        """Spin executor until predicate holds; RunFailed if a node dies or timeout s pass."""
+    def _spin_while_waiting(self, executor, predicate, timeout: float, what: str,
+                            raise_timeout: bool = True):
+        """Spin executor until predicate holds; RunFailed if a node dies or (unless
+        raise_timeout is False: the falsy value is returned) timeout s pass."""
         def ready():
             self._check_alive()
             return predicate()
         try:
-            return wait_until(ready, timeout, 0.05, what,
+            return wait_until(ready, timeout, 0.05, what, raise_timeout=raise_timeout,
                               pause=lambda s: executor.spin_once(timeout_sec=s))
         except WaitTimeout as exc:
             raise RunFailed(str(exc)) from exc
@@ -313,9 +315,11 @@ class GraphRunner:
                               f'{self.scenario.duration:.4f} s, wall {wall:.1f} s, '
                               f'rate {fb.real_time_factor:.3f}x real time')
 
-        send = self._action.send_goal_async(
-            Run.Goal(target_time=target, relative=False), feedback_callback=feedback)
-        handle = self._spin_until(executor, send, 30.0, 'the plant to accept a Run goal')
+        try:
+            handle = send_run_goal(self._action, target, feedback=feedback, wait=lambda done, t: (
+                self._spin_while_waiting(executor, done, t, 'a Run goal response', raise_timeout=False)))
+        except TimeoutError as exc:
+            raise RunFailed(str(exc)) from exc
         if not handle.accepted:
             raise RunFailed(f'plant rejected the Run goal to {target} s')
         result_future = handle.get_result_async()
@@ -324,6 +328,39 @@ class GraphRunner:
         if not result.success:
             raise RunFailed(f'plant stopped at t = {result.final_time:.6f} s: {result.message}')
         return result.final_step, result.final_time
+
+
+GOAL_RESPONSE_WAIT = 5.0   # s without a response after which a Run goal is sent again
+GOAL_ATTEMPTS = 6
+
+
+def send_run_goal(action, target: float, *, wait: Callable[[Callable[[], bool], float], Any],
+                  feedback=None):
+    """Send a plant/run goal to ``target`` s (absolute) until the plant answers; its goal handle.
+
+    wait(done, timeout): spin until done() holds or timeout s pass.
+    Right after discovery a goal response can be lost (the client sees the
+    action server ready before the server's reply writer has matched the
+    client's reader), so a goal unanswered for GOAL_RESPONSE_WAIT s is sent
+    again. The lost one may still run; as targets are absolute, the one
+    accepted ends at the same sample (while the lost one holds the plant the
+    repeat is rejected, and sent again). A rejection of a first attempt is
+    returned as it is; TimeoutError after GOAL_ATTEMPTS unanswered tries.
+    """
+    unanswered = 0
+    while True:
+        send = action.send_goal_async(Run.Goal(target_time=target, relative=False),
+                                      feedback_callback=feedback)
+        if wait(send.done, GOAL_RESPONSE_WAIT):
+            handle = send.result()
+            if handle.accepted or not unanswered:
+                return handle
+            wait(lambda: False, 0.2)        # a repeat while the lost goal still runs
+        else:
+            unanswered += 1
+        if unanswered >= GOAL_ATTEMPTS:
+            raise TimeoutError(f'the plant answered none of {GOAL_ATTEMPTS} Run goals to {target} s '
+                               f'({GOAL_RESPONSE_WAIT:g} s each)')
 
 
 def _raise_keyboard_interrupt(signum, frame):

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 from drive_common.parameters import ParameterSpec
 
-DEFAULT_BLOCK_SIZE = 40
-"""Samples per block: 1 ms of samples at a 25 us sample period (benchmarks/bench_blocks.py)."""
+DEFAULT_BLOCK_SIZE = 80
+"""Samples per block: 2 ms of samples at a 25 us sample period. benchmarks/bench_blocks.py: the
+publishers' CPU per sample falls from 47 us (N = 10) to 26 (40) and 20 (80), then barely (160: 19)."""
 
 MAX_BLOCK_SIZE = 10_000
 """Largest block: ~3 MB of PlantState samples, well inside one DDS sample and a bag chunk."""

@@ -61,12 +61,12 @@ BLOCK_QOS = QoSProfile(
 )
 """QoS of the full-rate telemetry blocks (plant/state_block, dtc/status_block, pfc/status_block).
 
-RELIABLE, KEEP_LAST BLOCK_DEPTH: 1000 blocks are 1 s of sim time at the
-default 40 samples of 25 us per block (about 10 s of wall time at the
+RELIABLE, KEEP_LAST BLOCK_DEPTH: 1000 blocks are 2 s of sim time at the
+default 80 samples of 25 us per block (about 20 s of wall time at the
 graph's rate), so a recorder starved of CPU catches up without losing a
 block; the publisher never blocks on it (KEEP_ALL would stall the lockstep
 loop on a slow reader). The writer's history grows only as far as a reader
-lags (about 13 kB per PlantStateBlock of 40 samples).
+lags (about 23 kB per PlantStateBlock of 80 samples).
 """
 
 LIVE_QOS = QoSProfile(

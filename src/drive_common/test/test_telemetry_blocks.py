@@ -14,7 +14,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from drive_common.conversions import seconds
 from drive_common.samples import DriveSample, GateSample
 from drive_common.parameters import ParameterError, schema
-from drive_common.telemetry import MAX_BLOCK_SIZE, TELEMETRY_PARAMETERS, Decimator, nanoseconds
+from drive_common.telemetry import (DEFAULT_BLOCK_SIZE, MAX_BLOCK_SIZE, TELEMETRY_PARAMETERS, Decimator,
+                                    nanoseconds)
 from drive_common.telemetry_blocks import (BLOCK_PARTS, BlockPacker, block_columns, expand,
                                            layout, stamp_ns, step_gaps)
 from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateBlock
@@ -252,7 +253,7 @@ def test_the_block_size_parameter_refuses_bad_values_and_keeps_the_old(value, re
     current = telemetry.defaults()
     with pytest.raises(ParameterError, match=f'telemetry.block_size: .*{reason}'):
         telemetry.validate_changes(current, {'telemetry.block_size': value})
-    assert current['telemetry.block_size'] == 40
+    assert current['telemetry.block_size'] == DEFAULT_BLOCK_SIZE
     assert telemetry.validate_changes(current, {'telemetry.block_size': 80})['telemetry.block_size'] == 80
     with pytest.raises(ParameterError, match='telemetry.block_size: can only change while'):
         telemetry.validate_changes(current, {'telemetry.block_size': 80}, running=True)

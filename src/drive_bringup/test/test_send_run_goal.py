@@ -1,0 +1,74 @@
+"""A Run goal whose response is lost right after discovery is sent again (runner.send_run_goal)."""
+from __future__ import annotations
+
+import pytest
+
+from drive_bringup import runner
+from drive_bringup.runner import send_run_goal
+
+
+class _Future:
+    def __init__(self, handle=None) -> None:
+        self._handle = handle
+
+    def done(self) -> bool:
+        return self._handle is not None
+
+    def result(self):
+        return self._handle
+
+
+class _Handle:
+    def __init__(self, accepted: bool) -> None:
+        self.accepted = accepted
+
+
+class _Action:
+    """Answers goals from a script: None = the response is lost, else accepted or not."""
+
+    def __init__(self, *answers) -> None:
+        self.answers = list(answers)
+        self.goals = []
+
+    def send_goal_async(self, goal, feedback_callback=None):
+        self.goals.append(goal)
+        answer = self.answers.pop(0)
+        return _Future(None if answer is None else _Handle(answer))
+
+
+def _wait(done, timeout):
+    return done()      # the scripted futures are answered at once or never
+
+
+def test_an_answered_goal_is_sent_once():
+    action = _Action(True)
+    assert send_run_goal(action, 0.25, wait=_wait).accepted
+    assert len(action.goals) == 1
+    assert action.goals[0].target_time == 0.25 and not action.goals[0].relative
+
+
+def test_a_goal_without_response_is_sent_again_to_the_same_absolute_target():
+    action = _Action(None, None, True)
+    assert send_run_goal(action, 0.5, wait=_wait).accepted
+    assert [g.target_time for g in action.goals] == [0.5, 0.5, 0.5]
+    assert not any(g.relative for g in action.goals)
+
+
+def test_a_repeat_rejected_while_the_lost_goal_runs_is_sent_again():
+    action = _Action(None, False, False, True)
+    assert send_run_goal(action, 0.5, wait=_wait).accepted
+    assert len(action.goals) == 4
+
+
+def test_a_first_rejection_is_returned_not_repeated():
+    action = _Action(False, True)
+    assert not send_run_goal(action, 0.5, wait=_wait).accepted
+    assert len(action.goals) == 1
+
+
+def test_a_plant_that_never_answers_fails_with_the_count(monkeypatch):
+    monkeypatch.setattr(runner, 'GOAL_ATTEMPTS', 3)
+    action = _Action(None, None, None, True)
+    with pytest.raises(TimeoutError, match='answered none of 3 Run goals to 0.5 s'):
+        send_run_goal(action, 0.5, wait=_wait)
+    assert len(action.goals) == 3
