@@ -26,7 +26,7 @@ from drive_common import topics
 from drive_testing.ceiling import measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 from drive_common.waiting import wait_until
-from drive_bringup.runner import send_run_goal
+from drive_bringup.runner import run_goal_result, send_run_goal
 from dtc_msgs.action import Run
 
 TS = 25e-6
@@ -56,12 +56,13 @@ def plant_rate(context, env, samples: int, state_period: float, timeout: float =
                 handle = send_run_goal(client, target, wait=spin_for)
             except TimeoutError as exc:
                 raise TimeoutError(f'{exc} ({plant})') from exc
-            result = handle.get_result_async()
-            executor.spin_until_future_complete(result, timeout_sec=timeout)
-            if not result.done():
+            ends = time.monotonic() + timeout
+            result = run_goal_result(handle, wait=lambda done, seconds: (
+                spin_for(done, seconds) or time.monotonic() > ends))
+            if result is None:
                 raise TimeoutError(f'Run goal to {target} s: accepted, no result after {timeout} s '
                                    f'({plant})')
-            return time.perf_counter() - start, result.result().result
+            return time.perf_counter() - start, result
 
         run(200 * TS)                                   # warm-up (matching, first samples)
         wall, result = run((200 + samples) * TS)

@@ -19,6 +19,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
+from drive_bringup.runner import run_goal_result
 from drive_common import topics
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE
 from drive_testing.fixed_commands import FixedGateCore
@@ -65,7 +66,11 @@ class PlantClient:
         handle = _future_result(self.action.send_goal_async(
             Run.Goal(target_time=target, relative=relative)), 30.0, 'goal acceptance')
         assert handle.accepted
-        return _future_result(handle.get_result_async(), timeout, 'Run result').result
+        ends = time.monotonic() + timeout       # a lost result reply is asked for again
+        result = run_goal_result(handle, wait=lambda done, seconds: (
+            wait_until(done, seconds, raise_timeout=False) or time.monotonic() > ends))
+        assert result is not None, f'no Run result in {timeout} s'
+        return result
 
     def set(self, **values):
         future = self.params.set_parameters([Parameter(k, value=v) for k, v in values.items()])

@@ -70,7 +70,7 @@ from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import ReusedMessage, sec_nanosec, time_msg
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
-                                      graph_conflict)
+                                      graph_conflict, readers_matched)
 from drive_common.lockstep_wire import LockstepWire
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
@@ -78,6 +78,7 @@ from drive_common.ros_parameters import SchemaParameters
 from drive_common.samples import DriveSample, DutySample, GateSample, PfcSample
 from drive_common.telemetry import nanoseconds
 from drive_common.telemetry_blocks import BlockStream
+from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
                           PlantState, PlantStateBlock)
@@ -399,12 +400,10 @@ class PlantNode(Node):
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples.
         outputs = [self._drive_pub, self._pfc_pub, self._state_pub, self._block_pub]
-        while any(pub.get_subscription_count() < self.count_subscribers(pub.topic_name)
-                  for pub in outputs):
-            if time.monotonic() > deadline or self._halted():
-                self.get_logger().warning('some subscribers were not matched before the run')
-                break
-            self._receiver.poll(0.01)
+        if not wait_until(lambda: readers_matched(self, outputs) or self._halted(),
+                          max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
+                          raise_timeout=False):
+            self.get_logger().warning('some subscribers were not matched before the run')
         conflict = self._graph_conflict()
         if conflict:
             self._conflict = conflict            # the check timer makes the node exit 2

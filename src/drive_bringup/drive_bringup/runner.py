@@ -315,16 +315,16 @@ class GraphRunner:
                               f'{self.scenario.duration:.4f} s, wall {wall:.1f} s, '
                               f'rate {fb.real_time_factor:.3f}x real time')
 
+        def wait(done, seconds: float):
+            return self._spin_while_waiting(executor, done, seconds, 'the plant', raise_timeout=False)
+
         try:
-            handle = send_run_goal(self._action, target, feedback=feedback, wait=lambda done, t: (
-                self._spin_while_waiting(executor, done, t, 'a Run goal response', raise_timeout=False)))
+            handle = send_run_goal(self._action, target, feedback=feedback, wait=wait)
         except TimeoutError as exc:
             raise RunFailed(str(exc)) from exc
         if not handle.accepted:
             raise RunFailed(f'plant rejected the Run goal to {target} s')
-        result_future = handle.get_result_async()
-        # No overall timeout: the plant's own command timeout bounds every sample.
-        result = self._spin_until(executor, result_future, float('inf'), 'the Run result').result
+        result = run_goal_result(handle, wait=wait)
         if not result.success:
             raise RunFailed(f'plant stopped at t = {result.final_time:.6f} s: {result.message}')
         return result.final_step, result.final_time
@@ -361,6 +361,28 @@ def send_run_goal(action, target: float, *, wait: Callable[[Callable[[], bool], 
         if unanswered >= GOAL_ATTEMPTS:
             raise TimeoutError(f'the plant answered none of {GOAL_ATTEMPTS} Run goals to {target} s '
                                f'({GOAL_RESPONSE_WAIT:g} s each)')
+
+
+RESULT_ASK_AGAIN = 2.0      # s after which an ended goal's result is asked for again
+
+
+def run_goal_result(handle, *, wait: Callable[[Callable[[], bool], float], Any]):
+    """The result of an accepted plant/run goal (its ``Run.Result``).
+
+    wait(done, timeout) as for :func:`send_run_goal`. A result reply can be
+    lost like a goal reply; while the goal's status (the action's status
+    topic, transient local) says it has ended and no result came, the result
+    is asked for again every RESULT_ASK_AGAIN s. No overall timeout (the
+    plant's own timeouts end every goal); a wait that returns True before the
+    result came ends it with None.
+    """
+    from action_msgs.msg import GoalStatus
+    ended = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED)
+    future = handle.get_result_async()
+    while not wait(future.done, RESULT_ASK_AGAIN):
+        if handle.status in ended:
+            future = handle.get_result_async()
+    return future.result().result if future.done() else None
 
 
 def _raise_keyboard_interrupt(signum, frame):

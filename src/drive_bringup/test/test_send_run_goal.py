@@ -1,10 +1,10 @@
-"""A Run goal whose response is lost right after discovery is sent again (runner.send_run_goal)."""
+"""A Run goal whose reply or result is lost right after discovery is asked for again (runner)."""
 from __future__ import annotations
 
 import pytest
 
 from drive_bringup import runner
-from drive_bringup.runner import send_run_goal
+from drive_bringup.runner import run_goal_result, send_run_goal
 
 
 class _Future:
@@ -72,3 +72,37 @@ def test_a_plant_that_never_answers_fails_with_the_count(monkeypatch):
     with pytest.raises(TimeoutError, match='answered none of 3 Run goals to 0.5 s'):
         send_run_goal(action, 0.5, wait=_wait)
     assert len(action.goals) == 3
+
+
+class _ResultHandle:
+    """A goal handle whose first result replies are lost; status as the status topic says."""
+
+    def __init__(self, lost: int, status: int) -> None:
+        self.lost, self.status, self.asked = lost, status, 0
+
+    def get_result_async(self):
+        self.asked += 1
+        if self.asked <= self.lost:
+            return _Future(None)
+        result = type('Response', (), {'result': 'the Run.Result'})()
+        return _Future(result)
+
+
+def test_a_lost_result_is_asked_again_once_the_goal_has_ended():
+    from action_msgs.msg import GoalStatus
+    handle = _ResultHandle(lost=2, status=GoalStatus.STATUS_SUCCEEDED)
+    assert run_goal_result(handle, wait=_wait) == 'the Run.Result'
+    assert handle.asked == 3
+
+
+def test_a_running_goal_is_not_asked_again_and_a_wait_that_gives_up_gets_none():
+    from action_msgs.msg import GoalStatus
+    handle = _ResultHandle(lost=1, status=GoalStatus.STATUS_EXECUTING)
+    waits = []
+
+    def give_up_third_time(done, timeout):
+        waits.append(timeout)
+        return done() or len(waits) >= 3
+
+    assert run_goal_result(handle, wait=give_up_third_time) is None
+    assert handle.asked == 1 and waits == [runner.RESULT_ASK_AGAIN] * 3

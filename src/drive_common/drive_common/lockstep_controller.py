@@ -43,13 +43,14 @@ from builtin_interfaces.msg import Time
 
 from drive_common.conversions import ReusedMessage
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
-                                      graph_conflict)
+                                      graph_conflict, readers_matched)
 from drive_common.lockstep_wire import LockstepWire
 from drive_common.parameters import ParameterError, ParameterSchema
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
 from drive_common.telemetry_blocks import BlockStream
 from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
+from drive_common.waiting import wait_until
 
 
 __all__ = ['LockstepChannels', 'LockstepControllerNode']
@@ -203,14 +204,10 @@ class LockstepControllerNode(Node):
         block topics already in the graph (a recorder, a test) is matched, or it would miss
         the first samples; at most MATCH_WAIT s, as the plant does for its own topics."""
         publishers = [p for p in (self._status_pub, self._block_pub) if p is not None]
-        deadline = time.monotonic() + MATCH_WAIT
-        while any(p.get_subscription_count() < self.count_subscribers(p.topic_name)
-                  for p in publishers):
-            if time.monotonic() > deadline or self._stop.is_set():
-                self.get_logger().warning('some telemetry subscribers were not matched '
-                                          'before the first sample')
-                return
-            time.sleep(0.01)
+        if not wait_until(lambda: readers_matched(self, publishers) or self._stop.is_set(),
+                          MATCH_WAIT, 0.01, raise_timeout=False):
+            self.get_logger().warning('some telemetry subscribers were not matched '
+                                      'before the first sample')
 
     @staticmethod
     def _telemetry_settings(values) -> tuple[int, float]:

@@ -95,6 +95,16 @@ class DirectReceiver:
         return dispatched
 
 
+def readers_matched(node, publishers) -> bool:
+    """Whether each publisher is matched with every subscriber its topic has in the graph.
+
+    Checked before a run's first sample by the plant and the controllers, so a
+    reader already in the graph (a recorder, a monitor) misses no sample.
+    """
+    return all(pub.get_subscription_count() >= node.count_subscribers(pub.topic_name)
+               for pub in publishers)
+
+
 class GraphConflict(ParameterError):
     """A second graph shares this node's domain; the node refuses to run (exit code 2)."""
 
