@@ -90,6 +90,8 @@ WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for .
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
 FAULT_REPORT_PERIOD = 0.01      # s of sim time: a controller's faults reported at most once per this
+FAULTED_GLANCE = 5e-4           # s of wall time a faulted controller's command is waited for per
+                                # due sample: one that answers again resumes; a dead one slows little
 STOP_WAIT = 10.0                # s stop() waits for a run to end
 LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
                    topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
@@ -410,10 +412,12 @@ class PlantNode(Node):
         return conflict
 
     def _await(self, inbox: _Inbox, step: int, deadline: float | None):
-        """The command for step, waiting until deadline (None: only what has arrived)."""
+        """The command for step, waiting until deadline (None: FAULTED_GLANCE from now)."""
         msg = inbox.take(step)
+        if msg is None and deadline is None:
+            deadline = time.monotonic() + FAULTED_GLANCE
         while msg is None:
-            remaining = 0.0 if deadline is None else deadline - time.monotonic()
+            remaining = deadline - time.monotonic()
             if remaining <= 0.0 or self._halted():
                 self._receiver.poll(0.0)
                 return inbox.take(step)
@@ -509,8 +513,8 @@ class PlantNode(Node):
         waits for its readiness (:meth:`_first_answer`). Later, a controller
         that stays silent past the deadline, or sends a command the plant
         cannot apply (``invalid(msg)`` returns the reason), is faulted once:
-        safe state, diagnostic, and no more waiting for it until it sends a
-        valid command for a due sample again.
+        safe state, diagnostic, and from then on only FAULTED_GLANCE of waiting
+        per due sample, until it sends a valid command for a due sample again.
         """
         which, inbox = channel.which, channel.inbox
         if which in self._startup_pending:

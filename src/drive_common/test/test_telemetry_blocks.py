@@ -254,9 +254,10 @@ def test_the_block_size_parameter_refuses_bad_values_and_keeps_the_old(value, re
     with pytest.raises(ParameterError, match=f'telemetry.block_size: .*{reason}'):
         telemetry.validate_changes(current, {'telemetry.block_size': value})
     assert current['telemetry.block_size'] == DEFAULT_BLOCK_SIZE
-    assert telemetry.validate_changes(current, {'telemetry.block_size': 80})['telemetry.block_size'] == 80
+    other = DEFAULT_BLOCK_SIZE + 1
+    assert telemetry.validate_changes(current, {'telemetry.block_size': other})['telemetry.block_size'] == other
     with pytest.raises(ParameterError, match='telemetry.block_size: can only change while'):
-        telemetry.validate_changes(current, {'telemetry.block_size': 80}, running=True)
+        telemetry.validate_changes(current, {'telemetry.block_size': other}, running=True)
     with pytest.raises(ParameterError, match='telemetry.live_period'):
         telemetry.validate_changes(current, {'telemetry.live_period': -1e-3})
 
