@@ -107,8 +107,8 @@ def test_a_command_for_the_wrong_step_is_not_applied_at_its_sample(start_node, r
 
 def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_node, ros_session):
     # Every odd step's duty is NaN. The responder publishes each command one sample ahead (on
-    # measurement k the command for k + 1), so the plant, which does not wait for a faulted
-    # controller, finds the next valid one at once and resumes: refused, resumed, refused, ...
+    # measurement k the command for k + 1); the plant waits for a controller that answers, even
+    # wrongly, so it finds the next valid one and resumes: refused, resumed, refused, ...
     # /diagnostics and the goal's result carry one report per FAULT_REPORT_PERIOD = 10 ms sim.
     seen = _diagnostics(ros_session)
     node = ros_session.node('flapping_pfc')

@@ -90,7 +90,7 @@ WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for .
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
 FAULT_REPORT_PERIOD = 0.01      # s of sim time: a controller's faults reported at most once per this
-FAULTED_GLANCE = 5e-4           # s of wall time a faulted controller's command is waited for per
+FAULTED_GLANCE = 5e-4           # s of wall time a controller that fell silent is waited for per
                                 # due sample: one that answers again resumes; a dead one slows little
 STOP_WAIT = 10.0                # s stop() waits for a run to end
 LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
@@ -184,6 +184,7 @@ class PlantNode(Node):
         self._ready: set[str] = set()        # controllers that answered since they last failed
         self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
+        self._silent: set[str] = set()       # faulted by a timeout: FAULTED_GLANCE per sample
         self._fault_reports: dict[str, tuple[float, int, bool]] = {}  # last report t, unreported, shown
         self._faults: list[str] = []
         self._pending: dict[str, Any] | None = None
@@ -513,15 +514,16 @@ class PlantNode(Node):
         waits for its readiness (:meth:`_first_answer`). Later, a controller
         that stays silent past the deadline, or sends a command the plant
         cannot apply (``invalid(msg)`` returns the reason), is faulted once:
-        safe state, diagnostic, and from then on only FAULTED_GLANCE of waiting
-        per due sample, until it sends a valid command for a due sample again.
+        safe state, diagnostic, until it sends a valid command for a due sample
+        again. A controller that answers, if wrongly, is waited for as before; one
+        that fell silent only FAULTED_GLANCE per due sample.
         """
         which, inbox = channel.which, channel.inbox
         if which in self._startup_pending:
             msg = self._first_answer(which, inbox, k, channel.resend)
             self._startup_pending.discard(which)
         else:
-            msg = self._await(inbox, k, None if self._faulted[which] else deadline)
+            msg = self._await(inbox, k, None if which in self._silent else deadline)
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
                   if msg is None else channel.invalid(msg))
         if reason is not None:
@@ -529,6 +531,7 @@ class PlantNode(Node):
             if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
                 self._fault(which, reason)
                 self._faulted[which] = reason
+            (self._silent.add if msg is None else self._silent.discard)(which)
             self._ready.discard(which)
             inbox.new_publisher_allowed()
             return None
@@ -538,6 +541,7 @@ class PlantNode(Node):
                               '(stop the other one or set another ROS_DOMAIN_ID)')
             return None
         self._ready.add(which)
+        self._silent.discard(which)
         if self._faulted[which]:
             self._faulted[which] = None
             if not any(self._faulted.values()):
