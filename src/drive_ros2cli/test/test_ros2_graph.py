@@ -252,10 +252,19 @@ def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_pat
     recorder = ros2.start('bag', 'record', '-o', str(bag), '/plant/state', name='record_killed')
     recorder.wait_for_output('recorder ready')
     ros2.ok('action', 'send_goal', '/plant/run', 'dtc_msgs/action/Run', '{target_time: 0.06, relative: true}')
+
+    def flushed() -> int:
+        try:
+            return sum(1 for _ in BagReader(bag, salvage=True).messages())
+        except Exception:  # noqa: BLE001 - nothing readable written yet
+            return 0
+
+    # The recorder flushes every 0.5 s; a run shorter than that may still be in memory.
+    wait_until(flushed, 30.0, 0.1, 'the recorder to flush the run to disk')
     os.killpg(recorder.process.pid, signal.SIGKILL)
     recorder.process.wait(timeout=30)
     assert not (bag / 'metadata.yaml').exists()
-    on_disk = sum(1 for _ in BagReader(bag, salvage=True).messages())
+    on_disk = flushed()
     assert on_disk > 0, 'the recorder flushed nothing before it was killed'
 
     assert ros2('bag', 'info', str(bag)).code == 1            # not readable before the reindex
