@@ -16,14 +16,20 @@ from __future__ import annotations
 
 from rclpy.serialization import serialize_message
 
-_HEADER = 4   # encapsulation header: alignment counts from its end
-_SIZES = {'boolean': 1, 'octet': 1, 'char': 1, 'int8': 1, 'uint8': 1, 'int16': 2, 'uint16': 2,
-          'int32': 4, 'uint32': 4, 'float': 4, 'int64': 8, 'uint64': 8, 'double': 8}
+ENCAPSULATION_HEADER = 4   # bytes; alignment counts from its end
+PRIMITIVE_SIZES = {'boolean': 1, 'octet': 1, 'char': 1, 'int8': 1, 'uint8': 1, 'int16': 2, 'uint16': 2,
+                   'int32': 4, 'uint32': 4, 'float': 4, 'int64': 8, 'uint64': 8, 'double': 8}
+
+
+def padding(body_offset: int, size: int) -> int:
+    """Bytes of padding before an item of `size` at `body_offset` (counted from the
+    encapsulation header's end)."""
+    return -body_offset % size
 
 
 def _align(data: bytearray, offset: int, size: int) -> int:
     """Zero the padding before a size-aligned item at offset; the item's offset."""
-    aligned = _HEADER + -(-(offset - _HEADER) // size) * size
+    aligned = offset + padding(offset - ENCAPSULATION_HEADER, size)
     data[offset:aligned] = bytes(aligned - offset)
     return aligned
 
@@ -33,18 +39,18 @@ def _walk(msg, data: bytearray, offset: int) -> int:
         value = getattr(msg, name)
         if kind.startswith('sequence<'):
             element = kind[len('sequence<'):-1]
-            if element not in _SIZES:
+            if element not in PRIMITIVE_SIZES:
                 raise TypeError(f'{type(msg).__name__}.{name}: {kind} is not handled')
             offset = _align(data, offset, 4) + 4
             if len(value):
-                size = _SIZES[element]
+                size = PRIMITIVE_SIZES[element]
                 offset = _align(data, offset, size) + size * len(value)
         elif kind == 'string':
             offset = _align(data, offset, 4) + 4 + len(value.encode()) + 1
-        elif kind in _SIZES:
-            offset = _align(data, offset, _SIZES[kind]) + _SIZES[kind]
-        elif kind.endswith(']') and kind.split('[')[0] in _SIZES:
-            size = _SIZES[kind.split('[')[0]]
+        elif kind in PRIMITIVE_SIZES:
+            offset = _align(data, offset, PRIMITIVE_SIZES[kind]) + PRIMITIVE_SIZES[kind]
+        elif kind.endswith(']') and kind.split('[')[0] in PRIMITIVE_SIZES:
+            size = PRIMITIVE_SIZES[kind.split('[')[0]]
             offset = _align(data, offset, size) + size * len(value)
         elif hasattr(value, 'get_fields_and_field_types'):
             offset = _walk(value, data, offset)
@@ -56,7 +62,7 @@ def _walk(msg, data: bytearray, offset: int) -> int:
 def serialize_zero_padded(msg) -> bytes:
     """msg serialized as rclpy does, with every alignment padding byte set to zero."""
     data = bytearray(serialize_message(msg))
-    end = _walk(msg, data, _HEADER)
+    end = _walk(msg, data, ENCAPSULATION_HEADER)
     if not 0 <= len(data) - end < 4:
         raise ValueError(f'{type(msg).__name__}: fields end at byte {end} of {len(data)}')
     data[end:] = bytes(len(data) - end)      # trailing padding to a multiple of 4

@@ -29,20 +29,16 @@ from dataclasses import fields as dataclass_fields
 from functools import lru_cache
 from typing import Any
 
+from drive_common.cdr_padding import ENCAPSULATION_HEADER, PRIMITIVE_SIZES, padding
+
 ENCAPSULATION = b'\x00\x01\x00\x00'     # CDR, little endian
-_ORIGIN = 4                             # alignment counts from the encapsulation header's end
 
-# rosidl primitive -> (struct code, size in bytes)
-_PRIMITIVE = {
-    'boolean': ('?', 1), 'octet': ('B', 1), 'char': ('B', 1), 'int8': ('b', 1), 'uint8': ('B', 1),
-    'int16': ('h', 2), 'uint16': ('H', 2), 'int32': ('i', 4), 'uint32': ('I', 4),
-    'int64': ('q', 8), 'uint64': ('Q', 8), 'float': ('f', 4), 'double': ('d', 8),
+# rosidl primitive -> struct code (sizes: cdr_padding.PRIMITIVE_SIZES)
+_STRUCT_CODE = {
+    'boolean': '?', 'octet': 'B', 'char': 'B', 'int8': 'b', 'uint8': 'B', 'int16': 'h',
+    'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q', 'float': 'f',
+    'double': 'd',
 }
-
-
-def _padding(offset: int, size: int) -> int:
-    """Bytes of padding before an item of `size` at body offset `offset`."""
-    return -offset % size
 
 
 @lru_cache(maxsize=None)
@@ -57,7 +53,7 @@ def _fields(msg_type: type) -> tuple[tuple[str, str, int], ...]:
         if kind.endswith(']') and '[' in kind and not kind.endswith('[]'):
             element, count = kind[:-1].split('[')
             count = int(count)
-        if element not in _PRIMITIVE:
+        if element not in _STRUCT_CODE:
             raise TypeError(f'{msg_type.__name__}.{name}: {kind} has no fixed CDR size')
         out.append((name, element, count))
     return tuple(out)
@@ -67,8 +63,8 @@ def _tail_format(fields, offset: int) -> tuple[str, int]:
     """struct format ('<'-less) of the fields from body offset `offset`; the end offset."""
     parts = []
     for _, element, count in fields:
-        code, size = _PRIMITIVE[element]
-        pad = _padding(offset, size)
+        code, size = _STRUCT_CODE[element], PRIMITIVE_SIZES[element]
+        pad = padding(offset, size)
         if pad:
             parts.append(f'{pad}x')
         parts.append(f'{count}{code}' if count > 1 else code)
@@ -104,11 +100,14 @@ class LockstepWire:
         tail, _ = _tail_format(self._fields, 8 + 4 + len(frame))
         self._frame = frame
         self._encoder = struct.Struct(f'<iII{len(frame)}s{tail}')
+        self._tails: dict[int, struct.Struct] = {}   # body offset % 8 after a frame_id -> fields
 
-    @lru_cache(maxsize=8)
     def _tail(self, residue: int) -> struct.Struct:
         """The struct of the fields after a frame_id ending at body offset = residue (mod 8)."""
-        return struct.Struct('<' + _tail_format(self._fields, residue)[0])
+        tail = self._tails.get(residue)
+        if tail is None:
+            tail = self._tails[residue] = struct.Struct('<' + _tail_format(self._fields, residue)[0])
+        return tail
 
     def encode(self, sample, sec: int, nanosec: int) -> bytes:
         """The serialized message of sample (field values by name) stamped (sec, nanosec)."""
@@ -130,10 +129,10 @@ class LockstepWire:
         if len(data) < 16 or data[:2] != ENCAPSULATION[:2]:
             raise ValueError(f'{self.msg_type.__name__}: not a little-endian CDR message '
                              f'({len(data)} bytes)')
-        sec, nanosec, frame_length = struct.unpack_from('<iII', data, _ORIGIN)
+        sec, nanosec, frame_length = struct.unpack_from('<iII', data, ENCAPSULATION_HEADER)
         offset = 12 + frame_length                     # body offset after the frame_id
         tail = self._tail(offset % 8)
-        start = _ORIGIN + offset
+        start = ENCAPSULATION_HEADER + offset
         if len(data) < start + tail.size:
             raise ValueError(f'{self.msg_type.__name__}: {len(data)} bytes, the fields need '
                              f'{start + tail.size}')
