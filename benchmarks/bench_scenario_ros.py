@@ -54,20 +54,9 @@ class CpuMeasuringRunner(GraphRunner):
 
 def bag_samples(bag_dir: Path) -> dict[str, tuple[int, list[str]]]:
     """Block topic -> (samples in the bag, step gaps found)."""
-    from rclpy.serialization import deserialize_message
-
-    from drive_common.telemetry_blocks import step_gaps
     from drive_logger.bag_reader import BagReader
-    from drive_logger.ros_types import message_class
-    reader = BagReader(bag_dir)
-    out = {}
-    for topic, info in reader.topics.items():
-        if not topic.endswith('_block'):
-            continue
-        msg_type = message_class(info.type)
-        blocks = [deserialize_message(m.data, msg_type) for m in reader.messages([topic])]
-        out[topic] = (sum(b.count for b in blocks), step_gaps(blocks))
-    return out
+    from drive_logger.block_topics import block_summaries
+    return block_summaries(BagReader(bag_dir))
 
 
 def main() -> None:

@@ -103,18 +103,12 @@ def lost_samples(bag: Path, steps: int, pfc: bool = False) -> dict[str, int]:
 def recorder_memory(source_bag: Path, out: Path, domain: int, sim_seconds: float,
                     feed_rate: float, scenario) -> tuple[float, float, dict]:
     """(recorder VmHWM MB, wall s, samples per block topic in its bag) for sim_seconds of blocks."""
-    from rclpy.serialization import deserialize_message
-
+    from drive_logger.block_topics import block_class, read_blocks
     from drive_logger.readiness import wait_for_recorder
-    from drive_logger.ros_types import message_class
 
     reader = BagReader(source_bag)
-    streams = {}
-    for topic, info in reader.topics.items():
-        if topic.endswith('_block'):
-            msg_type = message_class(info.type)
-            streams[topic] = (msg_type, [deserialize_message(m.data, msg_type)
-                                         for m in reader.messages([topic])])
+    streams = {topic: (block_class(topic), blocks) for topic, blocks in
+               read_blocks(reader, [t for t in reader.topics if t.endswith('_block')]).items()}
     per_cycle = {t: sum(b.count for b in blocks) for t, (_, blocks) in streams.items()}
     cycle_steps = min(per_cycle.values())            # dtc: steps, plant: steps + 1 (step 0)
     cycles = int(round(sim_seconds / (cycle_steps * TS)))
@@ -192,19 +186,15 @@ def lossless_floor_mb(bag: Path, chunk_size: int = 1 << 20) -> float:
     """
     import numpy as np
     import zstandard
-    from rclpy.serialization import deserialize_message
 
     from drive_common.telemetry_blocks import block_columns
-    from drive_logger.ros_types import message_class
+    from drive_logger.block_topics import read_blocks
     reader = BagReader(bag)
     streams = []
-    for topic, info in reader.topics.items():
-        if not topic.endswith('_block'):
-            continue
-        msg_type = message_class(info.type)
+    for blocks in read_blocks(reader, [t for t in reader.topics if t.endswith('_block')]).values():
         columns: dict[str, list] = {}
-        for m in reader.messages([topic]):
-            for name, values in block_columns(deserialize_message(m.data, msg_type)).items():
+        for block in blocks:
+            for name, values in block_columns(block).items():
                 columns.setdefault(name, []).append(values)
         for name, parts in columns.items():
             values = np.concatenate(parts)
