@@ -82,7 +82,8 @@ def from_message(msg, data_type: type):
 
     A dataclass field ``time`` is taken from the header stamp; sequences
     (numpy arrays for fixed-size numeric arrays) become tuples of plain
-    Python values.
+    Python values. The lockstep nodes decode bytes with
+    :class:`drive_common.lockstep_wire.LockstepWire` instead (tested against this).
     """
     values = {}
     for name in _sample_fields(data_type):
