@@ -18,6 +18,7 @@ from rclpy.action import ActionClient
 
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
+from bldc_plant_sim.parameters import PLANT_SCHEMA
 from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
 from drive_testing.harness import wait_until
@@ -30,6 +31,7 @@ pytestmark = pytest.mark.ros
 PATTERN = (True, False, False, True, False, False)
 PLANT = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'motor.initial_speed': 20.0,
          'load.torque': 0.2, 'command_timeout': 10.0}
+STARTUP_TIMEOUT = PLANT_SCHEMA.defaults()['startup_timeout']   # s, PLANT keeps the default
 BACKEMF_TABLE = (Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' / 'motors'
                  / 'ozturk_bldc_backemf.csv')
 
@@ -182,7 +184,9 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
         wait_until(lambda: sent.done() or not plant_b.alive(), 60.0, what='goal response from B')
         if sent.done() and sent.result().accepted:
             answer = sent.result().get_result_async()
-            wait_until(lambda: answer.done() or not plant_b.alive(), 120.0, what='result from B')
+            # B's plant may wait its whole startup_timeout for a controller that refused to run.
+            wait_until(lambda: answer.done() or not plant_b.alive(), STARTUP_TIMEOUT + 30.0,
+                       what='result from B')
             if answer.done() and answer.result().result.success:
                 wait_until(lambda: states_b and states_b[-1].step == 80, 30.0, what='B at 80')
                 assert _headless_equal(states_b, 80) >= 1

@@ -200,11 +200,15 @@ def _node_domains(argv, domain: int) -> set[str]:
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     domains: set[str] = set()
 
+    runner_cmdline = Path(f'/proc/{process.pid}/cmdline').read_bytes()
+
     def nodes_seen():
         for pid in processes_with_env(marker):
             if pid == process.pid:
                 continue
             try:
+                if Path(f'/proc/{pid}/cmdline').read_bytes() == runner_cmdline:
+                    continue    # forked by the runner, not yet exec'd: still the runner's environment
                 environ = Path(f'/proc/{pid}/environ').read_bytes().split(b'\0')
             except OSError:
                 continue
