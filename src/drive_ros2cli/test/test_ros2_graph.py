@@ -251,7 +251,6 @@ def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_pat
     bag = tmp_path / 'killed'
     recorder = ros2.start('bag', 'record', '-o', str(bag), '/plant/state', name='record_killed')
     recorder.wait_for_output('recorder ready')
-    ros2.ok('action', 'send_goal', '/plant/run', 'dtc_msgs/action/Run', '{target_time: 0.06, relative: true}')
 
     def flushed() -> int:
         try:
@@ -259,8 +258,14 @@ def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_pat
         except BagReadError:        # no .mcap file written yet
             return 0
 
-    # The recorder flushes every 0.5 s; a run shorter than that may still be in memory.
-    wait_until(flushed, 30.0, 0.1, 'the recorder to flush the run to disk')
+    # The recorder joins a plant that is already up: until the plant's publisher has matched its
+    # subscription (asynchronous, slower under load) a run records nothing, so run again until a
+    # run reached the disk (the recorder flushes every 0.5 s of wall time).
+    for _ in range(6):
+        ros2.ok('action', 'send_goal', '/plant/run', 'dtc_msgs/action/Run', '{target_time: 0.06, relative: true}')
+        if wait_until(flushed, 10.0, 0.1, raise_timeout=False):
+            break
+    assert flushed(), 'six runs of the plant and nothing of /plant/state reached the recorder\'s bag'
     os.killpg(recorder.process.pid, signal.SIGKILL)
     recorder.process.wait(timeout=30)
     assert not (bag / 'metadata.yaml').exists()
