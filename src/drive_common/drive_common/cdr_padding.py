@@ -1,20 +1,26 @@
-"""Serialized messages with zeroed CDR alignment padding (byte-identical bags).
+"""Canonical CDR: a message's serialization with zeroed padding and its exact length.
 
 rmw_fastrtps serializes a published message into a reused payload buffer
 and Fast CDR skips the alignment padding without writing it, so the padding
-bytes of a message hold whatever an earlier message left there. The
-telemetry blocks are sequences of float64 after 4-byte sequence lengths, so
-every block has such padding: two runs of one scenario would record the
-same values in different bytes. :func:`serialize_zero_padded` serializes a
-message (``rclpy.serialization``) and zeroes every padding byte, walking the
-fields with the CDR (XCDR1) alignment rules (each primitive aligned to its
-size from the end of the 4-byte encapsulation header; strings and sequence
-lengths to 4); publishing these bytes (``Publisher.publish`` takes
-serialized bytes) makes the recorded data a function of the values only.
+bytes of a message hold whatever an earlier message left there. Its size
+calculation also reserves alignment before an empty sequence of 8-byte
+elements that the serializer then does not write (CDR aligns only elements
+that exist), so such a message (rcl_interfaces/ParameterEvent,
+ParameterValue) ends in bytes of uninitialised memory that readers held to
+the format (rosbags) refuse. Two runs of one scenario would record the same
+values in different bytes.
+
+:func:`canonical_bytes` walks the fields of the message with the CDR (XCDR1)
+rules -- each primitive aligned to its size from the end of the 4-byte
+encapsulation header, string and sequence lengths to 4, no alignment for
+the elements of an empty sequence -- zeroes every padding byte and cuts the
+bytes after the last field. :func:`serialize_zero_padded` (publishers) and
+:func:`canonicalize` (the recorder, for bytes taken off the wire) use it, so
+the recorded data is a function of the values only.
 """
 from __future__ import annotations
 
-from rclpy.serialization import serialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 
 ENCAPSULATION_HEADER = 4   # bytes; alignment counts from its end
 PRIMITIVE_SIZES = {'boolean': 1, 'octet': 1, 'char': 1, 'int8': 1, 'uint8': 1, 'int16': 2, 'uint16': 2,
@@ -34,36 +40,60 @@ def _align(data: bytearray, offset: int, size: int) -> int:
     return aligned
 
 
+def _element(kind: str) -> tuple[str, str]:
+    """('sequence' | 'array' | 'single', element kind without bounds) of a rosidl field kind."""
+    if kind.startswith('sequence<'):
+        return 'sequence', kind[len('sequence<'):-1].split(',')[0].strip()
+    if kind.endswith(']'):
+        return 'array', kind[:kind.index('[')]
+    return 'single', kind
+
+
+def _walk_item(kind: str, value, data: bytearray, offset: int, where: str) -> int:
+    """Zero the padding of one value of a non-array kind; the offset after it."""
+    if kind in PRIMITIVE_SIZES:
+        size = PRIMITIVE_SIZES[kind]
+        return _align(data, offset, size) + size
+    if kind == 'string' or kind.startswith('string<'):
+        return _align(data, offset, 4) + 4 + len(value.encode()) + 1
+    if hasattr(value, 'get_fields_and_field_types'):
+        return _walk(value, data, offset)
+    raise TypeError(f'{where}: {kind} is not handled')
+
+
 def _walk(msg, data: bytearray, offset: int) -> int:
     for name, kind in msg.get_fields_and_field_types().items():
         value = getattr(msg, name)
-        if kind.startswith('sequence<'):
-            element = kind[len('sequence<'):-1]
-            if element not in PRIMITIVE_SIZES:
-                raise TypeError(f'{type(msg).__name__}.{name}: {kind} is not handled')
+        where = f'{type(msg).__name__}.{name}'
+        shape, element = _element(kind)
+        if shape == 'sequence':
             offset = _align(data, offset, 4) + 4
-            if len(value):
+        if shape == 'single':
+            offset = _walk_item(kind, value, data, offset, where)
+        elif element in PRIMITIVE_SIZES:
+            if len(value):           # an empty sequence's elements are not aligned
                 size = PRIMITIVE_SIZES[element]
                 offset = _align(data, offset, size) + size * len(value)
-        elif kind == 'string':
-            offset = _align(data, offset, 4) + 4 + len(value.encode()) + 1
-        elif kind in PRIMITIVE_SIZES:
-            offset = _align(data, offset, PRIMITIVE_SIZES[kind]) + PRIMITIVE_SIZES[kind]
-        elif kind.endswith(']') and kind.split('[')[0] in PRIMITIVE_SIZES:
-            size = PRIMITIVE_SIZES[kind.split('[')[0]]
-            offset = _align(data, offset, size) + size * len(value)
-        elif hasattr(value, 'get_fields_and_field_types'):
-            offset = _walk(value, data, offset)
         else:
-            raise TypeError(f'{type(msg).__name__}.{name}: {kind} is not handled')
+            for item in value:
+                offset = _walk_item(element, item, data, offset, where)
     return offset
 
 
+def canonical_bytes(msg, data: bytes) -> bytes:
+    """data (a CDR serialization of msg) with every padding byte zeroed and nothing after the last field."""
+    zeroed = bytearray(data)
+    end = _walk(msg, zeroed, ENCAPSULATION_HEADER)
+    if end > len(zeroed):
+        raise ValueError(f'{type(msg).__name__}: fields end at byte {end} of {len(zeroed)}')
+    return bytes(zeroed[:end])
+
+
 def serialize_zero_padded(msg) -> bytes:
-    """msg serialized as rclpy does, with every alignment padding byte set to zero."""
-    data = bytearray(serialize_message(msg))
-    end = _walk(msg, data, ENCAPSULATION_HEADER)
-    if not 0 <= len(data) - end < 4:
-        raise ValueError(f'{type(msg).__name__}: fields end at byte {end} of {len(data)}')
-    data[end:] = bytes(len(data) - end)      # trailing padding to a multiple of 4
-    return bytes(data)
+    """msg serialized as rclpy does, in canonical CDR (padding zeroed, exact length)."""
+    return canonical_bytes(msg, serialize_message(msg))
+
+
+def canonicalize(data: bytes, msg_class) -> bytes:
+    """Serialized bytes of a message of msg_class in canonical CDR (the values' bits kept)."""
+    return canonical_bytes(deserialize_message(data, msg_class), data)

@@ -39,6 +39,11 @@ LOCKSTEP_TOPICS = [t.DRIVE_MEASUREMENT, t.GATE_COMMAND, t.PFC_MEASUREMENT, t.DUT
 BLOCK_TOPICS = [t.PLANT_STATE_BLOCK, t.DTC_STATUS_BLOCK, t.PFC_STATUS_BLOCK]
 """Full-rate telemetry: every sample of ground truth, controller status, measurements and commands."""
 
+CANONICAL_AT_SOURCE_TYPES = frozenset(GRAPH_TOPIC_TYPES[name] for name in LOCKSTEP_TOPICS + BLOCK_TOPICS)
+"""Types the stack publishes in canonical CDR (zeroed padding, exact length:
+drive_common.lockstep_wire, telemetry_blocks); the recorder brings every other
+message to that form (drive_common.cdr_padding.canonicalize)."""
+
 DEFAULT_TOPICS = BLOCK_TOPICS + [t.DIAGNOSTICS, t.CLOCK, t.PARAMETER_EVENTS]
 """Default recording: the blocks, /diagnostics, /clock (decimated) and parameter changes.
 

@@ -1,9 +1,14 @@
 """Recorder node: record topics of the drive graph into a rosbag2-layout MCAP bag.
 
 Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw
-subscriptions hand over the exact CDR bytes (no deserialize/re-serialize),
-each callback appends them to the current MCAP chunk, and full chunks are
-compressed and streamed to disk (bounded memory).
+subscriptions hand over the CDR bytes, each callback appends them to the
+current MCAP chunk, and full chunks are compressed and streamed to disk
+(bounded memory). The blocks and lockstep messages arrive in canonical CDR
+and are written as they come; any other message (parameter events,
+diagnostics, live topics, topics of other nodes) is brought to canonical CDR
+first (:func:`drive_common.cdr_padding.canonicalize`: padding zeroed, the
+uninitialised bytes rmw_fastrtps appends after some messages cut), so a bag
+holds the same bytes for the same values and every CDR reader decodes it.
 
 Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 - ``topics`` (string[]): topics to record, ``name`` or ``name:pkg/msg/Type``;
@@ -58,6 +63,7 @@ import time
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 
+from drive_common.cdr_padding import canonicalize
 from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver, GraphConflict, graph_conflict
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
@@ -84,11 +90,15 @@ def message_class(type_name: str):
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
-    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamp_kind')
+    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamp_kind',
+                 'canonical_of')
 
     def __init__(self, name, type_name, definition, qos):
         self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
         self.stamp_kind = sim_stamp_kind(type_name) if definition is not None else NO_STAMP
+        # the message class whose bytes need canonicalize(); None: canonical at the source
+        self.canonical_of = (None if definition is None or type_name in graph_topics.CANONICAL_AT_SOURCE_TYPES
+                             else message_class(type_name))
         self.subscription = None
         self.record = None
         self.callback = None
@@ -223,6 +233,8 @@ class RecorderNode(Node):
         sim_log = self.sim_log
 
         def on_message(data: bytes, info: dict) -> None:
+            if topic.canonical_of is not None:
+                data = self._canonical(topic, data)
             with self._lock:
                 if writer.closed:
                     return
@@ -234,6 +246,15 @@ class RecorderNode(Node):
                 else:
                     writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
         return on_message
+
+    def _canonical(self, topic: _Topic, data: bytes) -> bytes:
+        """data in canonical CDR; bytes that do not decode as the topic's type are kept as they came."""
+        try:
+            return canonicalize(data, topic.canonical_of)
+        except Exception as exc:  # noqa: BLE001 - rclpy raises bare errors for malformed CDR
+            self.get_logger().warning(f'{topic.name}: a message that does not decode as {topic.type_name} '
+                                      f'is recorded as it came ({exc})', throttle_duration_sec=5.0)
+            return data
 
     def end_of_wakeup(self) -> None:
         """Log the messages of this wake-up without a sim stamp at the sim time reached by it."""

@@ -113,6 +113,53 @@ def test_recorded_bag_reads_back_field_exact(ros_session, start_node, tmp_path, 
         assert deserialize_message(msg.data, GateCommand) == pub
 
 
+def test_messages_from_other_publishers_are_recorded_in_canonical_cdr(ros_session, start_node, tmp_path):
+    """rclpy publishes a ParameterEvent with uninitialised padding and, after an empty int64[] or
+    float64[], bytes past its last field, which rosbags refuses; the recorder writes every such
+    message as canonical CDR (the values' bits, zero padding, exact length), so the same values
+    give the same bytes and every reader decodes the bag."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+    from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
+    from rclpy.serialization import serialize_message
+    from rosbags.highlevel import AnyReader
+
+    from drive_common.cdr_padding import serialize_zero_padded
+    from drive_common.waiting import wait_until
+    from drive_logger.bag_reader import BagReader
+
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['/probe/events:rcl_interfaces/msg/ParameterEvent',
+                                                        '/diagnostics'])
+    node = ros_session.node('publisher')
+    event_pub = node.create_publisher(ParameterEvent, '/probe/events', 100)
+    diagnostics_pub = node.create_publisher(DiagnosticArray, '/diagnostics', 100)
+    wait_for_recorder(node, ['/probe/events', '/diagnostics'], timeout=20.0)
+    wait_until(lambda: event_pub.get_subscription_count() and diagnostics_pub.get_subscription_count(), 20.0,
+               what='the recorder matched')
+    events = [ParameterEvent(node='/probe', changed_parameters=[
+        Parameter(name=f'p{k}', value=ParameterValue(type=3, double_value=k / 3.0))]) for k in range(20)]
+    diagnostics = [DiagnosticArray(status=[DiagnosticStatus(level=bytes([k % 3]), name='probe', message=f'm{k}',
+                                                            values=[KeyValue(key='k', value=str(k))])])
+                   for k in range(20)]
+    assert any(serialize_message(e) != serialize_zero_padded(e) for e in events)   # what is at stake
+    for event, status in zip(events, diagnostics):
+        event_pub.publish(event)
+        diagnostics_pub.publish(status)
+    time.sleep(0.5)
+    assert _stop(recorder) == 0, recorder.output()
+
+    recorded = {}
+    for msg in BagReader(bag).messages():
+        recorded.setdefault(msg.topic, []).append(msg.data)
+    assert recorded['/probe/events'] == [serialize_zero_padded(e) for e in events]
+    assert recorded['/diagnostics'] == [serialize_zero_padded(d) for d in diagnostics]
+    with AnyReader([bag]) as reader:
+        decoded = [(c.topic, reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages()]
+    assert [m.changed_parameters[0].value.double_value for t, m in decoded if t == '/probe/events'] == \
+        [k / 3.0 for k in range(20)]
+    assert [m.status[0].message for t, m in decoded if t == '/diagnostics'] == [f'm{k}' for k in range(20)]
+
+
 def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_node, tmp_path, measurement_factory):
     bag = tmp_path / 'bag'
     recorder, pub = _record_measurements(ros_session, start_node, bag)

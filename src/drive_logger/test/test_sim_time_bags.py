@@ -71,17 +71,14 @@ def _scenario_change(data: bytes) -> bool:
 
 
 def _deterministic(by_topic: dict) -> dict:
-    """by_topic with only the scenario's parameter changes among the parameter events, decoded.
+    """by_topic with only the scenario's parameter changes among the parameter events.
 
-    Decoded: rclpy publishes a ParameterEvent through the rmw, which leaves the CDR
-    alignment padding (after ParameterValue.type) unspecified, so two identical
-    events may differ in those bytes; every field is compared.
+    The recorder writes every message in canonical CDR (zeroed padding), so
+    the events are compared byte for byte like every other topic.
     """
-    from rcl_interfaces.msg import ParameterEvent
-    from rclpy.serialization import deserialize_message
     out = dict(by_topic)
     if EVENTS in out:
-        out[EVENTS] = [(t, deserialize_message(d, ParameterEvent)) for t, d in out[EVENTS] if _scenario_change(d)]
+        out[EVENTS] = [(t, d) for t, d in out[EVENTS] if _scenario_change(d)]
     return out
 
 
@@ -99,7 +96,10 @@ def test_same_scenario_twice_gives_identical_data_and_log_times(reference_bags):
         assert first.get(topic) == second.get(topic), f'{topic} differs between two recordings'
     # the scenario's torque step at the hold at 9.4 ms: the controller's event is stamped with
     # the last sample it answered before the hold, and logged there
-    changes = [(t, e) for t, e in first[EVENTS] if e.node == '/dtc_controller' and e.changed_parameters]
+    from rcl_interfaces.msg import ParameterEvent
+    from rclpy.serialization import deserialize_message
+    events = [(t, deserialize_message(d, ParameterEvent)) for t, d in first[EVENTS]]
+    changes = [(t, e) for t, e in events if e.node == '/dtc_controller' and e.changed_parameters]
     assert [p.name for _, e in changes for p in e.changed_parameters] == ['torque_reference']
     (log_time, event), = changes
     assert is_sim_stamp(log_time) and log_time == event.stamp.sec * 1_000_000_000 + event.stamp.nanosec

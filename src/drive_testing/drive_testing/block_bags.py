@@ -95,14 +95,14 @@ class _Bag:
         self._qos = [qos_yaml.profile()]
 
     def write(self, topic: str, msg, stamp_ns: int) -> None:
-        from rclpy.serialization import serialize_message
+        from drive_common.cdr_padding import serialize_zero_padded
         from drive_logger.message_definitions import type_definition
         record = self._topics.get(topic)
         if record is None:
             module = type(msg).__module__.split('.')[0]
             definition = type_definition(f'{module}/msg/{type(msg).__name__}')
             record = self._topics[topic] = self.writer.add_topic('/' + topic, definition, self._qos)
-        self.writer.write(record, serialize_message(msg), stamp_ns, stamp_ns)
+        self.writer.write(record, serialize_zero_padded(msg), stamp_ns, stamp_ns)  # as recorded
 
     def close(self) -> None:
         self.writer.close()
