@@ -158,9 +158,19 @@ class _Channel:
     which: str                                  # 'gate' (dtc_controller) or 'duty' (pfc_controller)
     inbox: _Inbox
     command_of: Callable[[Any], tuple]          # message -> LockstepSchedule command
-    resend: Callable[[], None]                  # re-publish the last measurement (start-up)
+    publish: Callable[[bytes], None]            # the measurement publisher's publish (CDR bytes)
     invalid: Callable[[Any], str | None] = lambda msg: None
     awaiting: tuple[int, float] | None = None   # pipelined: (step, deadline) of the pending command
+    last_sent: bytes = b''                      # the last measurement, serialized
+
+    def send(self, data: bytes) -> None:
+        """Publish a measurement (and keep it for resend)."""
+        self.last_sent = data
+        self.publish(data)
+
+    def resend(self) -> None:
+        """Publish the last measurement again (start-up: a controller that matched late)."""
+        self.publish(self.last_sent)
 
 
 def _gate_command(msg) -> tuple:
@@ -229,12 +239,9 @@ class PlantNode(Node):
         self._telemetry = BlockStream(PlantStateBlock, self._block_pub.publish,
                                       self.parameters['telemetry.block_size'],
                                       self.parameters['telemetry.live_period'])
-        self._last_sent = {'drive': b'', 'pfc': b''}     # serialized last measurement of each
-        self._resend_drive = lambda: self._drive_pub.publish(self._last_sent['drive'])
-        self._resend_pfc = lambda: self._pfc_pub.publish(self._last_sent['pfc'])
-        self._gate = _Channel('gate', self._gates_in, _gate_command, self._resend_drive,
+        self._gate = _Channel('gate', self._gates_in, _gate_command, self._drive_pub.publish,
                               self._wrong_topology)
-        self._duty = _Channel('duty', self._duty_in, _duty_command, self._resend_pfc,
+        self._duty = _Channel('duty', self._duty_in, _duty_command, self._pfc_pub.publish,
                               self._invalid_duty)
         self._pipelined = False              # for the run under way: see the module docstring
         self._state_msg = ReusedMessage(PlantState)
@@ -596,13 +603,9 @@ class PlantNode(Node):
         if due_dtc or due_pfc:
             sec, nanosec = sec_nanosec(self.core.time)
             if due_dtc:
-                data = self._last_sent['drive'] = self._drive_wire.encode(
-                    self.core.drive_sample(), sec, nanosec)
-                self._drive_pub.publish(data)
+                self._gate.send(self._drive_wire.encode(self.core.drive_sample(), sec, nanosec))
             if due_pfc:
-                data = self._last_sent['pfc'] = self._pfc_wire.encode(
-                    self.core.pfc_sample(), sec, nanosec)
-                self._pfc_pub.publish(data)
+                self._duty.send(self._pfc_wire.encode(self.core.pfc_sample(), sec, nanosec))
         # Ground truth at t_k goes out while the controllers compute their answers.
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']
