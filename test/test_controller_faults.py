@@ -182,3 +182,51 @@ def test_a_controller_node_with_a_wrong_length_command_leaves_the_plant_safe(sta
                what='a diagnostic naming /seven_switches')
     wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
     assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
+
+
+RAISING_CONTROLLER = '''
+import sys
+from drive_common.controller_api import GateSample, run_controller, schema
+
+
+class RaisingCore:
+    SCHEMA = schema([])
+
+    def __init__(self, params):
+        pass
+
+    def reconfigure(self, params):
+        pass
+
+    def update(self, sample):
+        if sample.step >= 20:
+            raise RuntimeError(f'core bug at step {sample.step}')
+        return GateSample(sample.step, 6, (True, False, False, True, False, False)), None
+
+
+sys.exit(run_controller(RaisingCore, 'raising_controller'))
+'''
+
+
+def test_a_controller_whose_core_raises_exits_1_with_its_traceback_and_the_plant_goes_safe(
+        start_node, ros_session, tmp_path):
+    """A bug in a core is not survived as a node that is listed but never answers: the process
+    prints the traceback and exits 1 (as an rclpy node whose callback raises), and the plant,
+    after its command timeout, applies the safe state naming the node."""
+    import sys
+    script = tmp_path / 'raising_controller.py'
+    script.write_text(RAISING_CONTROLLER)
+    controller = start_node('drive_examples', 'raising_controller', argv=[sys.executable, str(script)])
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 2.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.002)
+    assert not result.success and f'no gate command for step {GOOD_SAMPLES}' in result.message, result.message
+    assert '/raising_controller' in result.message
+    wait_until(lambda: not controller.alive(), 30.0, what='the controller process to exit')
+    assert controller.process.returncode == 1
+    out = controller.output()
+    assert 'Traceback' in out and f'RuntimeError: core bug at step {GOOD_SAMPLES}' in out
+    assert out.strip().splitlines()[-1] == (
+        f'[raising_controller.py] error: RuntimeError: core bug at step {GOOD_SAMPLES} (traceback above)')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
+    assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)

@@ -197,6 +197,7 @@ class PlantNode(Node):
         self._silent: set[str] = set()       # faulted by a timeout: FAULTED_GLANCE per sample
         self._fault_reports: dict[str, tuple[float, int, bool]] = {}  # last report t, unreported, shown
         self._faults: list[str] = []
+        self._last_sources: dict[str, str] = {}   # which -> the command publishers last seen
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
         self.parameters = SchemaParameters(self, PLANT_SCHEMA, on_change=self._on_parameters,
@@ -414,6 +415,9 @@ class PlantNode(Node):
                           max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
                           raise_timeout=False):
             self.get_logger().warning('some subscribers were not matched before the run')
+        for which, due in (('gate', self.schedule.dtc_ticks), ('duty', self.schedule.pfc_ticks)):
+            if due:
+                self._sources(which)             # remembered, should a controller leave mid-run
         conflict = self._graph_conflict()
         if conflict:
             self._conflict = conflict            # the check timer makes the node exit 2
@@ -590,11 +594,16 @@ class PlantNode(Node):
         return None
 
     def _sources(self, which: str) -> str:
-        """The node(s) publishing this controller's commands, for a diagnostic."""
+        """The node(s) publishing this controller's commands, for a diagnostic (a node that
+        has left the graph, e.g. a crashed controller, named as the last one seen)."""
         topic = topics.GATE_COMMAND if which == 'gate' else topics.DUTY_COMMAND
-        names = sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
-                        for i in self.get_publishers_info_by_topic(topic)})
-        return ', '.join(names) or 'no publisher'
+        names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
+                                  for i in self.get_publishers_info_by_topic(topic)}))
+        if names:
+            self._last_sources[which] = names
+            return names
+        last = self._last_sources.get(which)
+        return f'no publisher; last seen: {last}, gone' if last else 'no publisher'
 
     def _tick(self) -> None:
         """One base tick of the lockstep protocol."""

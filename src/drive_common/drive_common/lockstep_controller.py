@@ -194,7 +194,7 @@ class LockstepControllerNode(Node):
         self._last_command = wire.encode(command, sec, nanosec)
         self._command_pub.publish(self._last_command)
         self._last_measurement, self._last_stamp = data, (sec, nanosec)
-        if self._status_pub is not None:
+        if self._status_pub is not None and status is not None:   # None: no status for this sample
             self._publish_status(status, sample, command, sec, nanosec)
         self.samples_answered += 1
 

@@ -7,6 +7,13 @@ traceback); SIGINT and SIGTERM end it with exit 0. The node's executor
 (parameter services, actions, timers) spins in a background thread; the
 main thread waits for a signal, or runs the node's own ``work`` loop
 (recorder, replay) and returns when it is done.
+
+A bug is not survived: an exception that escapes any thread of the node
+(a callback, a controller core's ``update`` in the lockstep thread) prints
+its traceback and ends the process with exit 1, as an rclpy node whose
+callback raises does. The node leaves the graph, so nothing keeps waiting
+on a node that is listed but will never answer (the plant applies the safe
+state once its command timeout has passed).
 """
 from __future__ import annotations
 
@@ -59,6 +66,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     except Exception as exc:  # noqa: BLE001 - rcl's own errors: bad --ros-args / params file
         return fail(f'bad ROS arguments: {exc}')
     node = None
+    report_thread_error = threading.excepthook
     try:
         try:
             node = factory()
@@ -67,7 +75,15 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
         executor = MultiThreadedExecutor(num_threads=4) if multithreaded else SingleThreadedExecutor()
         executor.add_node(node)
 
-        failures: list[BaseException] = []
+        failures: list[tuple[BaseException, int]] = []     # (error, exit code)
+
+        def crashed(hook_args) -> None:
+            report_thread_error(hook_args)                 # the traceback, as Python prints it
+            if not stop.is_set() and isinstance(hook_args.exc_value, Exception):
+                failures.append((hook_args.exc_value, 1))  # a bug, not a shutdown race
+                stop.set()
+
+        threading.excepthook = crashed
 
         def spin() -> None:
             try:
@@ -75,7 +91,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
             except ExternalShutdownException:
                 pass
             except ParameterError as exc:    # raised by a callback, e.g. GraphConflict
-                failures.append(exc)
+                failures.append((exc, 2))
                 stop.set()
             except _rclpy.RCLError:
                 if rclpy.ok():
@@ -90,14 +106,17 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
             try:
                 work(node, stop)
             except ParameterError as exc:    # e.g. GraphConflict found by the node's own loop
-                failures.append(exc)
+                failures.append((exc, 2))
+        stop.set()                              # from here on a thread's error is a shutdown race
         getattr(node, 'stop', lambda: None)()   # end the node's own threads while the context lives
         rclpy.try_shutdown()          # ends a running action loop and the executor
         executor.shutdown(timeout_sec=2.0)
         spinner.join(timeout=2.0)
         if failures:
-            return fail(failures[0])
+            error, code = failures[0]
+            return fail(error if code == 2 else f'{type(error).__name__}: {error} (traceback above)', code)
     finally:
+        threading.excepthook = report_thread_error
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
