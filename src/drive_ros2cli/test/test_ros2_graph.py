@@ -176,11 +176,8 @@ def test_action_verbs_echo_and_bag(drive_graph, tmp_path):
     recorder.wait_for_output('recorder ready')
     # echo subscribes once it has discovered the topic's type: the run must not start before
     # (on a loaded machine the whole goal can pass before echo's subscription matches).
-    def subscribers() -> int:
-        out = ros2('topic', 'info', '/plant/state').out
-        return int(out.split('Subscription count: ')[1].split()[0]) if 'Subscription count: ' in out else 0
-
-    wait_until(lambda: subscribers() >= 2, 120.0, what='echo and the recorder subscribed to /plant/state')
+    wait_until(lambda: _subscribers(ros2, '/plant/state') >= 2, 120.0,
+               what='echo and the recorder subscribed to /plant/state')
     goal = ros2.ok('action', 'send_goal', '--feedback', '/plant/run', 'dtc_msgs/action/Run',
                    '{target_time: 0.06}')
     assert 'Goal accepted with ID: ' in goal
@@ -238,6 +235,12 @@ def test_topic_pub_echo_and_hz(drive_graph):
     assert bad.code == 1 and "no_such_field" in bad.err
 
 
+def _subscribers(ros2, topic: str) -> int:
+    """Subscription count of topic, as `ros2 topic info` sees it."""
+    out = ros2('topic', 'info', topic).out
+    return int(out.split('Subscription count: ')[1].split()[0]) if 'Subscription count: ' in out else 0
+
+
 def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_path):
     """Needs drive_logger.bag_reindex (issue 13, bags deliverable): the recorder is SIGKILLed after a
     run; `ros2 bag reindex` gives the bag its metadata.yaml, and `ros2 bag info` then reports exactly
@@ -258,6 +261,7 @@ def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_pat
         except BagReadError:        # no .mcap file written yet
             return 0
 
+    wait_until(lambda: _subscribers(ros2, '/plant/state') >= 1, 120.0, what='the recorder subscribed')
     # The recorder joins a plant that is already up: until the plant's publisher has matched its
     # subscription (asynchronous, slower under load) a run records nothing, so run again until a
     # run reached the disk (the recorder flushes every 0.5 s of wall time).
