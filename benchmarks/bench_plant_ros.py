@@ -26,7 +26,7 @@ from drive_common import topics
 from drive_testing.ceiling import measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 from drive_common.waiting import wait_until
-from drive_bringup.runner import run_goal_result, send_run_goal
+from drive_common.run_goal import run_goal_result, send_run_goal
 from dtc_msgs.action import Run
 
 TS = 25e-6

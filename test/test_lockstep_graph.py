@@ -19,6 +19,7 @@ from rclpy.action import ActionClient
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_SCHEMA
+from drive_common.run_goal import GOAL_RESPONSE_WAIT, run_to, send_run_goal
 from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
 from drive_testing.harness import wait_until
@@ -39,6 +40,14 @@ BACKEMF_TABLE = (Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' 
 def _done(future, timeout: float, what: str):
     wait_until(future.done, timeout, what=what)
     return future.result()
+
+
+def _goal_handle(client, sent, target: float):
+    """The handle of a goal sent to absolute target; a reply lost right after discovery (the
+    server's reply writer not yet matched) means the goal is sent again (drive_common.run_goal)."""
+    if wait_until(sent.done, GOAL_RESPONSE_WAIT, raise_timeout=False):
+        return sent.result()
+    return send_run_goal(client, target)
 
 
 def _states(session, name: str) -> list:
@@ -79,8 +88,7 @@ def test_node_info_shows_the_lockstep_topics_on_the_real_nodes(start_node, ros_s
     # The graph still works: the executor does not take the directly received messages.
     client = ActionClient(node, Run, topics.RUN_ACTION)
     wait_until(client.server_is_ready, 30.0, what='plant/run')
-    handle = _done(client.send_goal_async(Run.Goal(target_time=0.002)), 30.0, 'acceptance')
-    result = _done(handle.get_result_async(), 120.0, 'result').result
+    result = run_to(client, 0.002)
     assert result.success and result.final_step == 80, result.message
 
 
@@ -94,17 +102,17 @@ def test_concurrent_goals_run_one_at_a_time_and_the_trajectory_is_a_single_clien
         wait_until(client.server_is_ready, 30.0, what='plant/run')
     # Both clients at once, each asking for the same absolute time.
     sent = [client.send_goal_async(Run.Goal(target_time=0.01)) for client in clients]
-    handles = [_done(future, 30.0, 'goal response') for future in sent]
+    handles = [_goal_handle(client, future, 0.01) for client, future in zip(clients, sent)]
     accepted = [h for h in handles if h.accepted]
     assert accepted, 'no goal accepted'
     results = [_done(h.get_result_async(), 120.0, 'result').result for h in accepted]
     assert all(r.success and r.final_step == 400 for r in results), [r.message for r in results]
     # A goal sent while a run is under way is rejected (the stated policy), and the
     # plant logs why.
-    long_run = _done(clients[0].send_goal_async(Run.Goal(target_time=0.1)), 30.0, 'long goal')
+    long_run = send_run_goal(clients[0], 0.1)
     assert long_run.accepted
     wait_until(lambda: states and states[-1].step > 420, 60.0, what='long run under way')
-    third = _done(clients[1].send_goal_async(Run.Goal(target_time=0.02)), 30.0, 'third goal')
+    third = send_run_goal(clients[1], 0.02)
     assert not third.accepted
     assert _done(long_run.cancel_goal_async(), 30.0, 'cancel').goals_canceling
     assert not _done(long_run.get_result_async(), 120.0, 'cancelled result').result.success
@@ -145,7 +153,7 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
     states = _states(ros_session, 'state_probe')
     client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
     wait_until(client.server_is_ready, 30.0, what='plant/run')
-    handle = _done(client.send_goal_async(Run.Goal(target_time=0.2)), 30.0, 'goal response')
+    handle = send_run_goal(client, 0.2)
     assert handle.accepted
     result = handle.get_result_async()
     wait_until(lambda: states and states[-1].step > 100, 60.0, what='run of graph A under way')
@@ -245,8 +253,7 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     states = _states(ros_session, 'state_probe')
     client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
     wait_until(client.server_is_ready, 30.0, what='plant/run')
-    handle = _done(client.send_goal_async(Run.Goal(target_time=0.002)), 30.0, 'goal response')
-    result = _done(handle.get_result_async(), 120.0, 'result').result
+    result = run_to(client, 0.002)
     assert result.success and result.final_step == 80, result.message
     wait_until(lambda: states and states[-1].step == 80, 30.0, what='the last state')
     assert not states[-1].safe_state and list(states[-1].applied_switch_on) == list(PATTERN)
@@ -274,8 +281,7 @@ def test_dtc_status_blocks_carry_every_sample_bit_exact_across_holds(start_node,
     client = ActionClient(node, Run, topics.RUN_ACTION)
     wait_until(client.server_is_ready, 30.0, what='plant/run')
     for target, last in ((0.0031, 123), (0.0041, 163)):      # a hold at step 124, then 164
-        handle = _done(client.send_goal_async(Run.Goal(target_time=target)), 30.0, 'acceptance')
-        result = _done(handle.get_result_async(), 120.0, 'result').result
+        result = run_to(client, target)
         assert result.success, result.message
         wait_until(lambda: status_blocks.records and status_blocks.records[-1][0].step == last,
                    30.0, what=f'status block flushed at the hold (step {last})')

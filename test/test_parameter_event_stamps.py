@@ -17,6 +17,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
+from drive_common.run_goal import run_to
 from drive_common.conversions import time_msg
 from drive_common.waiting import wait_until
 from drive_logger.message_definitions import is_sim_stamp
@@ -70,13 +71,7 @@ def test_a_change_at_a_hold_is_stamped_with_the_hold_sim_time(start_node, ros_se
 
     action = ActionClient(probe, Run, topics.RUN_ACTION)
     wait_until(action.server_is_ready, 30.0, what='plant/run')
-    future = action.send_goal_async(Run.Goal(target_time=HOLD))
-    wait_until(future.done, 30.0, what='goal')
-    handle = future.result()
-    assert handle.accepted
-    result_future = handle.get_result_async()
-    wait_until(result_future.done, 120.0, what='run result')
-    result = result_future.result().result
+    result = run_to(action, HOLD)
     assert result.success, result.message
     samples = round(HOLD * 30000)
     wait_until(lambda: len(measurements) >= samples, 30.0, what='measurements')

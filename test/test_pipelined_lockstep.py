@@ -21,6 +21,7 @@ from drive_bringup.headless import run_headless
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import Event, find_scenario, load_scenario
 from drive_common import topics
+from drive_common.run_goal import polling_wait, run_goal_result, send_run_goal
 from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 from dtc_msgs.msg import PlantState
@@ -113,16 +114,17 @@ def _client(ros_session):
 
 
 def _send(action, target: float):
-    send = action.send_goal_async(Run.Goal(target_time=target))
-    wait_until(send.done, 30.0, what='goal acceptance')
-    assert send.result().accepted
-    return send.result()
+    handle = send_run_goal(action, target)
+    assert handle.accepted
+    return handle
 
 
 def _result(handle):
-    future = handle.get_result_async()
-    wait_until(future.done, 120.0, what='Run result (the plant must not hang)')
-    return future.result().result
+    ends = time.monotonic() + 120.0
+    result = run_goal_result(handle, wait=lambda done, seconds: (
+        polling_wait(done, seconds) or time.monotonic() > ends))
+    assert result is not None, 'no Run result in 120 s (the plant must not hang)'
+    return result
 
 
 def test_cancelled_goals_drain_the_pipeline_and_the_next_goal_continues(start_node, ros_session):

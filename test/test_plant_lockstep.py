@@ -19,7 +19,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
-from drive_bringup.runner import run_goal_result
+from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common import topics
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE
 from drive_testing.fixed_commands import FixedGateCore
@@ -55,6 +55,7 @@ class PlantClient:
         self.node.create_subscription(PlantState, topics.PLANT_STATE, self.live.append,
                                       topics.STREAM_QOS)
         self.action = ActionClient(self.node, Run, topics.RUN_ACTION)
+        self.answered = False               # a goal of this client got its reply
         self.params = AsyncParameterClient(self.node, '/plant')
         wait_until(lambda: self.action.server_is_ready(), 30.0, what='plant/run action server')
         assert self.params.wait_for_services(timeout_sec=30.0)
@@ -62,13 +63,27 @@ class PlantClient:
                    what='plant/state_block publisher')
         time.sleep(0.5)  # let the state subscription match before the run starts
 
-    def run(self, target: float, relative: bool = False, timeout: float = 120.0):
-        handle = _future_result(self.action.send_goal_async(
-            Run.Goal(target_time=target, relative=relative)), 30.0, 'goal acceptance')
+    def start(self, target: float):
+        """Send a goal to absolute target (again if its reply is lost); its handle, accepted."""
+        handle = send_run_goal(self.action, target)
+        self.answered = True
         assert handle.accepted
-        ends = time.monotonic() + timeout       # a lost result reply is asked for again
-        result = run_goal_result(handle, wait=lambda done, seconds: (
-            wait_until(done, seconds, raise_timeout=False) or time.monotonic() > ends))
+        return handle
+
+    def run(self, target: float, relative: bool = False, timeout: float = 120.0):
+        ends = time.monotonic() + timeout
+
+        def wait(done, seconds):
+            return wait_until(done, seconds, raise_timeout=False) or time.monotonic() > ends
+
+        if relative:     # not idempotent, so never sent twice: only once a goal of ours was answered
+            assert self.answered, 'a relative goal needs an absolute one answered first (reply matching)'
+            handle = _future_result(self.action.send_goal_async(
+                Run.Goal(target_time=target, relative=True)), 30.0, 'goal acceptance')
+            assert handle.accepted
+        else:            # a goal reply lost right after discovery: the goal is sent again
+            handle = self.start(target)
+        result = run_goal_result(handle, wait=wait)     # a lost result reply is asked for again
         assert result is not None, f'no Run result in {timeout} s'
         return result
 
@@ -165,8 +180,7 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
     responder, _ = _start_graph(start_node, {'command_timeout': 4.0, 'startup_timeout': 2.0,
                                              'load.mode': 'dynamometer', 'load.speed': 20.0})
     client = PlantClient(ros_session)
-    handle = _future_result(client.action.send_goal_async(Run.Goal(target_time=0.2)), 30.0,
-                            'goal acceptance')
+    handle = client.start(0.2)
     wait_until(lambda: client.states and client.states[-1].step > 100, 30.0, what='run under way')
     assert client.states[-1].phase_current[0] > 1.0
     responder.process.kill()                       # in the middle of the goal
@@ -237,8 +251,7 @@ def test_bad_parameters_are_rejected_with_a_reason_and_old_values_kept(start_nod
 def test_motor_and_topology_change_only_while_held(start_node, ros_session):
     _start_graph(start_node)
     client = PlantClient(ros_session)
-    handle = _future_result(client.action.send_goal_async(Run.Goal(target_time=0.05)), 30.0,
-                            'goal acceptance')
+    handle = client.start(0.05)
     wait_until(lambda: client.states and client.states[-1].step > 20, 30.0, what='run under way')
     refused = client.set(**{'motor.resistance': 0.5})[0]
     assert not refused.successful and 'held' in refused.reason, refused.reason

@@ -20,6 +20,7 @@ from rclpy.serialization import serialize_message
 from bldc_plant_sim.parameters import PLANT_SCHEMA
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
+from drive_common.run_goal import run_to
 from drive_common.waiting import wait_until
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter
@@ -228,10 +229,7 @@ def test_changes_act_at_the_next_sample(graph):
     assert _set(clients['plant'], 'dc_link.voltage', 47.5).successful
     array = [0.01, -0.02, 0.0]
     assert _set(clients['plant'], 'sensors.current_offset', array).successful
-    handle = _answer(lambda: action.send_goal_async(Run.Goal(target_time=0.001, relative=False)), 'goal',
-                     tries=1)     # a goal is not asked twice: the plant would reject the second
-    assert handle.accepted
-    wait_until(handle.get_result_async().done, 120.0, what='run result')
+    assert run_to(action, 0.001).success
     wait_until(lambda: statuses and states and states[-1].step >= 25, 30.0, what='samples')
     assert all(s.torque_reference == 0.321 for s in statuses)
     assert all(s.dc_link_voltage == pytest.approx(47.5, rel=0.05) for s in states[:3])

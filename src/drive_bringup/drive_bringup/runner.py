@@ -17,7 +17,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 import rclpy
 from rclpy.action import ActionClient
@@ -28,6 +28,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from drive_bringup.scenario import Scenario
 from drive_common import topics
 from drive_common.processes import NodeProcess, isolated_env
+from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
 from dtc_msgs.action import Run
 
@@ -328,61 +329,6 @@ class GraphRunner:
         if not result.success:
             raise RunFailed(f'plant stopped at t = {result.final_time:.6f} s: {result.message}')
         return result.final_step, result.final_time
-
-
-GOAL_RESPONSE_WAIT = 5.0   # s without a response after which a Run goal is sent again
-GOAL_ATTEMPTS = 6
-
-
-def send_run_goal(action, target: float, *, wait: Callable[[Callable[[], bool], float], Any],
-                  feedback=None):
-    """Send a plant/run goal to ``target`` s (absolute) until the plant answers; its goal handle.
-
-    wait(done, timeout): spin until done() holds or timeout s pass.
-    Right after discovery a goal response can be lost (the client sees the
-    action server ready before the server's reply writer has matched the
-    client's reader), so a goal unanswered for GOAL_RESPONSE_WAIT s is sent
-    again. The lost one may still run; as targets are absolute, the one
-    accepted ends at the same sample (while the lost one holds the plant the
-    repeat is rejected, and sent again). A rejection of a first attempt is
-    returned as it is; TimeoutError after GOAL_ATTEMPTS unanswered tries.
-    """
-    unanswered = 0
-    while True:
-        send = action.send_goal_async(Run.Goal(target_time=target, relative=False),
-                                      feedback_callback=feedback)
-        if wait(send.done, GOAL_RESPONSE_WAIT):
-            handle = send.result()
-            if handle.accepted or not unanswered:
-                return handle
-            wait(lambda: False, 0.2)        # a repeat while the lost goal still runs
-        else:
-            unanswered += 1
-        if unanswered >= GOAL_ATTEMPTS:
-            raise TimeoutError(f'the plant answered none of {GOAL_ATTEMPTS} Run goals to {target} s '
-                               f'({GOAL_RESPONSE_WAIT:g} s each)')
-
-
-RESULT_ASK_AGAIN = 2.0      # s after which an ended goal's result is asked for again
-
-
-def run_goal_result(handle, *, wait: Callable[[Callable[[], bool], float], Any]):
-    """The result of an accepted plant/run goal (its ``Run.Result``).
-
-    wait(done, timeout) as for :func:`send_run_goal`. A result reply can be
-    lost like a goal reply; while the goal's status (the action's status
-    topic, transient local) says it has ended and no result came, the result
-    is asked for again every RESULT_ASK_AGAIN s. No overall timeout (the
-    plant's own timeouts end every goal); a wait that returns True before the
-    result came ends it with None.
-    """
-    from action_msgs.msg import GoalStatus
-    ended = (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED)
-    future = handle.get_result_async()
-    while not wait(future.done, RESULT_ASK_AGAIN):
-        if handle.status in ended:
-            future = handle.get_result_async()
-    return future.result().result if future.done() else None
 
 
 def _raise_keyboard_interrupt(signum, frame):

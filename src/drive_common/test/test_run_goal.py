@@ -1,10 +1,10 @@
-"""A Run goal whose reply or result is lost right after discovery is asked for again (runner)."""
+"""A Run goal whose reply or result is lost right after discovery is asked for again (drive_common.run_goal)."""
 from __future__ import annotations
 
 import pytest
 
-from drive_bringup import runner
-from drive_bringup.runner import run_goal_result, send_run_goal
+from drive_common import run_goal
+from drive_common.run_goal import run_goal_result, run_to, send_run_goal
 
 
 class _Future:
@@ -67,7 +67,7 @@ def test_a_first_rejection_is_returned_not_repeated():
 
 
 def test_a_plant_that_never_answers_fails_with_the_count(monkeypatch):
-    monkeypatch.setattr(runner, 'GOAL_ATTEMPTS', 3)
+    monkeypatch.setattr(run_goal, 'GOAL_ATTEMPTS', 3)
     action = _Action(None, None, None, True)
     with pytest.raises(TimeoutError, match='answered none of 3 Run goals to 0.5 s'):
         send_run_goal(action, 0.5, wait=_wait)
@@ -105,4 +105,34 @@ def test_a_running_goal_is_not_asked_again_and_a_wait_that_gives_up_gets_none():
         return done() or len(waits) >= 3
 
     assert run_goal_result(handle, wait=give_up_third_time) is None
-    assert handle.asked == 1 and waits == [runner.RESULT_ASK_AGAIN] * 3
+    assert handle.asked == 1 and waits == [run_goal.RESULT_ASK_AGAIN] * 3
+
+
+class _RunAction:
+    """Accepts (or rejects) every goal; its handles lose the first `lost` result replies."""
+
+    def __init__(self, accept: bool, lost: int, status: int) -> None:
+        self.accept, self.lost, self.status = accept, lost, status
+
+    def send_goal_async(self, goal, feedback_callback=None):
+        handle = _ResultHandle(self.lost, self.status)
+        handle.accepted = self.accept
+        return _Future(handle)
+
+
+def test_run_to_returns_the_result_of_the_goal():
+    from action_msgs.msg import GoalStatus
+    assert run_to(_RunAction(True, 1, GoalStatus.STATUS_SUCCEEDED), 0.1, wait=_wait) == 'the Run.Result'
+
+
+def test_run_to_refuses_a_rejected_goal():
+    from action_msgs.msg import GoalStatus
+    with pytest.raises(ValueError, match='rejected the Run goal to 0.1 s'):
+        run_to(_RunAction(False, 0, GoalStatus.STATUS_UNKNOWN), 0.1, wait=_wait)
+
+
+def test_run_to_gives_up_on_a_result_that_never_comes():
+    from action_msgs.msg import GoalStatus
+    from drive_common.waiting import WaitTimeout
+    with pytest.raises(WaitTimeout, match='no result of the Run goal to 0.1 s within 0.05 s'):
+        run_to(_RunAction(True, 10**9, GoalStatus.STATUS_EXECUTING), 0.1, timeout=0.05)
