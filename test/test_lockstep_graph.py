@@ -11,6 +11,7 @@
   the controller seconds later: a real run (switching, torque at its
   reference), not the safe state.
 """
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -19,7 +20,7 @@ from rclpy.action import ActionClient
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_SCHEMA
-from drive_common.run_goal import GOAL_RESPONSE_WAIT, run_to, send_run_goal
+from drive_common.run_goal import run_to, send_run_goal
 from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
 from drive_testing.harness import wait_until
@@ -40,14 +41,6 @@ BACKEMF_TABLE = (Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant_sim' 
 def _done(future, timeout: float, what: str):
     wait_until(future.done, timeout, what=what)
     return future.result()
-
-
-def _goal_handle(client, sent, target: float):
-    """The handle of a goal sent to absolute target; a reply lost right after discovery (the
-    server's reply writer not yet matched) means the goal is sent again (drive_common.run_goal)."""
-    if wait_until(sent.done, GOAL_RESPONSE_WAIT, raise_timeout=False):
-        return sent.result()
-    return send_run_goal(client, target)
 
 
 def _states(session, name: str) -> list:
@@ -101,8 +94,8 @@ def test_concurrent_goals_run_one_at_a_time_and_the_trajectory_is_a_single_clien
     for client in clients:
         wait_until(client.server_is_ready, 30.0, what='plant/run')
     # Both clients at once, each asking for the same absolute time.
-    sent = [client.send_goal_async(Run.Goal(target_time=0.01)) for client in clients]
-    handles = [_goal_handle(client, future, 0.01) for client, future in zip(clients, sent)]
+    with ThreadPoolExecutor(2) as pool:
+        handles = list(pool.map(lambda client: send_run_goal(client, 0.01), clients))
     accepted = [h for h in handles if h.accepted]
     assert accepted, 'no goal accepted'
     results = [_done(h.get_result_async(), 120.0, 'result').result for h in accepted]
@@ -126,6 +119,33 @@ def test_concurrent_goals_run_one_at_a_time_and_the_trajectory_is_a_single_clien
     for step, truth in zip(trajectory.steps, trajectory.states):
         assert list(by_step[step].phase_current) == list(truth.phase_current), step
         assert by_step[step].electromagnetic_torque == truth.electromagnetic_torque, step
+
+
+def test_a_relative_goal_whose_reply_is_lost_runs_once(start_node, ros_session):
+    """The reply to an accepted goal is dropped on the client side (as Fast DDS drops it when
+    the server's reply writer has not matched yet): the goal is recognised from the action's
+    status topic, its result arrives, and the plant ran it once, not again."""
+    from drive_common.run_goal import run_goal_result
+    _start_pair(start_node)
+    client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
+    wait_until(client.server_is_ready, 30.0, what='plant/run')
+    original = client.send_goal_async
+    dropped = []
+
+    def send_and_lose_the_first_reply(goal, feedback_callback=None, goal_uuid=None):
+        future = original(goal, feedback_callback=feedback_callback, goal_uuid=goal_uuid)
+        if not dropped:
+            (sequence,) = [k for k, f in client._pending_goal_requests.items() if f is future]
+            dropped.append(client._goal_sequence_number_to_goal_id.pop(sequence))  # reply ignored
+        return future
+
+    client.send_goal_async = send_and_lose_the_first_reply
+    handle = send_run_goal(client, 0.001, relative=True)
+    assert dropped and handle.accepted and handle.goal_id == dropped[0]
+    first = run_goal_result(handle)
+    assert first.success and first.final_step == 40, first.message          # 0.001 s once, not twice
+    second = run_to(client, 0.001, relative=True)
+    assert second.success and second.final_step == 80, second.message
 
 
 def _refused_with_domain(process, domain: int) -> bool:

@@ -55,7 +55,6 @@ class PlantClient:
         self.node.create_subscription(PlantState, topics.PLANT_STATE, self.live.append,
                                       topics.STREAM_QOS)
         self.action = ActionClient(self.node, Run, topics.RUN_ACTION)
-        self.answered = False               # a goal of this client got its reply
         self.params = AsyncParameterClient(self.node, '/plant')
         wait_until(lambda: self.action.server_is_ready(), 30.0, what='plant/run action server')
         assert self.params.wait_for_services(timeout_sec=30.0)
@@ -63,10 +62,9 @@ class PlantClient:
                    what='plant/state_block publisher')
         time.sleep(0.5)  # let the state subscription match before the run starts
 
-    def start(self, target: float):
-        """Send a goal to absolute target (again if its reply is lost); its handle, accepted."""
-        handle = send_run_goal(self.action, target)
-        self.answered = True
+    def start(self, target: float, relative: bool = False):
+        """Send a Run goal (a reply lost right after discovery is recovered); its handle, accepted."""
+        handle = send_run_goal(self.action, target, relative=relative)
         assert handle.accepted
         return handle
 
@@ -76,13 +74,7 @@ class PlantClient:
         def wait(done, seconds):
             return wait_until(done, seconds, raise_timeout=False) or time.monotonic() > ends
 
-        if relative:     # not idempotent, so never sent twice: only once a goal of ours was answered
-            assert self.answered, 'a relative goal needs an absolute one answered first (reply matching)'
-            handle = _future_result(self.action.send_goal_async(
-                Run.Goal(target_time=target, relative=True)), 30.0, 'goal acceptance')
-            assert handle.accepted
-        else:            # a goal reply lost right after discovery: the goal is sent again
-            handle = self.start(target)
+        handle = self.start(target, relative)
         result = run_goal_result(handle, wait=wait)     # a lost result reply is asked for again
         assert result is not None, f'no Run result in {timeout} s'
         return result

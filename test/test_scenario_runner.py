@@ -207,11 +207,13 @@ def _node_domains(argv, domain: int) -> set[str]:
             if pid == process.pid:
                 continue
             try:
-                if Path(f'/proc/{pid}/cmdline').read_bytes() == runner_cmdline:
-                    continue    # forked by the runner, not yet exec'd: still the runner's environment
+                before = Path(f'/proc/{pid}/cmdline').read_bytes()
                 environ = Path(f'/proc/{pid}/environ').read_bytes().split(b'\0')
+                after = Path(f'/proc/{pid}/cmdline').read_bytes()
             except OSError:
                 continue
+            if before != after or not before or before == runner_cmdline:
+                continue    # forked by the runner and not yet (or just being) exec'd: not a node yet
             domains.update(v.split(b'=', 1)[1].decode() for v in environ
                            if v.startswith(b'ROS_DOMAIN_ID='))
         return process.poll() is not None

@@ -1,6 +1,9 @@
 """``ros2 action list|info|send_goal``."""
 from __future__ import annotations
 
+import time
+
+from drive_common.action_goals import GoalStatusWatch, goal_result, send_goal
 from drive_ros2cli import messages
 from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
                                   join_node_name, print_names_and_types)
@@ -33,7 +36,7 @@ def add_verbs(verbs) -> None:
     p.add_argument('goal', nargs='?', default='{}', help="Goal request values in YAML format (e.g. '{order: 10}')")
     p.add_argument('-f', '--feedback', action='store_true', help='Echo feedback messages for the goal')
     p.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, metavar='N',
-                   help='Seconds to wait for the action server and for the goal response (default %(default)s)')
+                   help='Seconds to wait for the action server, and for the goal response per attempt: a reply lost right after discovery is recovered from the status topic, the goal is never sent twice (default %(default)s)')
     p.add_argument('--result-timeout', type=float, default=None, metavar='N',
                    help='Seconds to wait for the result (default: until Ctrl-C)')
     p.set_defaults(main=send_goal_main)
@@ -90,16 +93,25 @@ def send_goal_main(args) -> int:
         def on_feedback(feedback) -> None:
             print(f'Feedback:\n    {messages.to_yaml(feedback.feedback)}', flush=True)
 
-        handle = cli.call(client.send_goal_async(goal, feedback_callback=on_feedback if args.feedback else None),
-                          args.timeout, f"goal request to '{name}'")
+        # A reply lost right after discovery is recovered without sending the goal twice
+        # (the goal keeps its id; the action's status topic says whether it was accepted).
+        watch = GoalStatusWatch(cli.node, name)
+        try:
+            handle = send_goal(client, goal, watch=watch, wait=cli.wait_for, response_wait=args.timeout,
+                               feedback=on_feedback if args.feedback else None)
+        except TimeoutError as exc:
+            raise CliError(f"goal request to '{name}': {exc}") from None
         if not handle.accepted:
             print('Goal was rejected.')
             return 0
         print(f"Goal accepted with ID: {bytes(handle.goal_id.uuid).hex()}\n", flush=True)
-        result_future = handle.get_result_async()
         try:
             timeout = args.result_timeout if args.result_timeout is not None else float('inf')
-            result = cli.call(result_future, timeout, f"result of the goal on '{name}'")
+            ends = time.monotonic() + timeout
+            result = goal_result(handle, wait=lambda done, seconds: (
+                cli.wait_for(done, min(seconds, max(0.0, ends - time.monotonic()))) or time.monotonic() > ends))
+            if result is None:
+                raise CliError(f"result of the goal on '{name}': no answer within {timeout:g} s")
         except KeyboardInterrupt:
             print('Canceling goal...')
             cli.call(handle.cancel_goal_async(), args.timeout, 'goal cancel request')

@@ -1,0 +1,131 @@
+"""Action goals whose reply is lost right after discovery: recovered, never run twice.
+
+An action client sees the server ready once the server's request readers
+have matched it, but the server's reply writers may not have matched the
+client's reply readers yet; Fast DDS then drops the reply ("failed to send
+response (timeout)") and the client would wait for it forever. Sending the
+goal again with a new id could run it twice (a relative plant/run goal would
+go twice as far). So :func:`send_goal` keeps one goal id for every attempt
+and asks the action's status topic (``<action>/_action/status``, transient
+local: it lists every goal the server tracks, kept there after the goal
+ends) whether the goal was accepted:
+
+- the reply came: it is the answer (a rejection of a repeat, which the
+  server gives for an id it already tracks, is checked against the status);
+- no reply, and the status lists the id: the goal was accepted; its handle
+  is rebuilt from the status (``ClientGoalHandle``; feedback, status and
+  result work as for an answered goal);
+- no reply and no status: the request is sent again, same id.
+
+:func:`goal_result` asks again for a result whose reply was lost, once the
+status says the goal has ended. ``wait(done, seconds)`` is how a helper
+waits: it lets the client's node be spun and returns whether ``done()``
+holds (:func:`polling_wait` when an executor spins the node elsewhere).
+"""
+from __future__ import annotations
+
+import os
+import threading
+import weakref
+from typing import Any, Callable
+
+from drive_common.waiting import wait_until
+
+Wait = Callable[[Callable[[], bool], float], Any]
+
+GOAL_RESPONSE_WAIT = 5.0   # s without a reply after which the status is asked and the goal sent again
+GOAL_ATTEMPTS = 6
+STATUS_WAIT = 2.0          # s the status topic may take to list a goal the server accepted
+RESULT_ASK_AGAIN = 2.0     # s after which an ended goal's result is asked for again
+
+
+def polling_wait(done: Callable[[], bool], seconds: float) -> bool:
+    """Poll done() for up to seconds (the node is spun by an executor of its own)."""
+    return bool(wait_until(done, seconds, 0.005, raise_timeout=False))
+
+
+def _ended(status: int) -> bool:
+    from action_msgs.msg import GoalStatus
+    return status in (GoalStatus.STATUS_SUCCEEDED, GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED)
+
+
+class GoalStatusWatch:
+    """Every goal the action server has listed on its status topic: id -> (status, accept stamp)."""
+
+    def __init__(self, node, action_name: str) -> None:
+        from action_msgs.msg import GoalStatusArray
+        from rclpy.qos import qos_profile_action_status_default
+        self._goals: dict[bytes, tuple[int, Any]] = {}
+        self._lock = threading.Lock()
+        self.subscription = node.create_subscription(
+            GoalStatusArray, f'{action_name}/_action/status', self._on_status, qos_profile_action_status_default)
+
+    @classmethod
+    def of(cls, client) -> 'GoalStatusWatch':
+        """The watch of an rclpy ActionClient's action on its own node (one per client)."""
+        watch = getattr(client, '_drive_status_watch', None)
+        if watch is None:
+            watch = client._drive_status_watch = cls(client._node, client._action_name)
+        return watch
+
+    def _on_status(self, msg) -> None:
+        with self._lock:
+            for entry in msg.status_list:
+                self._goals[bytes(entry.goal_info.goal_id.uuid)] = (entry.status, entry.goal_info.stamp)
+
+    def get(self, goal_id: bytes) -> tuple[int, Any] | None:
+        with self._lock:
+            return self._goals.get(goal_id)
+
+
+def _adopted(client, goal_id, status: int, stamp):
+    """The handle of a goal the server accepted but whose reply was lost."""
+    from rclpy.action.client import ClientGoalHandle
+    response = client._action_type.Impl.SendGoalService.Response(accepted=True, stamp=stamp)
+    handle = ClientGoalHandle(client, goal_id, response)
+    handle._status = status
+    if not _ended(status):     # status updates reach it as they reach an answered goal's handle
+        client._goal_handles[bytes(goal_id.uuid)] = weakref.ref(handle)
+    return handle
+
+
+def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait = polling_wait,
+              feedback=None, response_wait: float = GOAL_RESPONSE_WAIT):
+    """Send goal through an rclpy ActionClient; its goal handle once the server has answered
+    or its status shows the goal accepted. A reply is awaited response_wait s per attempt;
+    TimeoutError after GOAL_ATTEMPTS unanswered attempts."""
+    from unique_identifier_msgs.msg import UUID
+    watch = watch or GoalStatusWatch.of(client)
+    goal_id = UUID(uuid=list(os.urandom(16)))
+    key = bytes(goal_id.uuid)
+
+    def listed() -> bool:
+        return watch.get(key) is not None
+
+    for attempt in range(GOAL_ATTEMPTS):
+        sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
+        handle = sent.result() if wait(sent.done, response_wait) and sent.done() else None
+        if handle is not None and (handle.accepted or attempt == 0):
+            return handle            # the answer; a first rejection is a real one
+        # No reply, or a repeat rejected (the server rejects an id it already tracks):
+        # the status topic says whether the goal was accepted.
+        if wait(listed, STATUS_WAIT if handle is None else response_wait) and listed():
+            return _adopted(client, goal_id, *watch.get(key))
+        if handle is not None:
+            return handle            # rejected, and never accepted
+    raise TimeoutError(f'the action server answered none of {GOAL_ATTEMPTS} requests for one goal '
+                       f'({response_wait:g} s each)')
+
+
+def goal_result(handle, *, wait: Wait = polling_wait):
+    """The result response of an accepted goal (``.status``, ``.result``).
+
+    While the goal's status says it has ended and no result came, the result
+    is asked for again every RESULT_ASK_AGAIN s. No overall timeout; a wait
+    that returns True before the result came ends it with None.
+    """
+    future = handle.get_result_async()
+    while not wait(future.done, RESULT_ASK_AGAIN):
+        if _ended(handle.status):
+            future = handle.get_result_async()
+    return future.result() if future.done() else None
