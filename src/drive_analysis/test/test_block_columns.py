@@ -1,7 +1,6 @@
 """Analysis reads block bags exactly as per-sample bags (issue 14): same columns, same metrics."""
 import math
 
-import numpy as np
 import pytest
 
 from drive_analysis.arrays import flatten_columns

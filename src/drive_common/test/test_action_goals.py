@@ -6,7 +6,7 @@ import pytest
 from action_msgs.msg import GoalStatus
 
 from drive_common import action_goals
-from drive_common.action_goals import goal_result, send_goal
+from drive_common.action_goals import goal_result
 from drive_common.run_goal import run_to, send_run_goal
 from drive_common.waiting import WaitTimeout
 from dtc_msgs.action import Run

@@ -23,7 +23,7 @@ from drive_bringup.runner import GraphRunner, RunFailed
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import intact_messages
-from drive_logger.message_definitions import cdr_stamp_ns, is_sim_stamp
+from drive_logger.message_definitions import is_sim_stamp
 
 pytestmark = pytest.mark.ros
 
