@@ -200,8 +200,6 @@ def _node_domains(argv, domain: int) -> set[str]:
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     domains: set[str] = set()
 
-    runner_cmdline = Path(f'/proc/{process.pid}/cmdline').read_bytes()
-
     def nodes_seen():
         for pid in processes_with_env(marker):
             if pid == process.pid:
@@ -212,8 +210,8 @@ def _node_domains(argv, domain: int) -> set[str]:
                 after = Path(f'/proc/{pid}/cmdline').read_bytes()
             except OSError:
                 continue
-            if before != after or not before or before == runner_cmdline:
-                continue    # forked by the runner and not yet (or just being) exec'd: not a node yet
+            if before != after or b'\0--ros-args\0' not in before + b'\0':
+                continue    # not (yet) a node: a child of the runner before or during its exec
             domains.update(v.split(b'=', 1)[1].decode() for v in environ
                            if v.startswith(b'ROS_DOMAIN_ID='))
         return process.poll() is not None

@@ -19,5 +19,6 @@ setup(
     tests_require=['pytest'],
     entry_points={'console_scripts': [
         'hysteresis_current_controller = drive_examples.hysteresis_current_controller:main',
+        'scripted_run = drive_examples.scripted_run:main',
     ]},
 )

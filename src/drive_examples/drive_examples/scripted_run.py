@@ -1,0 +1,61 @@
+"""A launch-free script that drives a running plant through its ``plant/run`` action.
+
+Start a plant and a controller (``ros2 run ...``), then
+``ros2 run drive_examples scripted_run --to 0.02 --then 0.01``: the plant runs
+to t = 0.02 s, holds, then runs 0.01 s more (a relative goal); each result is
+printed. :func:`drive_common.run_goal.run_to` recovers a goal or result reply
+lost right after discovery, and never runs a goal twice.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+
+
+def main(argv=None) -> int:
+    import rclpy
+    from rclpy.action import ActionClient
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    from drive_common.run_goal import run_to
+    from dtc_msgs.action import Run
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--to', type=float, required=True, help='absolute target, s of sim time')
+    parser.add_argument('--then', type=float, default=0.0, help='then this many s more (0: no second goal)')
+    args = parser.parse_args(rclpy.utilities.remove_ros_args(sys.argv if argv is None else argv)[1:])
+
+    rclpy.init(args=argv)
+    node = rclpy.create_node('scripted_run')
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+
+    def spin() -> None:             # run_to polls; this thread spins the node
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    spinner = threading.Thread(target=spin, daemon=True)
+    spinner.start()
+    try:
+        plant = ActionClient(node, Run, 'plant/run')
+        if not plant.wait_for_server(timeout_sec=30.0):
+            print('no plant/run action server within 30 s', file=sys.stderr)
+            return 1
+        results = [run_to(plant, args.to)]
+        if args.then > 0.0:
+            results.append(run_to(plant, args.then, relative=True))
+        for result in results:
+            print(f'success={result.success} final_step={result.final_step} '
+                  f'final_time={result.final_time:.6f} {result.message}', flush=True)
+        return 0 if all(r.success for r in results) else 1
+    finally:
+        rclpy.try_shutdown()        # ends the spin, then the node goes
+        spinner.join(timeout=10.0)
+        node.destroy_node()
+
+
+if __name__ == '__main__':
+    sys.exit(main())
