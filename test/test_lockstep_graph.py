@@ -101,8 +101,9 @@ def test_concurrent_goals_run_one_at_a_time_and_the_trajectory_is_a_single_clien
     results = [_done(h.get_result_async(), 120.0, 'result').result for h in accepted]
     assert all(r.success and r.final_step == 400 for r in results), [r.message for r in results]
     # A goal sent while a run is under way is rejected (the stated policy), and the
-    # plant logs why.
-    long_run = send_run_goal(clients[0], 0.1)
+    # plant logs why. The run is long (1 s of sim time, cancelled below) so that it is still
+    # under way if the third goal's reply is slow and the goal is sent again.
+    long_run = send_run_goal(clients[0], 1.0)
     assert long_run.accepted
     wait_until(lambda: states and states[-1].step > 420, 60.0, what='long run under way')
     third = send_run_goal(clients[1], 0.02)
@@ -289,13 +290,15 @@ def test_dtc_status_blocks_carry_every_sample_bit_exact_across_holds(start_node,
     telemetry = {'telemetry.block_size': 7, 'telemetry.live_period': 250e-6}
     dtc = {'mode': 'two_phase_six_switch', 'backemf_table_path': str(BACKEMF_TABLE),
            'torque_reference': 0.5}
-    start_node('dtc_controller', 'dtc_controller', parameters={**dtc, **telemetry})
-    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, **telemetry})
+    # The readers exist before the nodes start: a node waits, before its first sample, for the
+    # readers its graph already lists; one that joined later can miss the first blocks.
     node = ros_session.node('block_probe')
     plant_blocks = BlockSamples(node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
     status_blocks = BlockSamples(node, DtcStatusBlock, topics.DTC_STATUS_BLOCK)
     live: list = []
     node.create_subscription(DtcStatus, topics.DTC_STATUS, live.append, topics.STREAM_QOS)
+    start_node('dtc_controller', 'dtc_controller', parameters={**dtc, **telemetry})
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, **telemetry})
     wait_until(lambda: status_blocks.subscription.get_publisher_count() >= 1
                and plant_blocks.subscription.get_publisher_count() >= 1, 30.0, what='block topics')
     client = ActionClient(node, Run, topics.RUN_ACTION)
