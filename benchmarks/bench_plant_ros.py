@@ -26,6 +26,7 @@ from drive_common import topics
 from drive_testing.ceiling import measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 from drive_common.waiting import wait_until
+from drive_common.action_goals import within
 from drive_common.run_goal import run_goal_result, send_run_goal
 from dtc_msgs.action import Run
 
@@ -56,9 +57,7 @@ def plant_rate(context, env, samples: int, state_period: float, timeout: float =
                 handle = send_run_goal(client, target, wait=spin_for)
             except TimeoutError as exc:
                 raise TimeoutError(f'{exc} ({plant})') from exc
-            ends = time.monotonic() + timeout
-            result = run_goal_result(handle, wait=lambda done, seconds: (
-                spin_for(done, seconds) or time.monotonic() > ends))
+            result = run_goal_result(handle, wait=within(spin_for, timeout))
             if result is None:
                 raise TimeoutError(f'Run goal to {target} s: accepted, no result after {timeout} s '
                                    f'({plant})')

@@ -21,7 +21,8 @@ from drive_bringup.headless import run_headless
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import Event, find_scenario, load_scenario
 from drive_common import topics
-from drive_common.run_goal import polling_wait, run_goal_result, send_run_goal
+from drive_common.action_goals import polling_wait, within
+from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 from dtc_msgs.msg import PlantState
@@ -120,9 +121,7 @@ def _send(action, target: float):
 
 
 def _result(handle):
-    ends = time.monotonic() + 120.0
-    result = run_goal_result(handle, wait=lambda done, seconds: (
-        polling_wait(done, seconds) or time.monotonic() > ends))
+    result = run_goal_result(handle, wait=within(polling_wait, 120.0))
     assert result is not None, 'no Run result in 120 s (the plant must not hang)'
     return result
 

@@ -19,7 +19,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from bldc_plant_sim.core.cosim import CoSimulation
 from bldc_plant_sim.core.plant import PlantCore
-from drive_common.run_goal import run_goal_result, send_run_goal
+from drive_common.run_goal import run_to, send_run_goal
 from drive_common import topics
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE
 from drive_testing.fixed_commands import FixedGateCore
@@ -69,15 +69,8 @@ class PlantClient:
         return handle
 
     def run(self, target: float, relative: bool = False, timeout: float = 120.0):
-        ends = time.monotonic() + timeout
-
-        def wait(done, seconds):
-            return wait_until(done, seconds, raise_timeout=False) or time.monotonic() > ends
-
-        handle = self.start(target, relative)
-        result = run_goal_result(handle, wait=wait)     # a lost result reply is asked for again
-        assert result is not None, f'no Run result in {timeout} s'
-        return result
+        """The Run.Result of a goal (ValueError if rejected, WaitTimeout if no result in timeout s)."""
+        return run_to(self.action, target, relative=relative, timeout=timeout)
 
     def set(self, **values):
         future = self.params.set_parameters([Parameter(k, value=v) for k, v in values.items()])

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 import weakref
 from typing import Any, Callable
 
@@ -42,6 +43,16 @@ RESULT_ASK_AGAIN = 2.0     # s after which an ended goal's result is asked for a
 def polling_wait(done: Callable[[], bool], seconds: float) -> bool:
     """Poll done() for up to seconds (the node is spun by an executor of its own)."""
     return bool(wait_until(done, seconds, 0.005, raise_timeout=False))
+
+
+def within(wait: Wait, timeout: float) -> Wait:
+    """wait, never past timeout s from now, and True once that time has passed (the caller's
+    bound on a helper that has none, e.g. :func:`goal_result`; timeout may be inf)."""
+    ends = time.monotonic() + timeout
+
+    def bounded(done: Callable[[], bool], seconds: float):
+        return wait(done, max(0.0, min(seconds, ends - time.monotonic()))) or time.monotonic() > ends
+    return bounded
 
 
 def _ended(status: int) -> bool:

@@ -34,6 +34,20 @@ def fail(reason: object, code: int = 2) -> int:
     return code
 
 
+def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
+    """A started daemon thread that spins executor until its context shuts down."""
+    from rclpy.executors import ExternalShutdownException
+
+    def spin() -> None:
+        try:
+            executor.spin()
+        except ExternalShutdownException:
+            pass
+    thread = threading.Thread(target=spin, daemon=True, name=name)
+    thread.start()
+    return thread
+
+
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
              work: Callable[[object, threading.Event], None] | None = None,
              errors: tuple[type[BaseException], ...] = ()) -> int:

@@ -14,9 +14,7 @@ poll, the node being spun by an executor elsewhere).
 """
 from __future__ import annotations
 
-import time
-
-from drive_common.action_goals import GoalStatusWatch, Wait, goal_result, polling_wait, send_goal
+from drive_common.action_goals import GoalStatusWatch, Wait, goal_result, polling_wait, send_goal, within
 from drive_common.waiting import WaitTimeout
 from dtc_msgs.action import Run
 
@@ -47,12 +45,7 @@ def run_to(action, target: float, *, relative: bool = False, timeout: float = 12
     handle = send_run_goal(action, target, relative=relative, wait=wait)
     if not handle.accepted:
         raise ValueError(f'the plant rejected the Run goal to {target} s (see its log)')
-    ends = time.monotonic() + timeout
-
-    def bounded(done, seconds):
-        return wait(done, max(0.0, min(seconds, ends - time.monotonic()))) or time.monotonic() > ends
-
-    result = run_goal_result(handle, wait=bounded)
+    result = run_goal_result(handle, wait=within(wait, timeout))
     if result is None:
         raise WaitTimeout(f'no result of the Run goal to {target} s within {timeout:g} s')
     return result

@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-import threading
 
 
 def main(argv=None) -> int:
     import rclpy
     from rclpy.action import ActionClient
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.executors import SingleThreadedExecutor
 
+    from drive_common.node_main import spin_in_background
     from drive_common.run_goal import run_to
     from dtc_msgs.action import Run
 
@@ -31,14 +31,7 @@ def main(argv=None) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
 
-    def spin() -> None:             # run_to polls; this thread spins the node
-        try:
-            executor.spin()
-        except ExternalShutdownException:
-            pass
-
-    spinner = threading.Thread(target=spin, daemon=True)
-    spinner.start()
+    spinner = spin_in_background(executor)     # run_to polls; this thread spins the node
     try:
         plant = ActionClient(node, Run, 'plant/run')
         if not plant.wait_for_server(timeout_sec=30.0):

@@ -61,7 +61,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter as RosParameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
@@ -73,6 +73,7 @@ from rosgraph_msgs.msg import Clock
 
 from drive_common import topics as t
 from drive_common.lockstep_io import DirectReceiver
+from drive_common.node_main import spin_in_background
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
@@ -430,13 +431,7 @@ def main(args=None) -> int:
     for thread in threads:
         thread.start()
 
-    def spin() -> None:
-        try:
-            executor.spin()
-        except ExternalShutdownException:
-            pass
-    spinner = threading.Thread(target=spin, daemon=True)
-    spinner.start()
+    spin_in_background(executor)
     try:
         while not stop.wait(0.2):
             pass

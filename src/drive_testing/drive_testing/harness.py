@@ -12,11 +12,11 @@
 from __future__ import annotations
 
 import os
-import threading
 from pathlib import Path
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, reserve_domain,
                                     ros_arguments)
+from drive_common.node_main import spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
 __all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
@@ -57,15 +57,7 @@ class RosSession:
         rclpy.init(context=self.context, domain_id=domain_id)
         self.executor = MultiThreadedExecutor(num_threads=num_threads, context=self.context)
         self._nodes: list = []
-        self._thread = threading.Thread(target=self._spin, daemon=True)
-        self._thread.start()
-
-    def _spin(self) -> None:
-        from rclpy.executors import ExternalShutdownException
-        try:
-            self.executor.spin()
-        except ExternalShutdownException:
-            pass
+        self._thread = spin_in_background(self.executor, 'ros_session')
 
     def node(self, name: str, **kwargs):
         """A plain rclpy node in this session."""

@@ -1,9 +1,7 @@
 """``ros2 action list|info|send_goal``."""
 from __future__ import annotations
 
-import time
-
-from drive_common.action_goals import GoalStatusWatch, goal_result, send_goal
+from drive_common.action_goals import goal_result, send_goal, within
 from drive_ros2cli import messages
 from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
                                   join_node_name, print_names_and_types)
@@ -95,9 +93,8 @@ def send_goal_main(args) -> int:
 
         # A reply lost right after discovery is recovered without sending the goal twice
         # (the goal keeps its id; the action's status topic says whether it was accepted).
-        watch = GoalStatusWatch(cli.node, name)
         try:
-            handle = send_goal(client, goal, watch=watch, wait=cli.wait_for, response_wait=args.timeout,
+            handle = send_goal(client, goal, wait=cli.wait_for, response_wait=args.timeout,
                                feedback=on_feedback if args.feedback else None)
         except TimeoutError as exc:
             raise CliError(f"goal request to '{name}': {exc}") from None
@@ -107,9 +104,7 @@ def send_goal_main(args) -> int:
         print(f"Goal accepted with ID: {bytes(handle.goal_id.uuid).hex()}\n", flush=True)
         try:
             timeout = args.result_timeout if args.result_timeout is not None else float('inf')
-            ends = time.monotonic() + timeout
-            result = goal_result(handle, wait=lambda done, seconds: (
-                cli.wait_for(done, min(seconds, max(0.0, ends - time.monotonic()))) or time.monotonic() > ends))
+            result = goal_result(handle, wait=within(cli.wait_for, timeout))
             if result is None:
                 raise CliError(f"result of the goal on '{name}': no answer within {timeout:g} s")
         except KeyboardInterrupt:
