@@ -34,10 +34,13 @@ controller that stops answering during a run.
 
 One goal at a time: a ``plant/run`` goal (or ``run_until``) that arrives
 while another run holds the plant's time is rejected, and the plant logs
-why. A second graph in the domain (a second node named ``plant``, a second
-publisher of a lockstep topic, or one controller's commands coming from two
-publishers) makes the plant refuse to run: the run ends unsuccessful and
-the node exits with code 2 and a one-line error naming the domain.
+why. Before any controller is bound, a second graph in the domain (a second
+node named ``plant``, a second publisher of a lockstep topic) makes the plant
+refuse to run: the node exits with code 2 and a one-line error naming the
+domain. Each command topic is bound to the controller whose command the plant
+takes first (:mod:`drive_common.peer_binding`); from then on any other
+publisher on the lockstep topics is ignored and reported once on
+``/diagnostics`` (WARN, with its node name), never stopping or changing a run.
 
 Threading: the lockstep publishers and subscriptions are the node's own
 (``ros2 node info /plant`` lists them), but the command subscriptions are in
@@ -74,6 +77,7 @@ from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, Graph
 from drive_common.lockstep_wire import LockstepWire
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
+from drive_common.peer_binding import PeerBinding
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.samples import DriveSample, DutySample, GateSample, PfcSample
 from drive_common.telemetry import nanoseconds
@@ -122,25 +126,16 @@ class _WaitReporter:
 class _Inbox:
     """Latest command per step from one controller (filled by the stepping thread's receiver).
 
-    One publisher numbers its messages in increasing order; a number that
-    does not increase means a second publisher answers too (two graphs mixed).
+    Only the bound controller's commands get here (``binding``, see
+    drive_common.peer_binding): any other publisher's are ignored on receipt.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, binding: PeerBinding) -> None:
         self.commands: dict[int, Any] = {}
-        self.last_sequence = 0
-        self.mixed = False
+        self.binding = binding
 
-    def put(self, msg, info) -> None:
+    def put(self, msg) -> None:
         self.commands[msg.step] = msg
-        sequence = info.get('publication_sequence_number') or 0   # 0: not given by the RMW
-        if 0 < sequence <= self.last_sequence:
-            self.mixed = True
-        self.last_sequence = sequence
-
-    def new_publisher_allowed(self) -> None:
-        """The controller may have been replaced (a new run, or after it fell silent)."""
-        self.last_sequence, self.mixed = 0, False
 
     def take(self, step: int):
         msg = self.commands.pop(step, None)
@@ -218,7 +213,13 @@ class PlantNode(Node):
         qos, direct = topics.LOCKSTEP_QOS, DirectCallbackGroup()
         self._drive_pub = self.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, qos)
         self._pfc_pub = self.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, qos)
-        self._gates_in, self._duty_in = _Inbox(), _Inbox()
+        # Each command topic is bound to the controller that answers first (peer_binding).
+        self._gates_in = _Inbox(PeerBinding(self, topics.GATE_COMMAND, topics.DRIVE_MEASUREMENT,
+                                            report=self._diagnose_intruder,
+                                            may_bind=lambda: self._conflict is None))
+        self._duty_in = _Inbox(PeerBinding(self, topics.DUTY_COMMAND, topics.PFC_MEASUREMENT,
+                                           report=self._diagnose_intruder,
+                                           may_bind=lambda: self._conflict is None))
         # Measurements out and commands in as CDR bytes (drive_common.lockstep_wire).
         self._drive_wire = LockstepWire(DriveMeasurement, DriveSample)
         self._pfc_wire = LockstepWire(PfcMeasurement, PfcSample)
@@ -231,7 +232,7 @@ class PlantNode(Node):
             self._receive(self._duty_in, topics.DUTY_COMMAND, DutyCommand, DutySample), qos,
             callback_group=direct, raw=True)
         self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
-                                        with_info=True)
+                                        with_publisher=True)
         # Ground truth: every sample in blocks (bags), a decimated live topic (people).
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.LIVE_QOS)
         self._block_pub = self.create_publisher(PlantStateBlock, topics.PLANT_STATE_BLOCK,
@@ -359,6 +360,13 @@ class PlantNode(Node):
             self._busy.release()             # before the client sees the result
 
     def _graph_conflict(self) -> str | None:
+        """A second graph in the domain, or None; once a controller is bound, intruders are
+        ignored and reported instead (drive_common.peer_binding)."""
+        bindings = (self._gates_in.binding, self._duty_in.binding)
+        if any(b.bound for b in bindings):
+            for binding in bindings:
+                binding.check()
+            return None
         return graph_conflict(self, LOCKSTEP_TOPICS)
 
     def _check_graph(self) -> None:
@@ -475,8 +483,6 @@ class PlantNode(Node):
             scheduled = {'gate'} if self.schedule.dtc_ticks else set()
             scheduled |= {'duty'} if self.schedule.pfc_ticks else set()
             self._startup_pending = scheduled - self._ready
-            self._gates_in.new_publisher_allowed()
-            self._duty_in.new_publisher_allowed()
             for which, reason in self._faulted.items():
                 if reason is not None and which not in self._startup_pending:
                     self._faults.append(f'safe state continues ({which}): {reason}')
@@ -544,12 +550,6 @@ class PlantNode(Node):
                 self._faulted[which] = reason
             (self._silent.add if msg is None else self._silent.discard)(which)
             self._ready.discard(which)
-            inbox.new_publisher_allowed()
-            return None
-        if inbox.mixed:
-            self._conflict = (f'plant: {CONTROLLERS[which]}: commands from two publishers in ROS '
-                              f'domain {self.context.get_domain_id()}: refusing to mix two graphs '
-                              '(stop the other one or set another ROS_DOMAIN_ID)')
             return None
         self._ready.add(which)
         self._silent.discard(which)
@@ -569,14 +569,16 @@ class PlantNode(Node):
         """
         wire = LockstepWire(msg_type, sample_type)
 
-        def receive(data: bytes, info) -> None:
+        def receive(data: bytes, publisher: bytes) -> None:
+            if not inbox.binding.accepts(publisher):
+                return                       # not the bound controller: ignored (reported once)
             try:
                 command = wire.decode(data)[0]
             except (ValueError, struct.error) as exc:
                 self.get_logger().warning(f'{topic}: malformed message dropped: {exc}',
                                           throttle_duration_sec=1.0)
                 return
-            inbox.put(command, info)
+            inbox.put(command)
         return receive
 
     def _wrong_topology(self, msg) -> str | None:
@@ -596,6 +598,10 @@ class PlantNode(Node):
     def _sources(self, which: str) -> str:
         """The node(s) publishing this controller's commands, for a diagnostic (a node that
         has left the graph, e.g. a crashed controller, named as the last one seen)."""
+        binding = (self._gates_in if which == 'gate' else self._duty_in).binding
+        if binding.bound:
+            self._last_sources[which] = binding.peer_name
+            return binding.peer_name
         topic = topics.GATE_COMMAND if which == 'gate' else topics.DUTY_COMMAND
         names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
                                   for i in self.get_publishers_info_by_topic(topic)}))
@@ -706,6 +712,10 @@ class PlantNode(Node):
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
                         'controller': which, 'node': sources})
         self.get_logger().error(f'safe state applied: {reason}')
+
+    def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
+        """Another publisher on a bound lockstep topic, once (WARN; drive_common.peer_binding)."""
+        self._diagnose(DiagnosticStatus.WARN, message, values)
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
         status = DiagnosticStatus(level=level, name='plant: lockstep', message=message,

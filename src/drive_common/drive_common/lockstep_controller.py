@@ -17,10 +17,12 @@ it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
 thread receives it directly, no executor hand-off per sample. A repeated
 measurement (the plant re-sends a first measurement it got no answer to) is
 answered with the same command, without a second core update (and without a
-second telemetry sample). A second
-node of the same name, or a second publisher of the measurement or the
-command topic, in the domain makes the node refuse to run (exit code 2, the
-domain named).
+second telemetry sample). Before its first measurement, a second node of
+the same name, or a second publisher of the measurement or the command
+topic, in the domain makes the node refuse to run (exit code 2, the domain
+named). The first measurement binds the node to the plant that sent it
+(:mod:`drive_common.peer_binding`): from then on any other publisher on its
+lockstep topics is ignored and reported once on ``/diagnostics`` (WARN).
 
 Telemetry (docs/architecture.md "Telemetry: blocks and live topics"): every
 answered sample goes into a status block (status + the measurement it acted
@@ -40,16 +42,18 @@ from typing import Any, Callable
 from rclpy.node import Node
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from drive_common.conversions import ReusedMessage
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict, readers_matched)
 from drive_common.lockstep_wire import LockstepWire
 from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.peer_binding import PeerBinding
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
 from drive_common.telemetry_blocks import BlockStream
-from drive_common.topics import BLOCK_QOS, LIVE_QOS, LOCKSTEP_QOS
+from drive_common.topics import BLOCK_QOS, DIAGNOSTICS, LIVE_QOS, LOCKSTEP_QOS
 from drive_common.waiting import wait_until
 
 
@@ -122,9 +126,14 @@ class LockstepControllerNode(Node):
         self._last_measurement = self._last_command = self._last_stamp = None   # bytes, bytes, (sec, ns)
         # A thread waits on the measurement subscription directly (lockstep_io) and
         # answers each sample; parameters and services stay on this node's executor.
+        self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
+        self._conflict: str | None = None     # a second graph found: refuse to run (exit 2)
+        self._binding = PeerBinding(self, channels.measurement_topic, channels.command_topic,
+                                    report=self._diagnose_intruder,
+                                    may_bind=lambda: self._graph_conflict() is None)
         self._receiver = DirectReceiver(self.context, [self.create_subscription(
-            channels.measurement_type, channels.measurement_topic, self._on_measurement,
-            LOCKSTEP_QOS, callback_group=DirectCallbackGroup(), raw=True)])
+            channels.measurement_type, channels.measurement_topic, self._on_peer_message,
+            LOCKSTEP_QOS, callback_group=DirectCallbackGroup(), raw=True)], with_publisher=True)
         self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._answer_samples, daemon=True,
@@ -146,11 +155,20 @@ class LockstepControllerNode(Node):
                 raise exc
 
     def _check_graph(self) -> None:
-        reason = not self._stop.is_set() and graph_conflict(
-            self, (self._channels.command_topic, self._channels.measurement_topic))
+        """Bound to a plant: report intruders; else a second graph in the domain: exit 2."""
+        if self._binding.bound:
+            self._binding.check()
+            return
+        reason = not self._stop.is_set() and (self._conflict or self._graph_conflict())
         if reason:
             self._stop.set()
             raise GraphConflict(reason)      # once: run_node reports it and exits 2
+
+    def _graph_conflict(self) -> str | None:
+        """A second graph in the domain (kept: the check timer makes the node exit 2), or None."""
+        self._conflict = self._conflict or graph_conflict(
+            self, (self._channels.command_topic, self._channels.measurement_topic))
+        return self._conflict
 
     def stop(self) -> None:
         """End the answering thread and wait for it (before the node is destroyed)."""
@@ -173,6 +191,21 @@ class LockstepControllerNode(Node):
             raise ParameterError(str(exc)) from exc
         with self._lock:
             self._pending = snapshot
+
+    def _on_peer_message(self, data: bytes, publisher: bytes) -> None:
+        """A measurement from the bound plant (binding it if none is); others are ignored."""
+        if self._binding.accepts(publisher):
+            self._on_measurement(data)
+
+    def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
+        """An intruder on a lockstep topic, once (WARN on /diagnostics)."""
+        stamp = self._last_stamp or (0, 0)
+        status = DiagnosticStatus(level=DiagnosticStatus.WARN, name=f'{self.get_name()}: lockstep',
+                                  message=message, hardware_id=self.get_name(),
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
+        self._diag_pub.publish(array)
 
     def _on_measurement(self, data: bytes) -> None:
         """One serialized measurement: core update, command out, then telemetry."""

@@ -50,10 +50,17 @@ class DirectReceiver:
     node must not be destroyed while it does (stop and join that thread first).
     """
 
-    def __init__(self, context, subscriptions, with_info: bool = False) -> None:
-        """with_info: call ``callback(msg, message_info)`` (timestamps), else ``callback(msg)``."""
+    def __init__(self, context, subscriptions, with_info: bool = False,
+                 with_publisher: bool = False) -> None:
+        """with_info: call ``callback(msg, message_info)`` (timestamps); with_publisher:
+        ``callback(data, publisher_gid)`` (raw subscriptions only, drive_common.peer_binding);
+        else ``callback(msg)``."""
         self._subscriptions = list(subscriptions)
         self._with_info = with_info
+        self._takes = None
+        if with_publisher:
+            from drive_common.peer_binding import IdentifiedTake
+            self._takes = {sub: IdentifiedTake(sub) for sub in self._subscriptions}
         self._wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0, context.handle)
 
     def poll(self, timeout: float) -> int:
@@ -82,6 +89,12 @@ class DirectReceiver:
         """Take and hand over every message waiting on subscriptions; count them."""
         dispatched = 0
         for sub in subscriptions:
+            if self._takes is not None:
+                take = self._takes[sub]
+                while (taken := take()) is not None:
+                    sub.callback(*taken)
+                    dispatched += 1
+                continue
             while True:
                 with sub.handle:
                     taken = sub.handle.take_message(sub.msg_type, sub.raw)

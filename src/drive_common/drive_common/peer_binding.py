@@ -1,0 +1,226 @@
+"""Peer binding: once the lockstep starts, each side hears only its peer.
+
+The lockstep protocol matches a command to a measurement by step only, so
+any other publisher on a lockstep topic (a stray ``ros2 topic pub``, a second
+controller or plant started later) could otherwise answer or feed a run.
+Each side therefore binds to its peer by publisher identity (the DDS writer
+GUID, ``rmw_gid_t``) when the lockstep starts:
+
+* the plant binds each command topic to the publisher of the first command
+  it takes (the answer to its first measurement);
+* a controller binds the measurement topic to the publisher of the first
+  measurement it receives.
+
+Only a lockstep counterpart can be bound: a node that publishes the received
+topic *and* subscribes to the topic this side publishes (a ``ros2 topic pub``
+never is one). From then on every other publisher on the bound topics is
+ignored, and reported once (``/diagnostics`` WARN with its node name, and the
+log). The binding ends when the bound publisher leaves the graph (a plant or
+controller restarted): the next counterpart that sends binds again.
+
+rclpy (Jazzy) gives no publisher identity per message: its take returns only
+time stamps and sequence numbers. :class:`IdentifiedTake` calls rcl's own
+``rcl_take_serialized_message`` through ctypes, whose ``rmw_message_info_t``
+carries ``publisher_gid``: the same 16 bytes that
+``get_publishers_info_by_topic`` lists as ``endpoint_gid``. An RMW that
+leaves it empty (all zeros) binds nothing: every publisher is accepted, as
+before peer binding.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+import threading
+from typing import Callable
+
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy  # noqa: F401 - loads librcl
+
+GID_SIZE = 16              # RMW_GID_STORAGE_SIZE (rmw/types.h, Jazzy)
+NO_GID = bytes(GID_SIZE)   # an RMW that does not say who published
+RCL_RET_OK = 0
+
+
+class _Allocator(ctypes.Structure):
+    _fields_ = [('allocate', ctypes.c_void_p), ('deallocate', ctypes.c_void_p),
+                ('reallocate', ctypes.c_void_p), ('zero_allocate', ctypes.c_void_p),
+                ('state', ctypes.c_void_p)]
+
+
+class _Uint8Array(ctypes.Structure):        # rcutils_uint8_array_t = rcl_serialized_message_t
+    _fields_ = [('buffer', ctypes.POINTER(ctypes.c_uint8)), ('buffer_length', ctypes.c_size_t),
+                ('buffer_capacity', ctypes.c_size_t), ('allocator', _Allocator)]
+
+
+class _Gid(ctypes.Structure):               # rmw_gid_t
+    _fields_ = [('implementation_identifier', ctypes.c_char_p),
+                ('data', ctypes.c_uint8 * GID_SIZE)]
+
+
+class _MessageInfo(ctypes.Structure):       # rmw_message_info_t
+    _fields_ = [('source_timestamp', ctypes.c_int64), ('received_timestamp', ctypes.c_int64),
+                ('publication_sequence_number', ctypes.c_uint64),
+                ('reception_sequence_number', ctypes.c_uint64),
+                ('publisher_gid', _Gid), ('from_intra_process', ctypes.c_bool)]
+
+
+def _library(name: str) -> ctypes.CDLL:
+    """A ROS C library: the one rclpy already loaded, else the environment's lib directory."""
+    try:
+        return ctypes.CDLL(name)
+    except OSError:
+        return ctypes.CDLL(os.path.join(sys.prefix, 'lib', name))
+
+
+_rcl = _library('librcl.so')
+_rcutils = _library('librcutils.so')
+_rcutils.rcutils_get_default_allocator.restype = _Allocator
+_rcutils.rcutils_uint8_array_init.argtypes = [ctypes.POINTER(_Uint8Array), ctypes.c_size_t,
+                                              ctypes.POINTER(_Allocator)]
+_rcutils.rcutils_uint8_array_fini.argtypes = [ctypes.POINTER(_Uint8Array)]
+_rcl.rcl_take_serialized_message.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Uint8Array),
+                                             ctypes.POINTER(_MessageInfo), ctypes.c_void_p]
+
+
+class IdentifiedTake:
+    """Take a subscription's messages as CDR bytes with the publisher's gid (rcl's take).
+
+    One buffer per subscription, reused (rcl grows it); one thread only.
+    """
+
+    def __init__(self, subscription) -> None:
+        self._sub = subscription
+        self._allocator = _rcutils.rcutils_get_default_allocator()
+        self._buffer = _Uint8Array()
+        self._info = _MessageInfo()
+        if _rcutils.rcutils_uint8_array_init(ctypes.byref(self._buffer), 256,
+                                             ctypes.byref(self._allocator)) != RCL_RET_OK:
+            raise MemoryError('cannot allocate a serialized message buffer')
+
+    def __call__(self) -> tuple[bytes, bytes] | None:
+        """(message bytes, publisher gid), or None if nothing is waiting."""
+        with self._sub.handle:
+            ret = _rcl.rcl_take_serialized_message(self._sub.handle.pointer,
+                                                   ctypes.byref(self._buffer),
+                                                   ctypes.byref(self._info), None)
+        if ret != RCL_RET_OK:
+            return None          # RCL_RET_SUBSCRIPTION_TAKE_FAILED: nothing waiting
+        return (ctypes.string_at(self._buffer.buffer, self._buffer.buffer_length),
+                bytes(self._info.publisher_gid.data))
+
+    def __del__(self) -> None:
+        try:
+            _rcutils.rcutils_uint8_array_fini(ctypes.byref(self._buffer))
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
+
+
+def endpoint_name(info) -> str:
+    """'/ns/node' of a topic endpoint info."""
+    return info.node_namespace.rstrip('/') + '/' + info.node_name
+
+
+class PeerBinding:
+    """The one peer a node hears on its lockstep topics (see the module docstring).
+
+    node: the node (graph queries, the log). received: the topic whose
+    publisher is bound; sent: the topic this node publishes (a counterpart
+    subscribes to it). watched: every lockstep topic on which other publishers
+    are reported once bound. report(message, values): a diagnostic (WARN).
+    may_bind(): whether the node may bind now (False: it found a second graph
+    and refuses to run; a late node must never join a running graph).
+    """
+
+    def __init__(self, node, received: str, sent: str, watched=(),
+                 report: Callable[[str, dict[str, str]], None] | None = None,
+                 may_bind: Callable[[], bool] = lambda: True) -> None:
+        self._node = node
+        self.received, self.sent = self._resolve(received), self._resolve(sent)
+        self.watched = tuple(self._resolve(t) for t in (watched or (received, sent)))
+        self._report = report
+        self._may_bind = may_bind
+        self._lock = threading.Lock()
+        self.peer: bytes | None = None          # the bound publisher's gid
+        self.peer_name = ''
+        self._me = (node.get_name(), node.get_namespace())
+        self._reported: set[bytes] = set()
+        self.intruders: list[str] = []           # node names reported, in order
+
+    def _resolve(self, topic: str) -> str:
+        return self._node.resolve_topic_name(topic)
+
+    @property
+    def bound(self) -> bool:
+        return self.peer is not None
+
+    def accepts(self, gid: bytes) -> bool:
+        """Whether a message from publisher gid is the peer's (binding a counterpart if unbound)."""
+        if gid == self.peer or gid == NO_GID:
+            return True
+        if self.peer is None:
+            name = self._counterpart(gid)
+            if name is not None and self._may_bind():
+                with self._lock:
+                    self.peer, self.peer_name = gid, name
+                    self._reported.discard(gid)
+                self._node.get_logger().info(f'lockstep peer on {self.received}: {name}')
+                return True
+        if gid not in self._reported:
+            self._intruder(gid, self.received, self._publisher_name(self.received, gid))
+        return False
+
+    def check(self) -> None:
+        """Periodic: end the binding if the peer left the graph; report new intruders."""
+        if self.peer is None:
+            return
+        publishers = {t: self._node.get_publishers_info_by_topic(t) for t in self.watched}
+        if not any(bytes(i.endpoint_gid) == self.peer for i in publishers[self.received]):
+            with self._lock:
+                self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
+                                             f'the next counterpart on {self.received} is bound')
+                self.peer, self.peer_name = None, ''
+                self._reported.clear()
+            return
+        for topic, infos in publishers.items():
+            for i in infos:
+                gid = bytes(i.endpoint_gid)
+                if ((i.node_name, i.node_namespace) != self._me and gid != self.peer
+                        and gid not in self._reported):
+                    self._intruder(gid, topic, endpoint_name(i))
+
+    def release(self) -> None:
+        """Forget the peer (the node may bind another one)."""
+        with self._lock:
+            self.peer, self.peer_name = None, ''
+            self._reported.clear()
+
+    def _counterpart(self, gid: bytes) -> str | None:
+        """The publisher's node name if it is a lockstep counterpart (it subscribes to sent)."""
+        for i in self._node.get_publishers_info_by_topic(self.received):
+            if bytes(i.endpoint_gid) == gid:
+                me = (i.node_name, i.node_namespace)
+                readers = {(r.node_name, r.node_namespace)
+                           for r in self._node.get_subscriptions_info_by_topic(self.sent)}
+                return endpoint_name(i) if me in readers else None
+        return None      # not discovered yet: not bound (its next message is looked at again)
+
+    def _publisher_name(self, topic: str, gid: bytes) -> str:
+        for i in self._node.get_publishers_info_by_topic(topic):
+            if bytes(i.endpoint_gid) == gid:
+                return endpoint_name(i)
+        return 'an undiscovered node'
+
+    def _intruder(self, gid: bytes, topic: str, name: str) -> None:
+        """Report an intruder once: log and diagnostic, both with its node name."""
+        with self._lock:
+            if gid in self._reported:
+                return
+            self._reported.add(gid)
+            self.intruders.append(name)
+        peer = self.peer_name or 'none'
+        message = (f'ignoring {name}: another publisher of {topic} (this node is bound to '
+                   f'{peer} on {self.received})')
+        self._node.get_logger().warning(message)
+        if self._report is not None:
+            self._report(message, {'topic': topic, 'intruder': name, 'intruder_gid': gid.hex(),
+                                   'bound_peer': peer})
