@@ -225,11 +225,13 @@ class PlantNode(Node):
         self._pfc_wire = LockstepWire(PfcMeasurement, PfcSample)
         self._gate_sub = self.create_subscription(
             GateCommand, topics.GATE_COMMAND,
-            self._receive(self._gates_in, topics.GATE_COMMAND, GateCommand, GateSample), qos,
+            self._receive(self._gates_in, topics.GATE_COMMAND, GateCommand, GateSample),
+            topics.LOCKSTEP_READER_QOS,
             callback_group=direct, raw=True)
         self._duty_sub = self.create_subscription(
             DutyCommand, topics.DUTY_COMMAND,
-            self._receive(self._duty_in, topics.DUTY_COMMAND, DutyCommand, DutySample), qos,
+            self._receive(self._duty_in, topics.DUTY_COMMAND, DutyCommand, DutySample),
+            topics.LOCKSTEP_READER_QOS,
             callback_group=direct, raw=True)
         self._receiver = DirectReceiver(self.context, [self._gate_sub, self._duty_sub],
                                         with_publisher=True)

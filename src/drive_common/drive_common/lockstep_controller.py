@@ -53,7 +53,8 @@ from drive_common.peer_binding import PeerBinding
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
 from drive_common.telemetry_blocks import BlockStream
-from drive_common.topics import BLOCK_QOS, DIAGNOSTICS, LIVE_QOS, LOCKSTEP_QOS
+from drive_common.topics import (BLOCK_QOS, DIAGNOSTICS, LIVE_QOS, LOCKSTEP_QOS,
+                                 LOCKSTEP_READER_QOS)
 from drive_common.waiting import wait_until
 
 
@@ -133,7 +134,8 @@ class LockstepControllerNode(Node):
                                     may_bind=lambda: self._graph_conflict() is None)
         self._receiver = DirectReceiver(self.context, [self.create_subscription(
             channels.measurement_type, channels.measurement_topic, self._on_peer_message,
-            LOCKSTEP_QOS, callback_group=DirectCallbackGroup(), raw=True)], with_publisher=True)
+            LOCKSTEP_READER_QOS, callback_group=DirectCallbackGroup(), raw=True)],
+            with_publisher=True)
         self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._answer_samples, daemon=True,

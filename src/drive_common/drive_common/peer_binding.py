@@ -39,6 +39,8 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy  
 GID_SIZE = 16              # RMW_GID_STORAGE_SIZE (rmw/types.h, Jazzy)
 NO_GID = bytes(GID_SIZE)   # an RMW that does not say who published
 RCL_RET_OK = 0
+UNDISCOVERED = 'an undiscovered node'
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'   # rmw: an endpoint whose node's name is not known yet
 
 
 class _Allocator(ctypes.Structure):
@@ -208,10 +210,13 @@ class PeerBinding:
         for i in self._node.get_publishers_info_by_topic(topic):
             if bytes(i.endpoint_gid) == gid:
                 return endpoint_name(i)
-        return 'an undiscovered node'
+        return UNDISCOVERED
 
     def _intruder(self, gid: bytes, topic: str, name: str) -> None:
-        """Report an intruder once: log and diagnostic, both with its node name."""
+        """Report an intruder once: log and diagnostic, both with its node name (an endpoint
+        whose node is not known yet is reported later, by name)."""
+        if name == UNDISCOVERED or UNKNOWN_NODE in name:
+            return
         with self._lock:
             if gid in self._reported:
                 return

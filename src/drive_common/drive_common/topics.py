@@ -40,6 +40,19 @@ depth only lets a slower reader (the recorder) lag a little without losing
 a sample.
 """
 
+LOCKSTEP_READER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_ALL,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""QoS of the plant's and a controller's own lockstep readers (compatible with LOCKSTEP_QOS).
+
+KEEP_LAST's depth is shared by every writer of a topic: a burst from another
+publisher (a stray ``ros2 topic pub``) would push the peer's pending sample
+out of the reader before it is taken. KEEP_ALL keeps it; the intruder's
+messages are taken and dropped (drive_common.peer_binding).
+"""
+
 STREAM_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
     depth=STREAM_DEPTH,

@@ -219,3 +219,19 @@ def _typestore(type_name: str):
     store = get_typestore(Stores.EMPTY)
     store.register(get_types_from_msg(full_definition(type_name), type_name))
     return store
+
+
+def recorded_samples(bag: Path) -> dict[str, list[bytes]]:
+    """{per-sample topic: every sample's serialized message} a recorded bag's block topics carry.
+
+    Block boundaries (a partial block flushed while the plant held) and CDR
+    padding (:func:`zero_padded`) do not matter: two bags of the same samples
+    compare equal.
+    """
+    from drive_logger.bag_reader import BagReader
+    from drive_logger.block_topics import block_sources, per_sample_messages
+    out: dict[str, list[bytes]] = {}
+    reader = BagReader(bag)
+    for msg in per_sample_messages(reader, list(block_sources(reader))):
+        out.setdefault(msg.topic, []).append(zero_padded(msg.data, msg.type))
+    return out

@@ -1,0 +1,120 @@
+"""An outsider can never harm a running graph (docs/architecture.md, "Time and lockstep": peer binding).
+
+A scenario run through ``run_scenario`` records the same samples whether or
+not, during its run, a CLI-style publisher sends garbage on every lockstep
+topic (at a few Hz and in bursts), a second fake controller and a second
+plant are started under other node names; the intruders are reported on
+``/diagnostics`` with their node names.
+"""
+from __future__ import annotations
+
+import random
+from collections import Counter
+import subprocess
+import sys
+
+import pytest
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from drive_common import topics
+from drive_common.waiting import wait_until
+from drive_testing.block_bags import recorded_samples
+from dtc_msgs.msg import (DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement,
+                          PlantStateBlock)
+
+pytestmark = pytest.mark.ros
+
+SCENARIO = 'pfc_load_and_line_steps'   # DTC and PFC: all four lockstep topics in use
+DURATION = '0.05'                      # s of sim time: several s of wall time
+INTRUDER_RATE = 5.0                    # Hz of the CLI-style intruder
+BURST = 300                            # messages per topic in one burst
+
+
+def run_scenario(*args) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO,
+                             '--duration', DURATION, *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def garbage(msg_type, rng: random.Random):
+    """A valid message of a lockstep type with random content and a plausible step."""
+    msg = msg_type()
+    msg.step = rng.randrange(0, 5000)
+    if msg_type is GateCommand:
+        msg.topology = 6
+        msg.switch_on = [rng.random() < 0.5 for _ in range(6)]
+    elif msg_type is DutyCommand:
+        msg.duty, msg.enable = rng.random(), True
+    elif msg_type is DriveMeasurement:
+        msg.phase_current = [rng.uniform(-50, 50) for _ in range(3)]
+        msg.dc_link_voltage, msg.mechanical_speed = rng.uniform(0, 400), rng.uniform(-500, 500)
+        msg.hall_code = rng.randrange(1, 7)
+    else:
+        msg.rectified_voltage, msg.output_voltage = rng.uniform(0, 40), rng.uniform(0, 100)
+        msg.inductor_current = rng.uniform(0, 10)
+    return msg
+
+
+class CliIntruder:
+    """What ``ros2 topic pub -r 5`` on every lockstep topic does, plus bursts."""
+
+    TYPES = {topics.DRIVE_MEASUREMENT: DriveMeasurement, topics.GATE_COMMAND: GateCommand,
+             topics.PFC_MEASUREMENT: PfcMeasurement, topics.DUTY_COMMAND: DutyCommand}
+
+    def __init__(self, node) -> None:
+        self.rng = random.Random(7)
+        self.publishers = {t: (node.create_publisher(m, t, topics.LOCKSTEP_QOS), m)
+                           for t, m in self.TYPES.items()}
+        self.sent = 0
+        node.create_timer(1.0 / INTRUDER_RATE, self.publish)
+
+    def publish(self, count: int = 1) -> None:
+        for publisher, msg_type in self.publishers.values():
+            for _ in range(count):
+                publisher.publish(garbage(msg_type, self.rng))
+                self.sent += 1
+
+
+def test_intruders_on_every_lockstep_topic_change_nothing(ros_session, ros_domain, start_node,
+                                                          tmp_path):
+    alone = run_scenario('--isolate', '--out', str(tmp_path / 'alone'))
+    out_alone, _ = alone.communicate(timeout=600)
+    assert alone.returncode == 0, out_alone
+
+    diagnostics: list[DiagnosticStatus] = []
+    watcher = ros_session.node('diagnostics_watch')
+    watcher.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
+                                lambda m: diagnostics.extend(m.status), 100)
+    blocks = []
+    watcher.create_subscription(PlantStateBlock, topics.PLANT_STATE_BLOCK, blocks.append,
+                                topics.BLOCK_QOS)
+    run = run_scenario('--domain-id', str(ros_domain), '--out', str(tmp_path / 'intruded'))
+    try:
+        # The lockstep is under way (every peer bound): the intruders come in.
+        wait_until(lambda: blocks or run.poll() is not None, 120.0, what='the run to start')
+        intruder = CliIntruder(ros_session.node('intruder_cli'))
+        intruder.publish(BURST)
+        start_node('drive_testing', 'fixed_responder', node_name='second_controller')
+        start_node('bldc_plant_sim', 'plant', node_name='second_plant')
+        wait_until(lambda: any(s.level == DiagnosticStatus.WARN and 'intruder_cli' in s.message
+                               for s in diagnostics) or run.poll() is not None, 60.0,
+                   what='the intruder report')
+        intruder.publish(BURST)
+        out, _ = run.communicate(timeout=600)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, out
+    assert intruder.sent >= 2 * 4 * BURST
+    reported = {kv.value for s in diagnostics if s.level == DiagnosticStatus.WARN
+                for kv in s.values if kv.key == 'intruder'}
+    assert '/intruder_cli' in reported, [s.message for s in diagnostics]
+    plant_reports = Counter((values['intruder'], values['topic']) for values in (
+        {kv.key: kv.value for kv in s.values} for s in diagnostics if s.name.startswith('plant'))
+        if 'intruder' in values)
+    assert plant_reports[('/intruder_cli', '/drive/gate_command')] == 1, plant_reports   # once
+    a, b = recorded_samples(tmp_path / 'alone' / 'bag'), recorded_samples(tmp_path / 'intruded' / 'bag')
+    assert set(a) == set(b) and {'/plant/state', '/dtc/status', '/pfc/status'} <= set(a), sorted(a)
+    for topic in a:
+        assert a[topic] == b[topic], f'{topic}: the intruders changed the run'
+
