@@ -235,3 +235,32 @@ def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ro
     given = _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
                           ros_domain % 100 + 101)     # the caller's own domain: another one
     assert given == {str(ros_domain)}, given
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_background_run_of_a_script_stops_on_a_signal(tmp_path, sig):
+    """A non-interactive shell starts a background job with SIGINT ignored: the runner still
+    stops on SIGINT (and SIGTERM), with every node gone and the bag finalized."""
+    out = tmp_path / 'background'
+    marker = f'background_{os.getpid()}_{time.monotonic_ns()}'
+    script = (f'"{sys.executable}" -m drive_bringup.runner_cli two_phase_six_switch_flux_control '
+              f'--isolate --out "{out}" & echo "pid $!"; wait $!; echo "exit $?"')
+    shell = subprocess.Popen(['bash', '-c', script], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True,
+                             env=dict(os.environ, DTC_TEST_MARKER=marker))
+    lines: list[str] = []
+    try:
+        for line in shell.stdout:          # ends at EOF: the shell and the runner are gone
+            lines.append(line)
+            if line.startswith('pid '):
+                pid = int(line.split()[1])
+            if 'graph up' in line:         # the run is under way
+                os.kill(pid, sig)
+        shell.wait(timeout=120)
+    finally:
+        if shell.poll() is None:
+            shell.kill()
+    text = ''.join(lines)
+    assert 'exit 130' in text and 'interrupted: all nodes stopped' in text, text
+    assert processes_with_env(f'DTC_TEST_MARKER={marker}') == [], 'orphan node processes left behind'
+    assert (out / 'bag' / 'metadata.yaml').exists()

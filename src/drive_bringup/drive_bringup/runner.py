@@ -153,7 +153,6 @@ class GraphRunner:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         bag_dir = self.out_dir / 'bag'
         sc = self.scenario
-        previous_term = signal.signal(signal.SIGTERM, _raise_keyboard_interrupt)
         context = None
         try:
             if self.record:
@@ -181,7 +180,6 @@ class GraphRunner:
             self._stop_all()
             if context is not None:
                 rclpy.try_shutdown(context=context)
-            signal.signal(signal.SIGTERM, previous_term)
 
     def _wait_ready(self, node, executor, action) -> None:
         deadline = time.monotonic() + 60.0
@@ -336,7 +334,14 @@ def _raise_keyboard_interrupt(signum, frame):
 
 
 def main_guard(fn: Callable[[], int]) -> int:
-    """Run fn; a RunFailed or Ctrl-C ends with a message and a non-zero code."""
+    """Run fn; a RunFailed, SIGINT (Ctrl-C) or SIGTERM ends with a message and a non-zero code.
+
+    Both signals are handled explicitly, whatever was inherited: a shell starts
+    a background job of a non-interactive script with SIGINT ignored, and
+    Python then installs no KeyboardInterrupt handler of its own.
+    """
+    previous = {sig: signal.signal(sig, _raise_keyboard_interrupt)
+                for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         return fn()
     except RunFailed as exc:
@@ -345,3 +350,6 @@ def main_guard(fn: Callable[[], int]) -> int:
     except KeyboardInterrupt:
         print('interrupted: all nodes stopped', file=sys.stderr)
         return 130
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
