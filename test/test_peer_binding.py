@@ -1,4 +1,5 @@
-"""An outsider can never harm a running graph (docs/architecture.md, "Time and lockstep": peer binding).
+"""An outsider can never harm a running graph; a second graph refuses before it touches the first
+(docs/architecture.md, "Time and lockstep": peer binding; drive_common.domain_guard).
 
 A scenario run through ``run_scenario`` records the same samples whether or
 not, during its run, a CLI-style publisher sends garbage on every lockstep
@@ -75,11 +76,26 @@ class CliIntruder:
                 self.sent += 1
 
 
-def test_intruders_on_every_lockstep_topic_change_nothing(ros_session, ros_domain, start_node,
-                                                          tmp_path):
-    alone = run_scenario('--isolate', '--out', str(tmp_path / 'alone'))
-    out_alone, _ = alone.communicate(timeout=600)
-    assert alone.returncode == 0, out_alone
+@pytest.fixture(scope='module')
+def alone(tmp_path_factory):
+    """The samples of the scenario run alone (a private domain)."""
+    out = tmp_path_factory.mktemp('alone')
+    run = run_scenario('--isolate', '--out', str(out))
+    text, _ = run.communicate(timeout=600)
+    assert run.returncode == 0, text
+    return recorded_samples(out / 'bag')
+
+
+def assert_same_samples(alone: dict, bag) -> None:
+    samples = recorded_samples(bag)
+    assert set(samples) == set(alone), sorted(samples)
+    assert {'/plant/state', '/dtc/status', '/pfc/status'} <= set(alone), sorted(alone)
+    for topic in alone:
+        assert samples[topic] == alone[topic], f'{topic}: not the samples of the run alone'
+
+
+def test_intruders_on_every_lockstep_topic_change_nothing(alone, ros_session, ros_domain,
+                                                          start_node, tmp_path):
 
     diagnostics: list[DiagnosticStatus] = []
     watcher = ros_session.node('diagnostics_watch')
@@ -113,8 +129,29 @@ def test_intruders_on_every_lockstep_topic_change_nothing(ros_session, ros_domai
         {kv.key: kv.value for kv in s.values} for s in diagnostics if s.name.startswith('plant'))
         if 'intruder' in values)
     assert plant_reports[('/intruder_cli', '/drive/gate_command')] == 1, plant_reports   # once
-    a, b = recorded_samples(tmp_path / 'alone' / 'bag'), recorded_samples(tmp_path / 'intruded' / 'bag')
-    assert set(a) == set(b) and {'/plant/state', '/dtc/status', '/pfc/status'} <= set(a), sorted(a)
-    for topic in a:
-        assert a[topic] == b[topic], f'{topic}: the intruders changed the run'
+    assert_same_samples(alone, tmp_path / 'intruded' / 'bag')
+
+
+def test_a_second_run_in_the_domain_refuses_before_it_touches_the_first(alone, ros_domain,
+                                                                        tmp_path):
+    first = run_scenario('--domain-id', str(ros_domain), '--out', str(tmp_path / 'first'))
+    try:
+        for line in first.stdout:            # the first run's graph is up: a second run comes
+            if 'graph up' in line:
+                break
+        second = subprocess.run([sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO,
+                                 '--duration', DURATION, '--domain-id', str(ros_domain),
+                                 '--out', str(tmp_path / 'second')],
+                                capture_output=True, text=True, timeout=120)
+        out, _ = first.communicate(timeout=600)
+    finally:
+        if first.poll() is None:
+            first.kill()
+    assert second.returncode == 2, second.stdout + second.stderr
+    error = second.stderr.strip()
+    assert len(error.splitlines()) == 1 and f'ROS domain {ros_domain}' in error, error
+    assert '/plant' in error and 'refusing' in error, error
+    assert not (tmp_path / 'second' / 'logs').exists(), 'the second run started a node'
+    assert first.returncode == 0, out
+    assert_same_samples(alone, tmp_path / 'first' / 'bag')
 

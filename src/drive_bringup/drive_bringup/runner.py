@@ -27,6 +27,7 @@ from rclpy.parameter_client import AsyncParameterClient
 
 from drive_bringup.scenario import Scenario
 from drive_common import topics
+from drive_common.domain_guard import RUNNER_NODE, DomainBusy, refuse_if_busy
 from drive_common.processes import NodeProcess, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
@@ -76,11 +77,16 @@ def record_topics(scenario: Scenario) -> list[str]:
     return list(dict.fromkeys(_absolute_topic(t) for t in names))
 
 
+def _progress(line: str) -> None:
+    """A progress line, seen at once even through a pipe (tee, a script waiting for 'graph up')."""
+    print(line, flush=True)
+
+
 class GraphRunner:
     """Runs one scenario through the ROS graph; see the module docstring."""
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
-                 record: bool | None = None, progress: Callable[[str], None] = print,
+                 record: bool | None = None, progress: Callable[[str], None] = _progress,
                  step_timeout: float = 60.0, live: bool = False) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
@@ -153,8 +159,13 @@ class GraphRunner:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         bag_dir = self.out_dir / 'bag'
         sc = self.scenario
-        context = None
+        context = rclpy.Context()
         try:
+            rclpy.init(context=context, domain_id=self.domain_id)
+            node = rclpy.create_node(RUNNER_NODE, context=context)
+            if self.domain_id is None:
+                # A shared domain: refuse before starting anything if a drive graph runs there.
+                refuse_if_busy(node, 'run_scenario')
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
                             {'output': str(bag_dir), 'topics': record_topics(sc)})
@@ -170,16 +181,12 @@ class GraphRunner:
                 self._start(key, package, executable,
                             plant_params if key == 'plant' else dict(sc.overrides[key]),
                             node_name=own.node_name if own else None)
-            context = rclpy.Context()
-            rclpy.init(context=context, domain_id=self.domain_id)
-            node = rclpy.create_node('scenario_runner', context=context)
             executor = SingleThreadedExecutor(context=context)
             executor.add_node(node)
             return self._drive(node, executor, bag_dir)
         finally:
             self._stop_all()
-            if context is not None:
-                rclpy.try_shutdown(context=context)
+            rclpy.try_shutdown(context=context)
 
     def _wait_ready(self, node, executor, action) -> None:
         deadline = time.monotonic() + 60.0
@@ -344,6 +351,9 @@ def main_guard(fn: Callable[[], int]) -> int:
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         return fn()
+    except DomainBusy as exc:
+        print(f'[run_scenario] error: {exc}', file=sys.stderr)
+        return 2
     except RunFailed as exc:
         print(f'run failed: {exc}', file=sys.stderr)
         return 1

@@ -1,0 +1,84 @@
+"""One drive graph per DDS domain (and namespace): look before starting one.
+
+``run_scenario --domain-id N`` (or ``--join-domain``) looks at the domain's
+graph from a short-lived node before it starts any node or sends any goal,
+and refuses (exit 2, one line naming the domain and the nodes found) when a
+drive graph is already there: a node with an endpoint on a lockstep topic, or
+another scenario runner. The look waits until the graph is stable (no node
+or endpoint appeared or left for SETTLE s), at most DISCOVERY_TIMEOUT s.
+
+Residual race: two runs started within one discovery interval of each other
+both find an empty domain. Their nodes then find each other before any of
+them is bound (same node names, two publishers of a lockstep topic) and
+refuse (exit 2); a run whose lockstep already started is bound to its peers
+and goes on (drive_common.peer_binding), so the later one is the one that
+refuses.
+"""
+from __future__ import annotations
+
+import time
+
+from drive_common import topics
+
+SETTLE = 0.5               # s without a change in the graph: discovery is done
+DISCOVERY_TIMEOUT = 5.0    # s at most
+POLL = 0.05                # s between looks
+RUNNER_NODE = 'scenario_runner'
+DRIVE_TOPICS = (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND, topics.PFC_MEASUREMENT,
+                topics.DUTY_COMMAND, topics.RUN_ACTION + '/_action/status')
+
+
+class DomainBusy(Exception):
+    """A drive graph already runs in the domain (and namespace): refuse to start another."""
+
+
+def _full_name(name: str, namespace: str) -> str:
+    return namespace.rstrip('/') + '/' + name
+
+
+def _graph(node) -> tuple:
+    """What discovery has found so far: nodes and topics with their endpoint counts."""
+    names = tuple(sorted(node.get_node_names_and_namespaces()))
+    endpoints = tuple(sorted((t, node.count_publishers(t), node.count_subscribers(t))
+                             for t, _ in node.get_topic_names_and_types()))
+    return names, endpoints
+
+
+def wait_for_stable_graph(node, settle: float = SETTLE, timeout: float = DISCOVERY_TIMEOUT) -> None:
+    """Return once the node's view of the graph has not changed for settle s (or at timeout)."""
+    start = changed = time.monotonic()
+    seen = _graph(node)
+    while time.monotonic() - changed < settle and time.monotonic() - start < timeout:
+        time.sleep(POLL)
+        now = _graph(node)
+        if now != seen:
+            seen, changed = now, time.monotonic()
+
+
+def drive_graph_nodes(node) -> list[str]:
+    """Full names of the drive graph's nodes in node's domain and namespace (node excluded)."""
+    found = set()
+    me = (node.get_name(), node.get_namespace())
+    for topic in DRIVE_TOPICS:
+        resolved = node.resolve_topic_name(topic.lstrip('/'))
+        for info in (*node.get_publishers_info_by_topic(resolved),
+                     *node.get_subscriptions_info_by_topic(resolved)):
+            if (info.node_name, info.node_namespace) != me:
+                found.add(_full_name(info.node_name, info.node_namespace))
+    runners = [(n, ns) for n, ns in node.get_node_names_and_namespaces()
+               if n == RUNNER_NODE and ns == node.get_namespace()]
+    if len(runners) > (me in runners):         # another runner, whatever this node's name
+        found.add(_full_name(*runners[0]))
+    return sorted(found)
+
+
+def refuse_if_busy(node, what: str) -> None:
+    """Raise DomainBusy (one line) if a drive graph already runs where node is."""
+    wait_for_stable_graph(node)
+    found = drive_graph_nodes(node)
+    if found:
+        where = f'ROS domain {node.context.get_domain_id()}'
+        if node.get_namespace() != '/':
+            where += f', namespace {node.get_namespace()}'
+        raise DomainBusy(f'{what}: {where} already runs a drive graph (nodes: {", ".join(found)}): '
+                         'refusing to start a second one (stop it, or choose another --domain-id)')
