@@ -90,9 +90,14 @@ def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dic
     return out
 
 
-def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS) -> dict[str, dict[str, np.ndarray]]:
-    """Read the given topics of a bag into columns (missing topics are left out; blocks preferred)."""
-    reader = BagReader(bag, salvage=salvage)
+def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS,
+                 namespace: str = 'auto') -> dict[str, dict[str, np.ndarray]]:
+    """Read the given topics of a bag into columns (missing topics are left out; blocks preferred).
+
+    namespace: the drive's namespace in the bag (BagReader; 'auto': the only one), its topics
+    named as without one.
+    """
+    reader = BagReader(bag, salvage=salvage, namespace=namespace)
     sources = block_sources(reader)
     from_blocks = {t: sources[t] for t in topics if t in sources}
     recorded = [t for t in topics if t in reader.topics and t not in from_blocks]

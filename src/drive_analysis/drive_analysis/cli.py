@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from drive_analysis import figures
-from drive_analysis.bag_columns import load_columns
+from drive_analysis.bag_columns import ANALYSED_TOPICS, load_columns
 from drive_analysis.summary import json_safe, summarize
 from drive_logger.bag_reader import BagReadError
 
@@ -28,11 +28,17 @@ def main(argv=None) -> int:
     ap.add_argument('--window', type=float, nargs=2, metavar=('T0', 'T1'), help='steady-state window, s')
     ap.add_argument('--line-frequency', type=float, default=60.0, help='Hz, grid frequency for PF')
     ap.add_argument('--salvage', action='store_true', help='analyse the intact part of a damaged bag')
+    ap.add_argument('--namespace', default='auto',
+                    help='the drive namespace to analyse in a bag of several (e.g. /drive1)')
     args = ap.parse_args(argv)
     try:
-        cols = load_columns(args.bag, salvage=args.salvage)
+        cols = load_columns(args.bag, salvage=args.salvage, namespace=args.namespace)
     except BagReadError as exc:
         print(f'analyze: error: {exc}', file=sys.stderr)
+        return 2
+    if not cols:
+        print(f'analyze: error: bag {args.bag!r} holds none of the topics analyze reads '
+              f'({", ".join(ANALYSED_TOPICS)}, or their blocks)', file=sys.stderr)
         return 2
     out_dir = Path(args.out or f'{args.bag.rstrip("/")}_analysis')
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -28,6 +28,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from drive_bringup.scenario import Scenario
 from drive_common import topics
 from drive_common.domain_guard import RUNNER_NODE, DomainBusy, refuse_if_busy
+from drive_common.namespaces import namespace_arguments, namespace_remappings, normalized
 from drive_common.processes import NodeProcess, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
@@ -87,7 +88,7 @@ class GraphRunner:
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
                  record: bool | None = None, progress: Callable[[str], None] = _progress,
-                 step_timeout: float = 60.0, live: bool = False) -> None:
+                 step_timeout: float = 60.0, live: bool = False, namespace: str = '') -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.domain_id = domain_id
@@ -95,6 +96,7 @@ class GraphRunner:
         self.progress = progress
         self.step_timeout = step_timeout
         self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
+        self.namespace = normalized(namespace)   # '/NAME': the drive's nodes run in it
         self.processes: dict[str, NodeProcess] = {}
         self._crashed = False
         self.log_dir = self.out_dir / 'logs'
@@ -108,9 +110,14 @@ class GraphRunner:
     def _start(self, key: str, package: str, executable: str, parameters: dict,
                node_name: str | None = None) -> NodeProcess:
         process = NodeProcess(package, executable, parameters=parameters, env=self._env(),
-                              log_dir=self.log_dir, node_name=node_name)
+                              log_dir=self.log_dir, node_name=node_name,
+                              remappings=namespace_remappings(self.namespace))
         self.processes[key] = process
         return process
+
+    def _recorded(self, names: list[str]) -> list[str]:
+        """Absolute topic names in the drive's namespace (what the recorder subscribes to)."""
+        return [self.namespace + name for name in names]
 
     def _check_alive(self) -> None:
         for key, process in self.processes.items():
@@ -162,13 +169,16 @@ class GraphRunner:
         context = rclpy.Context()
         try:
             rclpy.init(context=context, domain_id=self.domain_id)
-            node = rclpy.create_node(RUNNER_NODE, context=context)
+            node = rclpy.create_node(RUNNER_NODE, context=context,
+                                     cli_args=namespace_arguments(self.namespace))
             if self.domain_id is None:
                 # A shared domain: refuse before starting anything if a drive graph runs there.
                 refuse_if_busy(node, 'run_scenario')
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
-                            {'output': str(bag_dir), 'topics': record_topics(sc)})
+                            {'output': str(bag_dir), 'topics': [
+                                t.lstrip('/') if self.namespace else t    # resolved in its namespace
+                                for t in record_topics(sc)]})
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
                 self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
@@ -194,7 +204,7 @@ class GraphRunner:
         if self.record:
             from drive_logger.readiness import wait_for_recorder
             try:
-                wait_for_recorder(node, record_topics(self.scenario),
+                wait_for_recorder(node, self._recorded(record_topics(self.scenario)),
                                   timeout=max(1.0, deadline - time.monotonic()))
             except TimeoutError as exc:
                 raise RunFailed(str(exc)) from exc
@@ -217,7 +227,8 @@ class GraphRunner:
             streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
                                                       topics.PFC_STATUS, topics.PFC_STATUS_BLOCK)}
         wanted = [t for t in record_topics(self.scenario) if t in streamed and known_type(t)]
-        probes = [node.create_subscription(message_class(known_type(t)), t, lambda _msg: None,
+        probes = [node.create_subscription(message_class(known_type(t)), self._recorded([t])[0],
+                                           lambda _msg: None,
                                            topics.STREAM_QOS, raw=True)
                   for t in wanted]
         try:
@@ -240,10 +251,10 @@ class GraphRunner:
     def _drive(self, node, executor, bag_dir: Path) -> RunResult:
         sc = self.scenario
         self._action = ActionClient(node, Run, topics.RUN_ACTION)
-        node_names = {'plant': '/plant', 'dtc_controller': '/dtc_controller',
-                      'pfc_controller': '/pfc_controller'}
+        node_names = {'plant': 'plant', 'dtc_controller': 'dtc_controller',   # in the namespace
+                      'pfc_controller': 'pfc_controller'}
         if sc.controller is not None:
-            node_names['controller'] = '/' + sc.controller.node_name
+            node_names['controller'] = sc.controller.node_name
         self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
         block_ends = self._watch_status_blocks(node) if self.record else {}
         self._wait_ready(node, executor, self._action)

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
+from drive_common.namespaces import normalized
 from drive_common.parameter_files import ParameterFileError, read_params_file
 
 
@@ -77,6 +78,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--duration', type=float, help='run only the first DURATION s of the scenario')
     parser.add_argument('--live', action='store_true',
                         help='also start drive_logger live_view: watch the run in Foxglove at ws://localhost:8765')
+    parser.add_argument('--namespace', default='', metavar='NAME',
+                        help='run the drive under the ROS namespace /NAME (its /clock, /diagnostics '
+                             'and /parameter_events too), so several drives share a domain')
     return parser
 
 
@@ -109,6 +113,11 @@ def main(argv=None) -> int:
         print('run_scenario: --live watches the ROS graph; it cannot be combined with --headless', file=sys.stderr)
         return 2
     try:
+        normalized(args.namespace)
+    except ValueError as exc:
+        print(f'[run_scenario] error: --namespace: {exc}', file=sys.stderr)
+        return 2
+    try:
         scenario, out = prepare_run(args)
     except (ScenarioError, ParameterFileError) as exc:
         print(f'[run_scenario] error: {exc}', file=sys.stderr)
@@ -130,11 +139,12 @@ def main(argv=None) -> int:
         if args.domain_id is not None or args.join_domain:
             if args.domain_id is not None:
                 os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
-            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live).run()
+            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live,
+                                 namespace=args.namespace).run()
         else:   # default: a private domain, so two runs never mix their graphs
             from drive_common.processes import reserve_domain
             with reserve_domain() as domain:
-                result = GraphRunner(scenario, out, domain_id=domain,
+                result = GraphRunner(scenario, out, domain_id=domain, namespace=args.namespace,
                                      record=not args.no_record, live=args.live).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)

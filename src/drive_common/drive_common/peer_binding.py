@@ -38,6 +38,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy  
 
 GID_SIZE = 16              # RMW_GID_STORAGE_SIZE (rmw/types.h, Jazzy)
 NO_GID = bytes(GID_SIZE)   # an RMW that does not say who published
+PARTICIPANT_PREFIX = 12    # gid bytes naming the DDS participant (one per process context)
 RCL_RET_OK = 0
 UNDISCOVERED = 'an undiscovered node'
 UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'   # rmw: an endpoint whose node's name is not known yet
@@ -176,7 +177,10 @@ class PeerBinding:
         if self.peer is None:
             return
         publishers = {t: self._node.get_publishers_info_by_topic(t) for t in self.watched}
-        if not any(bytes(i.endpoint_gid) == self.peer for i in publishers[self.received]):
+        peer = [i for i in publishers[self.received] if bytes(i.endpoint_gid) == self.peer]
+        if peer and (UNKNOWN_NODE in self.peer_name or self.peer_name == UNDISCOVERED):
+            self.peer_name = endpoint_name(peer[0])     # its name discovered after binding
+        if not peer:
             with self._lock:
                 self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
                                              f'the next counterpart on {self.received} is bound')
@@ -197,13 +201,15 @@ class PeerBinding:
             self._reported.clear()
 
     def _counterpart(self, gid: bytes) -> str | None:
-        """The publisher's node name if it is a lockstep counterpart (it subscribes to sent)."""
-        for i in self._node.get_publishers_info_by_topic(self.received):
-            if bytes(i.endpoint_gid) == gid:
-                me = (i.node_name, i.node_namespace)
-                readers = {(r.node_name, r.node_namespace)
-                           for r in self._node.get_subscriptions_info_by_topic(self.sent)}
-                return endpoint_name(i) if me in readers else None
+        """The publisher's node name if it is a lockstep counterpart (it subscribes to sent).
+
+        Same process: the subscription's gid has the publisher's DDS participant prefix
+        (a node's name can be discovered later than its endpoints).
+        """
+        readers = self._node.get_subscriptions_info_by_topic(self.sent)
+        if any(bytes(r.endpoint_gid)[:PARTICIPANT_PREFIX] == gid[:PARTICIPANT_PREFIX]
+               for r in readers):
+            return self._publisher_name(self.received, gid)
         return None      # not discovered yet: not bound (its next message is looked at again)
 
     def _publisher_name(self, topic: str, gid: bytes) -> str:

@@ -11,6 +11,7 @@ truncated file: every complete chunk; :func:`intact_records`, which
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import os
@@ -25,6 +26,7 @@ from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
+from drive_common import topics as _names
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import LOG_TIME_RECORD
 
@@ -124,14 +126,26 @@ def intact_messages(stream, problems: list[str], name: str):
             yield schemas.get(channel.schema_id), channel, record
 
 
+DRIVE_TOPICS = tuple('/' + t for t in (
+    _names.PLANT_STATE_BLOCK, _names.DTC_STATUS_BLOCK, _names.PFC_STATUS_BLOCK, _names.PLANT_STATE,
+    _names.DTC_STATUS, _names.PFC_STATUS, _names.DRIVE_MEASUREMENT, _names.GATE_COMMAND,
+    _names.PFC_MEASUREMENT, _names.DUTY_COMMAND))
+"""A drive's topics: what tells the namespace of a drive recorded under one."""
+
+
 class BagReader:
     """A rosbag2 bag directory (or a single .mcap file), read without ROS.
 
     :param salvage: read the intact part of a truncated/corrupt bag instead of
         raising; :attr:`problems` lists what was found.
+    :param namespace: read the drive recorded under this namespace (``/drive1``)
+        with its topics named as a drive's without one (``/plant/state_block``);
+        ``'auto'``: the one namespace holding drive topics (``''``: none). The
+        bag's other topics are left out. None: every topic as recorded.
     """
 
-    def __init__(self, path: str | os.PathLike, salvage: bool = False) -> None:
+    def __init__(self, path: str | os.PathLike, salvage: bool = False,
+                 namespace: str | None = None) -> None:
         self.path = Path(path)
         self.salvage = salvage
         self.problems: list[str] = []
@@ -168,6 +182,35 @@ class BagReader:
             raise BagReadError('; '.join(self.problems) + SALVAGE_HINT)
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
+        self.namespace = None
+        if namespace is not None:
+            self.namespace = self._choose_namespace(namespace)
+
+    def drive_namespaces(self) -> list[str]:
+        """Namespaces ('' for none) under which the bag holds a drive's topics."""
+        found = set()
+        for topic in self.recorded_topics:
+            for known in DRIVE_TOPICS:
+                if topic.endswith(known):
+                    found.add(topic[:-len(known)])
+        return sorted(found)
+
+    def _choose_namespace(self, namespace: str) -> str:
+        found = self.drive_namespaces()
+        listed = ', '.join(ns or '(none)' for ns in found) or 'none'
+        if namespace == 'auto':
+            if len(found) > 1:
+                raise BagReadError(f'bag {str(self.path)!r} holds the drives of several namespaces '
+                                   f'({listed}): choose one with --namespace')
+            return found[0] if found else ''
+        namespace = '/' + namespace.strip('/') if namespace.strip('/') else ''
+        if namespace not in found:
+            raise BagReadError(f'bag {str(self.path)!r} holds no drive under namespace '
+                               f'{namespace or "/"!r} (its namespaces: {listed})')
+        return namespace
+
+    def _recorded_name(self, topic: str) -> str:
+        return (self.namespace or '') + topic
 
     @property
     def log_time_source(self) -> str:
@@ -181,7 +224,16 @@ class BagReader:
     # ----------------------------------------------------------------- topics
     @functools.cached_property
     def topics(self) -> dict[str, TopicInfo]:
-        """Topic name -> TopicInfo, from metadata.yaml (or the MCAP channels; read once)."""
+        """Topic name -> TopicInfo (under the chosen namespace, named without it)."""
+        if not self.namespace:
+            return self.recorded_topics
+        prefix, strip = self.namespace + '/', len(self.namespace)
+        return {name[strip:]: dataclasses.replace(info, name=name[strip:])
+                for name, info in self.recorded_topics.items() if name.startswith(prefix)}
+
+    @functools.cached_property
+    def recorded_topics(self) -> dict[str, TopicInfo]:
+        """Topic name as recorded -> TopicInfo, from metadata.yaml (or the MCAP channels; read once)."""
         if self.metadata is not None:
             out = {}
             for entry in self.metadata.get('topics_with_message_count', []):
@@ -234,9 +286,12 @@ class BagReader:
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
         """Every message (of the given topics), file by file, in log-time order."""
+        strip = len(self.namespace or '')
+        if strip:
+            topics = [self._recorded_name(t) for t in (self.topics if topics is None else topics)]
         for file in self.files:
             for schema, channel, message in self._iter_file(file, topics):
-                yield BagMessage(channel.topic, schema.name if schema else '', message.log_time,
+                yield BagMessage(channel.topic[strip:], schema.name if schema else '', message.log_time,
                                  message.publish_time, bytes(message.data),
                                  schema.id if schema else 0)
 

@@ -231,7 +231,7 @@ def recorded_samples(bag: Path) -> dict[str, list[bytes]]:
     from drive_logger.bag_reader import BagReader
     from drive_logger.block_topics import block_sources, per_sample_messages
     out: dict[str, list[bytes]] = {}
-    reader = BagReader(bag)
+    reader = BagReader(bag, namespace='auto')    # a namespaced drive's topics named as without
     for msg in per_sample_messages(reader, list(block_sources(reader))):
         out.setdefault(msg.topic, []).append(zero_padded(msg.data, msg.type))
     return out

@@ -121,7 +121,11 @@ def info_main(args) -> int:
     from drive_logger.block_topics import block_summaries
     try:
         reader = BagReader(args.bag_path)
-        blocks = block_summaries(reader)
+        blocks = {}     # every drive's blocks, a namespaced drive's (-r __ns:=/NAME) included
+        for namespace in reader.drive_namespaces() or ['']:
+            drive = BagReader(args.bag_path, namespace=namespace) if namespace else reader
+            blocks.update({namespace + topic: summary
+                           for topic, summary in block_summaries(drive).items()})
     except BagReadError as exc:
         raise CliError(str(exc)) from None
     meta = reader.metadata or {}
