@@ -17,10 +17,13 @@ F1 = 100.0     # Hz, electrical frequency of the synthetic currents
 TS = 2e-5      # s
 
 
-def _write_run(path, steps=4000):
+def _write_run(path, steps=4000, namespaces=('',)):
+    """A run bag; namespaces: one drive recorded under each ('' = none), the same samples."""
     writer = BagWriter(path)
-    state_t = writer.add_topic('/plant/state', type_definition('dtc_msgs/msg/PlantState'), [qos_yaml.profile()])
-    status_t = writer.add_topic('/dtc/status', type_definition('dtc_msgs/msg/DtcStatus'), [qos_yaml.profile()])
+    topics = [(writer.add_topic(ns + '/plant/state', type_definition('dtc_msgs/msg/PlantState'),
+                                [qos_yaml.profile()]),
+               writer.add_topic(ns + '/dtc/status', type_definition('dtc_msgs/msg/DtcStatus'),
+                                [qos_yaml.profile()])) for ns in namespaces]
     for k in range(steps):
         t = k * TS
         w = 2 * math.pi * F1 * t
@@ -36,8 +39,9 @@ def _write_run(path, steps=4000):
                            rotor_angle_estimate=(w + 0.01) % (2 * math.pi), speed_reference=float('nan'))
         status.header.stamp = time_msg(t)
         now = 1_000_000_000 + k * 1000
-        writer.write(state_t, serialize_message(state), now, now)
-        writer.write(status_t, serialize_message(status), now, now)
+        for state_t, status_t in topics:
+            writer.write(state_t, serialize_message(state), now, now)
+            writer.write(status_t, serialize_message(status), now, now)
     writer.close()
 
 
@@ -64,3 +68,39 @@ def test_analyze_reports_a_damaged_bag(tmp_path, capsys):
     assert analysis_cli.main([str(tmp_path / 'run')]) == 2
     assert 'metadata.yaml' in capsys.readouterr().err
     np.testing.assert_equal(analysis_cli.main([str(tmp_path / 'run'), '--salvage', '--out', str(tmp_path / 'o')]), 0)
+
+
+def _without_figures(out) -> dict:
+    """The summary analyze wrote into out, figure paths (which name out) left out."""
+    summary = json.loads((out / 'summary.json').read_text())
+    assert sorted(summary.pop('figures')), 'no figure drawn'
+    return summary
+
+
+def test_analyze_reads_a_namespaced_drive_as_the_same_drive_without(tmp_path, capsys):
+    _write_run(tmp_path / 'plain', steps=1000)
+    _write_run(tmp_path / 'one', steps=1000, namespaces=('/drive1',))
+    assert analysis_cli.main([str(tmp_path / 'plain'), '--out', str(tmp_path / 'a')]) == 0
+    plain = _without_figures(tmp_path / 'a')
+    assert analysis_cli.main([str(tmp_path / 'one'), '--out', str(tmp_path / 'b')]) == 0
+    assert _without_figures(tmp_path / 'b') == plain
+    # Two drives: --namespace chooses; without it, a one-line error lists them.
+    _write_run(tmp_path / 'two', steps=1000, namespaces=('/drive1', '/drive2'))
+    capsys.readouterr()
+    assert analysis_cli.main([str(tmp_path / 'two')]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and '/drive1, /drive2' in error and '--namespace' in error
+    assert analysis_cli.main([str(tmp_path / 'two'), '--namespace', 'drive2',
+                              '--out', str(tmp_path / 'c')]) == 0
+    assert _without_figures(tmp_path / 'c') == plain
+
+
+def test_analyze_refuses_a_bag_without_any_topic_it_knows(tmp_path, capsys):
+    from std_msgs.msg import String
+    writer = BagWriter(tmp_path / 'other')
+    topic = writer.add_topic('/chatter', type_definition('std_msgs/msg/String'), [qos_yaml.profile()])
+    writer.write(topic, serialize_message(String(data='hello')), 1, 1)
+    writer.close()
+    assert analysis_cli.main([str(tmp_path / 'other'), '--out', str(tmp_path / 'o')]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and 'none of the topics' in error, error

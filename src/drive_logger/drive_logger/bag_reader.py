@@ -286,14 +286,19 @@ class BagReader:
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
         """Every message (of the given topics), file by file, in log-time order."""
+        for _, message in self._messages(topics):
+            yield message
+
+    def _messages(self, topics: Iterable[str] | None):
+        """(schema, BagMessage) of every message of topics (named without the namespace)."""
         strip = len(self.namespace or '')
         if strip:
             topics = [self._recorded_name(t) for t in (self.topics if topics is None else topics)]
         for file in self.files:
             for schema, channel, message in self._iter_file(file, topics):
-                yield BagMessage(channel.topic[strip:], schema.name if schema else '', message.log_time,
-                                 message.publish_time, bytes(message.data),
-                                 schema.id if schema else 0)
+                yield schema, BagMessage(channel.topic[strip:], schema.name if schema else '',
+                                         message.log_time, message.publish_time,
+                                         bytes(message.data), schema.id if schema else 0)
 
     def decode(self, msg: BagMessage, schema=None) -> Any:
         """Decode a message's CDR with its schema (mcap-ros2-support dynamic types)."""
@@ -315,8 +320,5 @@ class BagReader:
 
     def decoded_messages(self, topics: Iterable[str] | None = None) -> Iterator[tuple[BagMessage, Any]]:
         """(BagMessage, decoded message) pairs."""
-        for file in self.files:
-            for schema, channel, message in self._iter_file(file, topics):
-                msg = BagMessage(channel.topic, schema.name if schema else '', message.log_time,
-                                 message.publish_time, bytes(message.data), schema.id if schema else 0)
-                yield msg, self.decode(msg, schema)
+        for schema, msg in self._messages(topics):
+            yield msg, self.decode(msg, schema)
