@@ -155,3 +155,24 @@ def test_a_second_run_in_the_domain_refuses_before_it_touches_the_first(alone, r
     assert first.returncode == 0, out
     assert_same_samples(alone, tmp_path / 'first' / 'bag')
 
+
+
+def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, ros_domain,
+                                                                          tmp_path):
+    """Each drive has its own clock, diagnostics and parameter events under its namespace,
+    and its bag holds only its own topics, with the samples of the run alone."""
+    runs = {ns: run_scenario('--domain-id', str(ros_domain), '--namespace', ns,
+                             '--out', str(tmp_path / ns)) for ns in ('drive1', 'drive2')}
+    try:
+        outputs = {ns: run.communicate(timeout=600)[0] for ns, run in runs.items()}
+    finally:
+        for run in runs.values():
+            if run.poll() is None:
+                run.kill()
+    from drive_logger.bag_reader import BagReader
+    for ns, run in runs.items():
+        assert run.returncode == 0, outputs[ns]
+        recorded = BagReader(tmp_path / ns / 'bag').recorded_topics
+        assert all(t.startswith(f'/{ns}/') for t in recorded), sorted(recorded)
+        assert recorded[f'/{ns}/clock'].message_count > 0
+        assert_same_samples(alone, tmp_path / ns / 'bag')

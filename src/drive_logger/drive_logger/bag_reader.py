@@ -26,7 +26,6 @@ from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
-from drive_common import topics as _names
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import LOG_TIME_RECORD
 
@@ -126,11 +125,11 @@ def intact_messages(stream, problems: list[str], name: str):
             yield schemas.get(channel.schema_id), channel, record
 
 
-DRIVE_TOPICS = tuple('/' + t for t in (
-    _names.PLANT_STATE_BLOCK, _names.DTC_STATUS_BLOCK, _names.PFC_STATUS_BLOCK, _names.PLANT_STATE,
-    _names.DTC_STATUS, _names.PFC_STATUS, _names.DRIVE_MEASUREMENT, _names.GATE_COMMAND,
-    _names.PFC_MEASUREMENT, _names.DUTY_COMMAND))
-"""A drive's topics: what tells the namespace of a drive recorded under one."""
+DRIVE_TOPICS = ('/plant/state_block', '/dtc/status_block', '/pfc/status_block', '/plant/state',
+                '/dtc/status', '/pfc/status', '/drive/measurement', '/drive/gate_command',
+                '/pfc/measurement', '/pfc/duty_command')
+"""A drive's topics (drive_common.topics, not imported: this reader needs no ROS): what tells
+the namespace of a drive recorded under one."""
 
 
 class BagReader:

@@ -277,3 +277,12 @@ def test_wall_stamped_messages_wait_for_the_sim_time_their_wake_up_reached(tmp_p
     assert sorted(times) == sorted([('/drive/measurement', 75_000, 75_000), ('/drive/measurement', 100_000, 100_000),
                                     ('/parameter_events', 50_000, 50_000), ('/parameter_events', 100_000, 100_000),
                                     ('/notes', 100_000, 100_000)])
+
+
+def test_the_drive_topics_that_tell_a_namespace_are_the_drive_graphs():
+    from drive_common import topics as names
+    from drive_logger.bag_reader import DRIVE_TOPICS
+    assert set(DRIVE_TOPICS) == {'/' + t for t in (
+        names.PLANT_STATE_BLOCK, names.DTC_STATUS_BLOCK, names.PFC_STATUS_BLOCK, names.PLANT_STATE,
+        names.DTC_STATUS, names.PFC_STATUS, names.DRIVE_MEASUREMENT, names.GATE_COMMAND,
+        names.PFC_MEASUREMENT, names.DUTY_COMMAND)}
