@@ -176,3 +176,12 @@ def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, 
         assert all(t.startswith(f'/{ns}/') for t in recorded), sorted(recorded)
         assert recorded[f'/{ns}/clock'].message_count > 0
         assert_same_samples(alone, tmp_path / ns / 'bag')
+        info = subprocess.run(['ros2', 'bag', 'info', str(tmp_path / ns / 'bag')],
+                              capture_output=True, text=True, timeout=60)
+        block_lines = [line for line in info.stdout.splitlines() if '_block |' in line]
+        assert len(block_lines) == 3 and all(f'/{ns}/' in line and '| Samples: ' in line
+                                             for line in block_lines), info.stdout + info.stderr
+    # The analysis reads a namespaced drive as the same drive without a namespace.
+    from drive_analysis.bag_columns import load_columns
+    assert load_columns(str(tmp_path / 'drive1' / 'bag'))['/plant/state']['step'].size == \
+        len(alone['/plant/state'])
