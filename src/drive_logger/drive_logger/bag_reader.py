@@ -200,7 +200,7 @@ class BagReader:
         if namespace == 'auto':
             if len(found) > 1:
                 raise BagReadError(f'bag {str(self.path)!r} holds the drives of several namespaces '
-                                   f'({listed}): choose one with --namespace')
+                                   f'({listed}): choose one with --namespace NAME (replay: -p namespace:=NAME)')
             return found[0] if found else ''
         namespace = '/' + namespace.strip('/') if namespace.strip('/') else ''
         if namespace not in found:

@@ -17,6 +17,10 @@ Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
   ``wait_for_subscribers`` (double s, 0.0: wait up to this long for at least
   one subscriber on every replayed topic before starting).
 - ``start_offset`` (double s, 0.0): skip the first seconds of log time.
+- ``namespace`` (string, ''): the drive to replay from a bag of drives recorded
+  under namespaces (``/drive1``; '': the bag's only one). A namespaced drive's
+  topics are published under this node's namespace (``-r __ns:=/NAME``), so it
+  replays into a namespaced graph.
 - ``expand_blocks`` (bool, false): publish the per-sample topics a block
   topic carries (``plant/state`` from ``plant/state_block``; ``dtc/status``,
   ``drive/measurement``, ``drive/gate_command`` from ``dtc/status_block``;
@@ -85,6 +89,7 @@ REPLAY_SCHEMA = schema([
     _spec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
           's', 0.0, 1e9),
     _spec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
+    _spec('namespace', '', "the drive's namespace in a bag of several ('': the only one)"),
 ])
 
 
@@ -96,7 +101,8 @@ class ReplayNode(Node):
         get = self.parameters = SchemaParameters(self, REPLAY_SCHEMA)
         if not get['bag']:
             raise BagReadError('parameter bag is required (bag directory or .mcap file)')
-        self.reader = BagReader(get['bag'], salvage=get['salvage'])
+        self.reader = BagReader(get['bag'], salvage=get['salvage'],
+                                namespace=get['namespace'] or 'auto')
         for problem in self.reader.problems:
             self.get_logger().warning(f'salvaging: {problem}')
         self.rate = float(get['rate'])
@@ -113,7 +119,9 @@ class ReplayNode(Node):
         self.publishers_by_topic = {}
         for name in self.topic_names:
             type_name, profiles = available[name]
-            target = remaps.get(name, remaps.get(name.lstrip('/'), name))
+            # A namespaced drive's topics: relative, under this node's namespace.
+            default = name.lstrip('/') if self.reader.namespace else name
+            target = remaps.get(name, remaps.get(name.lstrip('/'), default))
             self.publishers_by_topic[name] = self.create_publisher(
                 ros_types.message_class(type_name), target, ros_types.replay_qos(profiles))
         self.publish_clock = bool(get['publish_clock'])

@@ -121,3 +121,32 @@ def test_replay_into_fresh_controller_reproduces_gate_commands(ros_session, star
     report = json.loads((tmp_path / 'report.json').read_text())
     assert report['mismatch_count'] == 1 and report['first_mismatch_step'] == 123
     assert report['mismatches'][0]['recorded']['switch_on'][0] != report['mismatches'][0]['replayed']['switch_on'][0]
+
+
+def test_replay_of_one_namespaced_drive_into_a_namespace(ros_session, start_node, tmp_path,
+                                                         measurement_factory):
+    """A bag of two drives (/drive1, /drive2): namespace chooses one, its topics go out under the
+    replay node's namespace; without a choice the replay refuses, naming both."""
+    writer = BagWriter(tmp_path / 'bag')
+    definition = type_definition('dtc_msgs/msg/DriveMeasurement')
+    sent = {ns: [] for ns in ('/drive1', '/drive2')}
+    topics = {ns: writer.add_topic(ns + '/drive/measurement', definition, [qos_yaml.profile()])
+              for ns in sent}
+    for k in range(50):
+        for ns, topic in topics.items():
+            data = serialize_message(measurement_factory(k if ns == '/drive1' else 1000 + k))
+            sent[ns].append(data)
+            writer.write(topic, data, 1_000_000_000 + k * 1_000_000, 1_000_000_000 + k * 1_000_000)
+    writer.close()
+    undecided = start_node('drive_logger', 'replay', parameters={'bag': str(tmp_path / 'bag')})
+    assert undecided.process.wait(timeout=20) == 2
+    assert '/drive1, /drive2' in undecided.output(), undecided.output()
+    got = []
+    deep = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    ros_session.node('listener').create_subscription(
+        DriveMeasurement, '/replayed_drive/drive/measurement', got.append, deep, raw=True)
+    start_node('drive_logger', 'replay', remappings={'__ns': '/replayed_drive'}, parameters={
+        'bag': str(tmp_path / 'bag'), 'namespace': '/drive2', 'rate': 0.0,
+        'wait_for_subscribers': 10.0, 'publish_clock': False})
+    wait_until(lambda: len(got) >= 50, 15.0, what='the replayed drive')
+    assert got == sent['/drive2']
