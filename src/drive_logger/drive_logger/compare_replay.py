@@ -94,7 +94,7 @@ PARAMETER_EVENTS = '/parameter_events'
 
 
 def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage: bool = False,
-                   controller_node: str = '/dtc_controller'):
+                   controller_node: str = '/dtc_controller', namespace: str = 'auto'):
     """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}, changes) from a bag.
 
     The measurements and commands are the raw lockstep topics when the bag has them, else
@@ -106,7 +106,9 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
     """
     from rclpy.serialization import deserialize_message
     from drive_logger import ros_types
-    reader = BagReader(bag, salvage=salvage)
+    reader = BagReader(bag, salvage=salvage, namespace=namespace)   # a namespaced drive: its own
+    if reader.namespace and not controller_node.startswith(reader.namespace + '/'):
+        controller_node = reader.namespace + controller_node        # events name /NS/node
     infos = reader.topics
     pair = (measurement_topic, command_topic)
     if all(t in infos and infos[t].message_count != 0 for t in pair):
@@ -151,7 +153,8 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                        command_topic: str = '/drive/gate_command', timeout: float = 30.0,
                        max_steps: int | None = None, salvage: bool = False, context=None,
                        match_timeout: float = 15.0,
-                       controller_node: str = '/dtc_controller') -> ComparisonReport:
+                       controller_node: str = '/dtc_controller',
+                       namespace: str = 'auto') -> ComparisonReport:
     """Drive the (already started) controller with the bag's measurements; compare its commands."""
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -163,7 +166,7 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     from rclpy.parameter import Parameter
     from rclpy.parameter_client import AsyncParameterClient
     meas_cls, measurements, cmd_cls, recorded, changes = load_recording(
-        bag, measurement_topic, command_topic, salvage, controller_node)
+        bag, measurement_topic, command_topic, salvage, controller_node, namespace)
     if max_steps is not None:
         measurements = measurements[:max_steps]
     replies: dict[int, bytes] = {}
@@ -260,7 +263,7 @@ def _run(args) -> ComparisonReport:
         return replay_and_compare(args.bag, controller, measurement_topic=args.measurement_topic,
                                   command_topic=args.command_topic, timeout=args.timeout,
                                   max_steps=args.max_steps, salvage=args.salvage, context=context,
-                                  controller_node=args.controller_node)
+                                  controller_node=args.controller_node, namespace=args.namespace)
     finally:
         controller.stop()
         rclpy.try_shutdown(context=context)
@@ -285,6 +288,8 @@ def main(argv=None) -> int:
     ap.add_argument('--controller-node', default='/dtc_controller',
                     help="whose recorded /parameter_events to re-apply (the replayed node's name)")
     ap.add_argument('--salvage', action='store_true', help='use the intact part of a damaged bag')
+    ap.add_argument('--namespace', default='auto',
+                    help="the drive's namespace in a bag of several (e.g. /drive1)")
     ap.add_argument('--json', help='write the report here')
     args = ap.parse_args(argv)
 
