@@ -209,8 +209,10 @@ class Scenario:
 TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 
 
-def _known_metric(path: Path, key: str, name: str) -> None:
+def _known_metric(path: Path, key: str, name) -> None:
     from drive_analysis.registry import lookup
+    if not isinstance(name, str):
+        raise _fail(path, key, f'expected a metric name, got {name!r}')
     try:
         lookup(name)
     except KeyError as exc:
@@ -226,6 +228,14 @@ def _mapping(value, path: Path, key: str) -> dict:
         return {}
     if not isinstance(value, dict):
         raise _fail(path, key, f'expected a mapping, got {type(value).__name__}')
+    return value
+
+
+def _list(value, path: Path, key: str) -> list:
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise _fail(path, key, f'expected a list, got {type(value).__name__}')
     return value
 
 
@@ -294,7 +304,7 @@ def load_scenario(path: str | Path) -> Scenario:
         overrides[node] = dict(params)
 
     events = []
-    for i, ev in enumerate(raw.get('events') or []):
+    for i, ev in enumerate(_list(raw.get('events'), path, 'events')):
         key = f'events[{i}]'
         ev = _mapping(ev, path, key)
         extra = sorted(set(ev) - {'time', 'node', 'parameters'})
@@ -307,7 +317,7 @@ def load_scenario(path: str | Path) -> Scenario:
         if not 0.0 <= t < duration:
             raise _fail(path, f'{key}.time', f'{t} s is outside [0, duration = {duration} s)')
         node = ev['node']
-        if node not in snapshots:
+        if not isinstance(node, str) or node not in snapshots:
             raise _fail(path, f'{key}.node', f'{node!r} is not a node of this scenario')
         params = _resolve_paths(_mapping(ev['parameters'], path, f'{key}.parameters'))
         if not params:
@@ -353,7 +363,7 @@ def load_scenario(path: str | Path) -> Scenario:
                         + ', '.join(ALL_FIGURES) + ')')
 
     checks = []
-    for i, ch in enumerate(raw.get('checks') or []):
+    for i, ch in enumerate(_list(raw.get('checks'), path, 'checks')):
         key = f'checks[{i}]'
         ch = _mapping(ch, path, key)
         extra = sorted(set(ch) - {'metric', 'seed', 'tolerance', 'min', 'max', 'label'})
@@ -373,7 +383,7 @@ def load_scenario(path: str | Path) -> Scenario:
             raise _fail(path, f'{key}.tolerance', f'must be >= 0, got {tol}')
         if lo is not None and hi is not None and lo > hi:
             raise _fail(path, key, f'min {lo} is above max {hi}')
-        if ch['metric'] not in metrics:
+        if not isinstance(ch['metric'], str) or ch['metric'] not in metrics:
             _known_metric(path, f'{key}.metric', ch['metric'])
         checks.append(Check(ch['metric'], str(ch.get('label', ch['metric'])), seed, tol, lo, hi))
 
