@@ -95,7 +95,7 @@ def test_param_verbs_and_dump_load_round_trip(drive_graph, tmp_path):
     assert ros2.ok('param', 'get', '/plant', 'load.torque', '--hide-type').strip() == '0.2'
     assert ros2.ok('param', 'get', '/plant', 'motor.file').strip() == 'String value is: ozturk_bldc'
     assert (ros2.ok('param', 'get', '/plant', 'sensors.current_offset').strip()
-            == "Double values are: array('d', [0.0, 0.0, 0.0])")
+            == 'Double values are: [0.0, 0.0, 0.0]')
     assert ros2.ok('param', 'set', '/plant', 'load.torque', '0.3').strip() == 'Set parameter successful'
     assert ros2.ok('param', 'get', '/plant', 'load.torque').strip() == 'Double value is: 0.3'
     refused = ros2('param', 'set', '/plant', 'load.torque', '5000.0')

@@ -77,3 +77,24 @@ def test_parameter_yaml_keeps_floats_and_arrays():
     assert load_yaml('1e-06') == 1e-06 and load_yaml('-2E5') == -200000.0 and load_yaml('e5') == 'e5'
     assert parameter_from_value('x', load_yaml('[1, 2.5]')).value == [1.0, 2.5]
     assert parameter_from_value('x', [], declared_type=8).type_.name == 'DOUBLE_ARRAY'
+
+
+@pytest.mark.parametrize('field, ptype, value, line', [
+    ('bool_value', 1, True, 'Boolean value is: True'),
+    ('integer_value', 2, 7, 'Integer value is: 7'),
+    ('double_value', 3, 0.25, 'Double value is: 0.25'),
+    ('string_value', 4, 'ozturk_bldc', 'String value is: ozturk_bldc'),
+    ('byte_array_value', 5, [b'\x01', b'\xff'], "Byte values are: [b'\\x01', b'\\xff']"),
+    ('bool_array_value', 6, [True, False], 'Boolean values are: [True, False]'),
+    ('integer_array_value', 7, [1, -2, 3], 'Integer values are: [1, -2, 3]'),
+    ('double_array_value', 8, [0.1, 0.0, 0.0], 'Double values are: [0.1, 0.0, 0.0]'),
+    ('string_array_value', 9, ['a', 'b c'], "String values are: ['a', 'b c']"),
+])
+def test_param_get_prints_every_type_as_upstream(field, ptype, value, line):
+    """Upstream ros2param get: label and the value as a Python list, never array('d', ...)."""
+    from rcl_interfaces.msg import ParameterValue
+
+    from drive_ros2cli.verbs.param import format_get
+    msg = ParameterValue(type=ptype, **{field: value})
+    assert format_get(msg) == line
+    assert format_get(msg, hide_type=True) == line.split(': ', 1)[1]
