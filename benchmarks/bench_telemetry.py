@@ -1,4 +1,4 @@
-"""Issue 14 telemetry goals, all figures from one run of this one command, printed side by side.
+"""The telemetry goals, all figures from one run of this one command, printed side by side.
 
 Runs, in one private DDS domain, the pieces of the other benchmark scripts
 (their functions, imported) and prints one table, each figure with its goal
@@ -56,7 +56,7 @@ from bench_scenario_ros import DEFAULT, CpuMeasuringRunner, bag_samples
 from timing import best_of
 
 PFC_SCENARIO = 'pfc_no_load_fig_3_5'
-PFC_TODAY = 1175.0        # samples/s, pfc_no_load_fig_3_5 recorded (issue 14)
+PFC_TODAY = 1175.0        # samples/s, pfc_no_load_fig_3_5 recorded
 MEMORY_SIM_S = 10.0
 
 

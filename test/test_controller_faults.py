@@ -1,4 +1,4 @@
-"""A misbehaving controller is handled by the plant as the built-ins are (issue 16).
+"""A misbehaving controller is handled by the plant as the built-ins are.
 
 An in-test responder answers the plant's measurements correctly for the
 first samples, then misbehaves: NaN or out-of-range duty, a wrong step

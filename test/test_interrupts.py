@@ -1,4 +1,4 @@
-"""SIGINT or SIGTERM stops every node of a running graph cleanly (issue 13, item 8).
+"""SIGINT or SIGTERM stops every node of a running graph cleanly.
 
 A recorded graph (plant with ``run_until``, dtc_controller, recorder) is
 interrupted 20 times at seeded random moments of its run (mid-run, or held

@@ -1,4 +1,4 @@
-"""The lockstep graph as ROS users see it (issue 13, items 3, 8 and 9).
+"""The lockstep graph as ROS users see it.
 
 - ``node list``/``node info`` show /plant and the controllers with their
   real lockstep publishers and subscriptions (no helper nodes).

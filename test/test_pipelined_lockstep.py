@@ -1,4 +1,4 @@
-"""Pipelined lockstep with ``computation_delay`` (issue 14), through real ROS processes.
+"""Pipelined lockstep with ``computation_delay``, through real ROS processes.
 
 - Recorded bags of the pipelined graph (plant + dtc_controller; plant +
   dtc_controller + pfc_controller, multi-rate) equal the headless

@@ -1,4 +1,4 @@
-"""The plant node as lockstep time master, through real ROS processes (issue 3).
+"""The plant node as lockstep time master, through real ROS processes.
 
 - A fixed-pattern responder answers the plant's measurements: the plant's
   ground truth equals the headless co-simulation's, sample for sample.

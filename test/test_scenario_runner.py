@@ -1,4 +1,4 @@
-"""The launch-free scenario runner through real ROS processes (issue 8).
+"""The launch-free scenario runner through real ROS processes.
 
 - A scenario runs as separate processes, events land at exact sim times,
   the run is recorded and reported.
@@ -138,7 +138,7 @@ def test_ctrl_c_stops_every_node(tmp_path):
 
 def test_replay_into_a_fresh_controller_reproduces_its_gate_commands(recorded_run, tmp_path,
                                                                       ros_domain):
-    """Issue 7: a recorded run re-drives a new dtc_controller; the gates match step for step,
+    """A recorded run re-drives a new dtc_controller; the gates match step for step,
     across the scenario's runtime parameter change (taken from the recorded /parameter_events)."""
     import yaml
     out, _ = recorded_run

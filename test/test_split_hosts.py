@@ -1,4 +1,4 @@
-"""The node graph split across hosts (issue 17): hardware-in-the-loop on one machine.
+"""The node graph split across hosts: hardware-in-the-loop on one machine.
 
 The plant, the dtc_controller and the recorder (with the runner's client)
 run in three network namespaces joined by a bridge (drive_common.netns) —

@@ -107,7 +107,7 @@ def test_shipped_scenarios_are_valid():
 
 
 def test_default_recording_is_the_blocks_and_lockstep_topics_only_on_request(tmp_path):
-    """No recorder subscription on a per-sample topic by default (issue 14); record.lockstep
+    """No recorder subscription on a per-sample topic by default; record.lockstep
     adds the raw lockstep topics, record.topics replaces the list."""
     from drive_bringup.runner import record_topics
     base = 'name: x\nduration: 0.1\nnodes: {plant: {}, dtc_controller: {}}\n'

@@ -1,4 +1,4 @@
-"""Block bags downstream (issue 14): per-sample expansion, third-party readers, bag info, replay
+"""Block bags downstream: per-sample expansion, third-party readers, bag info, replay
 with expand_blocks and compare_replay, on bags written from a headless run (no graph needed
 to make them)."""
 import argparse

@@ -242,7 +242,7 @@ def _subscribers(ros2, topic: str) -> int:
 
 
 def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_path):
-    """Needs drive_logger.bag_reindex (issue 13, bags deliverable): the recorder is SIGKILLed after a
+    """Needs drive_logger.bag_reindex: the recorder is SIGKILLed after a
     run; `ros2 bag reindex` gives the bag its metadata.yaml, and `ros2 bag info` then reports exactly
     the messages that were on disk, nothing invented."""
     import os
@@ -295,7 +295,7 @@ time.sleep(600)
 
 
 def test_param_verbs_never_hang_on_a_node_that_does_not_answer(drive_graph, tmp_path):
-    """Issue 13 item 2: a node that advertises parameter services but never answers costs the
+    """A node that advertises parameter services but never answers costs the
     command its time-out and a one-line report, never a hang."""
     import subprocess
     import sys

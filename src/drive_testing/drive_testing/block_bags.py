@@ -1,6 +1,6 @@
 """Bags of one headless run, written without the ROS graph: per-sample topics, block topics, or both.
 
-For readers' tests (issue 14): the same samples a recorded graph would
+For readers' tests: the same samples a recorded graph would
 carry, from :func:`drive_bringup.headless.run_headless` (the same cores the
 nodes wrap), serialized as the nodes fill them
 (:class:`drive_common.conversions.ReusedMessage`, stamp = the sample's sim
