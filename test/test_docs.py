@@ -6,7 +6,8 @@
 - no internal workflow words (tracker numbers, "formerly") in src, test,
   benchmarks, docs or the README;
 - the runnable code blocks of the tutorials (MyST ``{code-block} bash`` with
-  ``:class: run``, docs/getting_started.md "Code blocks that are run") run.
+  ``:class: run``, docs/getting_started.md "Code blocks that are run") run, each
+  in a fresh ``bash`` from the repository root, sharing one ``TMPDIR`` per page.
 """
 from __future__ import annotations
 
@@ -111,12 +112,13 @@ def test_run_blocks_are_found():
 
 @pytest.mark.parametrize('page', TUTORIALS)
 def test_tutorial_code_blocks_run(page, tmp_path):
-    """Each page's runnable blocks, in order, in one bash -e from the repository root."""
+    """Each runnable block of the page, in order, in a fresh bash -e from the repository root."""
     blocks = run_blocks(DOCS / page)
     assert blocks, f'{page} has no runnable block'
-    script = 'set -eo pipefail\n' + '\n'.join(blocks)
     env = dict(os.environ, TMPDIR=str(tmp_path))
-    result = subprocess.run(['bash', '-c', script], cwd=ROOT, env=env, capture_output=True, text=True,
-                            timeout=900)
-    assert result.returncode == 0, (f'{page}: exit {result.returncode}\n--- script\n{script}\n'
-                                    f'--- stdout\n{result.stdout[-3000:]}\n--- stderr\n{result.stderr[-3000:]}')
+    for block in blocks:
+        script = 'set -eo pipefail\n' + block
+        result = subprocess.run(['bash', '-c', script], cwd=ROOT, env=env, capture_output=True, text=True,
+                                timeout=900)
+        assert result.returncode == 0, (f'{page}: exit {result.returncode}\n--- block\n{block}\n'
+                                        f'--- stdout\n{result.stdout[-3000:]}\n--- stderr\n{result.stderr[-3000:]}')

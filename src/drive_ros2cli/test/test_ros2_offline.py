@@ -98,3 +98,43 @@ def test_param_get_prints_every_type_as_upstream(field, ptype, value, line):
     msg = ParameterValue(type=ptype, **{field: value})
     assert format_get(msg) == line
     assert format_get(msg, hide_type=True) == line.split(': ', 1)[1]
+
+
+def test_pkg_create_writes_upstream_ament_python_layout(ros2_offline, tmp_path):
+    """`ros2 pkg create --build-type ament_python --node-name N NAME`: upstream's files and output lines."""
+    out = ros2_offline.ok('pkg', 'create', '--build-type', 'ament_python', '--node-name', 'talker',
+                          '--dependencies', 'rclpy', 'std_msgs', '--maintainer-email', 'me@example.org',
+                          '--destination-directory', str(tmp_path), 'my_pkg')
+    lines = out.splitlines()
+    assert lines[0] == 'going to create a new package'
+    assert 'package name: my_pkg' in lines and 'build type: ament_python' in lines
+    assert "dependencies: ['rclpy', 'std_msgs']" in lines and 'node_name: talker' in lines
+    assert 'creating ./my_pkg/package.xml' in lines and 'creating ./my_pkg/my_pkg/talker.py' in lines
+    root = tmp_path / 'my_pkg'
+    files = sorted(str(p.relative_to(root)) for p in root.rglob('*') if p.is_file())
+    assert files == ['my_pkg/__init__.py', 'my_pkg/talker.py', 'package.xml', 'resource/my_pkg',
+                     'setup.cfg', 'setup.py']
+    assert (root / 'test').is_dir()
+    xml = (root / 'package.xml').read_text()
+    assert '<package format="3">' in xml and '<depend>std_msgs</depend>' in xml
+    assert '<maintainer email="me@example.org">' in xml and '<build_type>ament_python</build_type>' in xml
+    assert "'talker = my_pkg.talker:main'" in (root / 'setup.py').read_text()
+    assert (root / 'setup.cfg').read_text() == ('[develop]\nscript_dir=$base/lib/my_pkg\n'
+                                                '[install]\ninstall_scripts=$base/lib/my_pkg\n')
+    again = ros2_offline('pkg', 'create', '--build-type', 'ament_python',
+                         '--destination-directory', str(tmp_path), 'my_pkg')
+    assert again.code == 1 and 'The directory already exists' in again.err
+
+
+def test_pkg_create_controller_template_and_bad_input(ros2_offline, tmp_path):
+    ros2_offline.ok('pkg', 'create', '--build-type', 'ament_python', '--template', 'drive_controller',
+                    '--destination-directory', str(tmp_path), 'my_ctrl')
+    root = tmp_path / 'my_ctrl'
+    assert 'run_controller(Core, \'my_ctrl\', args)' in (root / 'my_ctrl' / 'my_ctrl.py').read_text()
+    assert (root / 'test' / 'test_my_ctrl.py').is_file()
+    assert '<depend>drive_common</depend>' in (root / 'package.xml').read_text()
+    for args, message in [(('--build-type', 'ament_python', 'Bad-Name'), "invalid package name 'Bad-Name'"),
+                          (('--template', 'drive_controller', 'x'), 'needs --build-type ament_python'),
+                          (('--build-type', 'ament_python', 'test'), "can't be named 'test'")]:
+        result = ros2_offline('pkg', 'create', '--destination-directory', str(tmp_path), *args)
+        assert result.code == 1 and message in result.err and 'Traceback' not in result.err
