@@ -122,3 +122,22 @@ def test_tutorial_code_blocks_run(page, tmp_path):
                                 timeout=900)
         assert result.returncode == 0, (f'{page}: exit {result.returncode}\n--- block\n{block}\n'
                                         f'--- stdout\n{result.stdout[-3000:]}\n--- stderr\n{result.stderr[-3000:]}')
+
+
+def test_reproduce_writes_the_docs_page_between_its_markers(tmp_path):
+    """`reproduce --docs PAGE` replaces only the table between the markers; a page without them is refused."""
+    from drive_bringup import reproduce
+    page = tmp_path / 'reproduction.md'
+    page.write_text(f'# Page\n\nbefore\n\n{reproduce.BEGIN}\nold table\n{reproduce.END}\n\nafter\n')
+    code = reproduce.main(['--only', 'example_hysteresis', '--jobs', '1', '--out', str(tmp_path / 'reports'),
+                           '--docs', str(page)])
+    assert code == 0
+    text = page.read_text()
+    assert text.startswith('# Page\n\nbefore\n\n') and text.endswith(f'{reproduce.END}\n\nafter\n')
+    assert 'old table' not in text and '| example_hysteresis_current_control |' in text
+    assert '2/2 checks pass' in text
+    bare = tmp_path / 'bare.md'
+    bare.write_text('no markers\n')
+    with pytest.raises(SystemExit, match='markers'):
+        reproduce.main(['--only', 'example_hysteresis', '--docs', str(bare)])
+    assert reproduce.BEGIN in (DOCS / 'reproduction.md').read_text()
