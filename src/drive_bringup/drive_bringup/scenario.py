@@ -414,22 +414,35 @@ def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
     return ControllerProgram(**values)
 
 
-def scenario_dir() -> Path:
-    """The scenarios of the source tree (symlink/develop installs), else share/drive_bringup."""
-    source = Path(__file__).resolve().parents[1] / 'scenarios'
+def shipped_dir(kind: str) -> Path:
+    """The shipped files of a kind ('scenarios', 'studies'): the source tree (symlink/develop
+    installs), else share/drive_bringup/<kind>."""
+    source = Path(__file__).resolve().parents[1] / kind
     if source.is_dir():
         return source
     from ament_index_python.packages import get_package_share_directory
-    return Path(get_package_share_directory('drive_bringup')) / 'scenarios'
+    return Path(get_package_share_directory('drive_bringup')) / kind
+
+
+def find_shipped(name_or_path: str, kind: str) -> Path:
+    """A path as given, or a shipped file's name looked up in shipped_dir(kind); ScenarioError
+    naming the known ones otherwise."""
+    path = Path(name_or_path)
+    if path.suffix in ('.yaml', '.yml') or path.exists():
+        return path
+    candidate = shipped_dir(kind) / f'{name_or_path}.yaml'
+    if not candidate.exists():
+        known = sorted(p.stem for p in shipped_dir(kind).glob('*.yaml'))
+        raise ScenarioError(f'no {kind[:-1].replace("ie", "y")} {name_or_path!r} '
+                            f'(known: {", ".join(known)})')
+    return candidate
+
+
+def scenario_dir() -> Path:
+    """The shipped scenarios."""
+    return shipped_dir('scenarios')
 
 
 def find_scenario(name_or_path: str) -> Path:
     """A path as given, or a scenario name looked up in scenario_dir()."""
-    path = Path(name_or_path)
-    if path.suffix in ('.yaml', '.yml') or path.exists():
-        return path
-    candidate = scenario_dir() / f'{name_or_path}.yaml'
-    if not candidate.exists():
-        known = sorted(p.stem for p in scenario_dir().glob('*.yaml'))
-        raise ScenarioError(f'no scenario {name_or_path!r} (known: {", ".join(known)})')
-    return candidate
+    return find_shipped(name_or_path, 'scenarios')
