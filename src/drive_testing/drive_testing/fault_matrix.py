@@ -271,7 +271,7 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
     logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
         if (out / 'logs').is_dir() else ''
     outcome.log = bool(LOG_LINE.search(logs))
-    outcome.diagnostics = any(s.level >= 1 for s in ctx.diagnostics)
+    outcome.diagnostics = any(_level(s) >= 1 for s in ctx.diagnostics)
     outcome.crashed = _crash(code, text + logs, case)
     if case.expect == 'refused':
         outcome.result = any(kind == 'refused' for kind, _ in ctx.notes)
@@ -281,6 +281,12 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
         outcome.changed = _block_data(out / 'bag') != reference
     outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
     return outcome
+
+
+def _level(status) -> int:
+    """A DiagnosticStatus level as a number (rclpy gives a byte: b'\\x02')."""
+    level = status.level
+    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
 
 
 def _names_fault(code: int, text: str, case: Case) -> bool:
