@@ -43,19 +43,22 @@ class RunEnd:
     fault_count: int         # faults recorded during the run
     first_fault_time: float  # s, the plant's first fault (NaN if none)
     first_fault: str         # its kind label ('' if none)
+    fault_kinds: tuple = ()  # kind labels of the faults recorded during the run
 
     @property
     def faulted(self) -> bool:
         return self.end_state != 'ended normally'
 
 
-def run_end(core, faults_before: int) -> RunEnd:
-    """The end state of a run that started with faults_before faults in core.faults."""
+def run_end(core, counts_before: list[int]) -> RunEnd:
+    """The end state of a run that started with core.faults.counts == counts_before."""
     record: FaultRecord = core.faults
     active = bool(core.protection) or core.in_safe_state
     first = record.first_kind
-    return RunEnd(record.end_state(faults_before, active), record.since(faults_before),
-                  record.first_time, first.label if first else '')
+    kinds = record.kinds_since(counts_before)
+    before = sum(counts_before)
+    return RunEnd(record.end_state(before, active), record.since(before),
+                  record.first_time, first.label if first else '', kinds)
 
 
 class FaultReporter:

@@ -367,7 +367,7 @@ class PlantNode(Node):
             result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
                                 message=message, end_state=end.end_state,
                                 fault_count=end.fault_count, first_fault_time=end.first_fault_time,
-                                first_fault=end.first_fault)
+                                first_fault=end.first_fault, fault_kinds=list(end.fault_kinds))
             if goal_handle.is_cancel_requested:
                 goal_handle.canceled()
             elif ok:
@@ -485,7 +485,7 @@ class PlantNode(Node):
         """Advance to target_step (held there); (success, message)."""
         self._running = True
         self._faults: list[str] = []
-        faults_before = self.core.faults.total
+        faults_before = list(self.core.faults.counts)
         self.last_run_end = None
         try:
             self._run_started = time.monotonic()

@@ -112,6 +112,11 @@ class FaultRecord:
         """Faults recorded since the total was total_before."""
         return self.total - total_before
 
+    def kinds_since(self, counts_before) -> tuple[str, ...]:
+        """Labels of the kinds counted since the counters were counts_before."""
+        return tuple(FaultKind(k).label for k, (n, n0) in enumerate(zip(self.counts, counts_before))
+                     if n > n0)
+
     def first_description(self) -> str:
         """'<kind> (first fault at t = X s: cause)', or '' without a fault."""
         if self.first_kind == FaultKind.NONE:
