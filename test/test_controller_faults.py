@@ -109,7 +109,8 @@ def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_
     # Every odd step's duty is NaN. The responder publishes each command one sample ahead (on
     # measurement k the command for k + 1); the plant waits for a controller that answers, even
     # wrongly, so it finds the next valid one and resumes: refused, resumed, refused, ...
-    # /diagnostics and the goal's result carry one report per FAULT_REPORT_PERIOD = 10 ms sim.
+    # /diagnostics and the goal's result carry one report per REPEAT_PERIOD = 0.1 s sim
+    # (bldc_plant_sim.faults_reporting); the record counts every one.
     seen = _diagnostics(ros_session)
     node = ros_session.node('flapping_pfc')
     pub = node.create_publisher(DutyCommand, topics.DUTY_COMMAND, topics.LOCKSTEP_QOS)
@@ -128,7 +129,9 @@ def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_
     wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
     wait_until(lambda: any('resumed' in s.message for s in seen), 10.0, what='resumed')
     faults = [s.message for s in seen if 'flapping_pfc' in s.message]
-    assert len(faults) == 1 and faults[0].startswith('safe state: duty command'), faults
+    assert len(faults) == 1 and faults[0].startswith('invalid_command: duty command'), faults
+    assert result.fault_count == 30 and list(result.fault_kinds) == ['invalid_command']
+    assert client.states[-1].fault_counts[PlantState.FAULT_INVALID_COMMAND] == 30
     # 'resumed' follows the reported fault only, not the unreported ones after it.
     assert sum('resumed' in s.message for s in seen) == 1, [s.message for s in seen]
     assert client.states[-1].safe_state         # the last command (step 79) was NaN
