@@ -254,7 +254,9 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     from dtc_msgs.srv import ResetProtection
     _start_graph(start_node, {'dc_link.voltage': 56.0, 'motor.initial_speed': 0.0})
     client = PlantClient(ros_session)
-    assert client.run(0.004).success
+    result = client.run(0.004)                 # reached, but a tripped run is not a good one
+    assert not result.success and result.final_step == 160 and result.fault_count == 1
+    assert result.end_state.startswith('ended in fault state motor_over_current'), result.end_state
     wait_until(lambda: client.states[-1].step == 160, 10.0, what='last state')
     tripped = client.states[-1]
     assert tripped.protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT
@@ -271,6 +273,7 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
                not client.live[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
                10.0, what='trip cleared in plant/state')
     assert [s.step for s in client.states] == list(range(161))
+    assert client.live[-1].fault_count == 1    # the fault record stays latched after the reset
 
 
 def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):

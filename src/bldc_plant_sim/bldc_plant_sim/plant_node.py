@@ -358,12 +358,17 @@ class PlantNode(Node):
          else self.get_logger().error)(line)
 
     def _execute(self, goal_handle):
+        """Run a goal; it always ends: succeeded, cancelled, or aborted with the reason."""
         try:
             goal = goal_handle.request
             target_time = goal.target_time + (self.core.time if goal.relative else 0.0)
             target_step = self.core.step_of(target_time)
-            ok, message = self.run_to(target_step, goal_handle)
-            end = self.last_run_end
+            try:
+                ok, message = self.run_to(target_step, goal_handle)
+            except Exception as exc:  # noqa: BLE001 - the goal must end with the reason
+                ok, message = False, f'plant error at t = {self.core.time:.6f} s: {exc!r}'
+                self.get_logger().error(f'Run goal aborted: {message}')
+            end = self.last_run_end or run_end(self.core, list(self.core.faults.counts))
             result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
                                 message=message, end_state=end.end_state,
                                 fault_count=end.fault_count, first_fault_time=end.first_fault_time,
