@@ -350,8 +350,10 @@ class PlantNode(Node):
         finally:
             self._busy.release()
         end = self.last_run_end
-        interrupted = self._stopping.is_set() or not rclpy.ok(context=self.context)
-        line = f'run_until finished: {message}' + (f'; {end.end_state}' if end else '')
+        interrupted = self._interrupted()
+        line = f'run_until finished: {message}'
+        if end is not None and end.end_state not in message:
+            line += f'; {end.end_state}'
         # A clean interrupt (Ctrl-C, stop()) is not an error; a fault or a failure is.
         faulted = end is not None and end.faulted
         (self.get_logger().info if (ok and not faulted) or (interrupted and not faulted)
@@ -715,8 +717,15 @@ class PlantNode(Node):
         """Publish the partial block (sim time holds: end of a run, reset, stop)."""
         self._telemetry.flush()
 
+    def _interrupted(self) -> bool:
+        """The node is being stopped (Ctrl-C, SIGTERM, stop()): a clean end, logged at INFO."""
+        return self._stopping.is_set() or not rclpy.ok(context=self.context)
+
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""
+        if self._interrupted():
+            self.get_logger().info(f'run not started: {reason}')
+            return reason
         self._diagnose(DiagnosticStatus.ERROR, f'run not started: {reason}',
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
         self.get_logger().error(f'run not started: {reason}')
