@@ -308,3 +308,26 @@ def test_a_shoot_through_controller_is_reported_naming_the_node_and_the_legs(sta
         assert not last.safe_state and list(last.applied_switch_on) == [False, False, False, True,
                                                                         False, False]
     assert 'fault shoot_through at t = 0.000000 s (step 0), node /fixed_responder' in plant.output()
+
+
+def test_an_undecodable_command_is_a_malformed_command_fault(start_node, ros_session):
+    from rclpy.serialization import serialize_message
+    seen = _diagnostics(ros_session)
+    node = ros_session.node('garbling_dtc')
+    pub = node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+
+    def answer(msg):
+        out = GateCommand(header=msg.header, step=msg.step, topology=6,
+                          switch_on=[True, False, False, True, False, False])
+        data = serialize_message(out)
+        pub.publish(data if msg.step < GOOD_SAMPLES else data[:9])   # cut inside the header
+
+    node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, answer, topics.LOCKSTEP_QOS)
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 1.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.001)
+    assert not result.success and 'malformed_command' in result.fault_kinds, result
+    assert result.first_fault == 'malformed_command'
+    wait_until(lambda: _fault_statuses(seen, 'malformed_command'), 10.0, what='malformed diagnostic')
+    values = {v.key: v.value for v in _fault_statuses(seen, 'malformed_command')[0].values}
+    assert values['node'] == '/garbling_dtc' and values['step'] == str(GOOD_SAMPLES)

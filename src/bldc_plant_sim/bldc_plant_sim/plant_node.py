@@ -601,8 +601,8 @@ class PlantNode(Node):
     def _receive(self, inbox: _Inbox, topic: str, msg_type: type, sample_type: type):
         """The raw subscription callback of one command topic: decode, then into the inbox.
 
-        A message that cannot be decoded is dropped with a warning: its step stays
-        unanswered and the usual timeout puts the plant in the safe state.
+        A message that cannot be decoded is dropped and reported as a malformed_command
+        fault: its step stays unanswered and the usual timeout puts the plant in the safe state.
         """
         wire = LockstepWire(msg_type, sample_type)
 
@@ -610,8 +610,10 @@ class PlantNode(Node):
             try:
                 command = wire.decode(data)[0]
             except (ValueError, struct.error) as exc:
-                self.get_logger().warning(f'{topic}: malformed message dropped: {exc}',
-                                          throttle_duration_sec=1.0)
+                which = 'gate' if topic == topics.GATE_COMMAND else 'duty'
+                self.faults.report(FaultKind.MALFORMED_COMMAND,
+                                   f'{topic}: malformed message dropped: {exc}',
+                                   self._sources(which), {'controller': which})
                 return
             inbox.put(command, info)
         return receive
