@@ -331,3 +331,24 @@ def test_an_undecodable_command_is_a_malformed_command_fault(start_node, ros_ses
     wait_until(lambda: _fault_statuses(seen, 'malformed_command'), 10.0, what='malformed diagnostic')
     values = {v.key: v.value for v in _fault_statuses(seen, 'malformed_command')[0].values}
     assert values['node'] == '/garbling_dtc' and values['step'] == str(GOOD_SAMPLES)
+
+
+def test_a_leaving_nodes_placeholder_name_is_never_reported():
+    # rmw lists a leaving node's endpoints under _NODE_NAMESPACE_UNKNOWN_/_NODE_NAME_UNKNOWN_
+    # (seen after a run_controller node's clean exit): the last real name is kept.
+    from types import SimpleNamespace
+    from bldc_plant_sim.plant_node import PlantNode
+    infos: list = []
+    plant = SimpleNamespace(_last_sources={}, get_publishers_info_by_topic=lambda topic: infos)
+    unknown = SimpleNamespace(node_name='_NODE_NAME_UNKNOWN_', node_namespace='_NODE_NAMESPACE_UNKNOWN_')
+    infos[:] = [SimpleNamespace(node_name='my_controller', node_namespace='/')]
+    assert PlantNode._sources(plant, 'gate') == '/my_controller'
+    infos[:] = [unknown]
+    assert PlantNode._sources(plant, 'gate') == '/my_controller (leaving)'
+    infos[:] = []
+    assert PlantNode._sources(plant, 'gate') == 'no publisher; last seen: /my_controller, gone'
+    plant._last_sources.clear()
+    infos[:] = [unknown]
+    assert PlantNode._sources(plant, 'gate') == 'unknown node (leaving)'
+    infos[:] = []
+    assert PlantNode._sources(plant, 'gate') == 'no publisher'
