@@ -73,6 +73,8 @@ def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dic
         'description': scenario.description, 'bag': str(result.bag) if result.bag else None,
         'sim_time': result.final_time, 'wall_time': result.wall_time,
         'samples_per_second': result.samples_per_second,
+        'end_state': getattr(result, 'end_state', 'ended normally'),
+        'fault_kinds': list(getattr(result, 'fault_kinds', ())),
         'metrics': values, 'checks': rows, 'analysis': summarize(columns),
         'figures': figures,
         'headline': {'scenario': scenario.name, 'sim_time_s': result.final_time,

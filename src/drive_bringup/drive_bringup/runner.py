@@ -332,9 +332,12 @@ class GraphRunner:
         if not handle.accepted:
             raise RunFailed(f'plant rejected the Run goal to {target} s')
         result = run_goal_result(handle, wait=wait)
-        if result.fault_count and result.message.startswith('reached t ='):
-            # The target was reached in a fault state: the run goes on (a scenario may
-            # expect the fault); run_scenario judges the end state against expect_faults.
+        if (result.fault_count and result.message.startswith('reached t =')
+                and ' with faults: ' not in result.message):
+            # The target was reached in a fault state of the simulated drive (a protection,
+            # a shoot-through): the run goes on (a scenario may expect it); run_scenario
+            # judges the end state against expect_faults. A controller that failed the
+            # lockstep ('with faults': late, invalid, lost) fails the run below.
             if not self._fault_kinds:
                 self._end_state = result.end_state
             self._fault_kinds = tuple(dict.fromkeys(self._fault_kinds + tuple(result.fault_kinds)))
