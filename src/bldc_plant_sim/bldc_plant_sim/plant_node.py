@@ -541,7 +541,8 @@ class PlantNode(Node):
                 return False, f'{reached}, {end.end_state}'
             return True, reached
         finally:
-            self.faults.flush()
+            if not self._interrupted():      # (publishing fails once the context is shut down)
+                self.faults.flush()
             self.last_run_end = run_end(self.core, faults_before)
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
@@ -762,7 +763,8 @@ class PlantNode(Node):
         ok, message = self.core.reset_protection()
         response.success, response.message = ok, message
         self.get_logger().info(f'plant/reset_protection at t = {self.core.time:.6f} s: {message}')
-        self.faults.flush()                  # the safe-state exit, if the reset ended one
+        if not self._running:                # else the stepping thread reports it after its tick
+            self.faults.flush()              # the safe-state exit, if the reset ended one
         # Sim time holds: the blocks are complete up to here; the reset's extra
         # sample of the same step goes out on the live topic only (a block
         # would repeat the step).
