@@ -658,7 +658,8 @@ class PlantCore:
             self.events.append((when, f'trip phase {"abc"[q]}'))
             self.faults.record(FaultKind.MOTOR_OVER_CURRENT, when, self.step,
                                f'motor peak-current trip: phase {"abc"[q]} current '
-                               f'{self.i[q]:.3f} A reached {self.trip.level:g} A: all switches off',
+                               f'{self.i[q]:.3f} A reached {self.trip.level:g} A: all switches off, safe state '
+                               'until plant/reset_protection',
                                phase='abc'[q], current=f'{self.i[q]:.6f}')
         else:
             self.events.append((when, f'current zero phase {"abc"[q]}'))
