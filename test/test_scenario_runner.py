@@ -235,3 +235,40 @@ def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ro
     given = _node_domains(base + ['--out', str(tmp_path / 'given'), '--domain-id', str(ros_domain)],
                           ros_domain % 100 + 101)     # the caller's own domain: another one
     assert given == {str(ros_domain)}, given
+
+
+def _tripping_scenario(tmp_path, expect: str = '') -> Path:
+    """The torque-step scenario with a 1 A peak-current trip level: it trips within the run."""
+    text = find_scenario(SCENARIO).read_text().replace(
+        '      load.torque: 0.2292\n', '      load.torque: 0.2292\n      protection.peak_current: 1.0\n')
+    text = text.replace(f'name: {SCENARIO}', 'name: tripping').replace(
+        'duration: 0.04\n', 'duration: 0.04\n' + expect)
+    path = tmp_path / 'tripping.yaml'
+    path.write_text(text)
+    return path
+
+
+def test_a_run_that_ends_in_a_fault_state_exits_3_with_the_reason(tmp_path):
+    scenario = _tripping_scenario(tmp_path)
+    graph = run_cli(str(scenario), '--isolate', '--no-record', '--duration', '0.004',
+                    '--out', str(tmp_path / 'graph'))
+    assert graph.returncode == 3, graph.stdout + graph.stderr
+    [line] = [ln for ln in graph.stderr.splitlines() if ln.startswith('run_scenario: ')]
+    assert 'tripping: ended in fault state motor_over_current (first fault at t = ' in line
+    assert line.endswith('unexpected: motor_over_current')
+    headless = run_cli(str(scenario), '--headless', '--duration', '0.004', '--out', str(tmp_path / 'h'))
+    assert headless.returncode == 3, headless.stdout + headless.stderr
+    # the same first fault, at the same sim time, in both
+    assert line.split(': ', 1)[1] in headless.stderr
+
+
+def test_a_scenario_that_expects_its_fault_passes_and_says_so(tmp_path):
+    scenario = _tripping_scenario(tmp_path, 'expect_faults: [motor_over_current]\n')
+    result = run_cli(str(scenario), '--headless', '--duration', '0.004', '--out', str(tmp_path / 'h'))
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert 'ended in fault state motor_over_current' in result.stdout
+    assert 'expected by the scenario (expect_faults: motor_over_current)' in result.stdout
+    bad = _tripping_scenario(tmp_path, 'expect_faults: [overheat]\n')
+    refused = run_cli(str(bad), '--headless', '--out', str(tmp_path / 'b'))
+    assert refused.returncode == 2
+    assert "expect_faults[0]: unknown fault kind 'overheat'" in refused.stderr

@@ -37,6 +37,9 @@ Schema (keys marked * are required)::
         tolerance*: float      # allowed |sim - seed| (absolute)
         label: str
         # or, instead of seed/tolerance, bounds: min / max
+    expect_faults: [str, ...]  # fault kinds this run is meant to produce (e.g. boost_over_current;
+                               # labels of bldc_plant_sim.core.faults.FaultKind): a run whose faults
+                               # are all expected passes; any other fault exits run_scenario with 3
 """
 from __future__ import annotations
 
@@ -59,7 +62,7 @@ NODE_SCHEMAS = {
 }
 CONTROLLER_KEYS = {'package', 'executable', 'core', 'node_name', 'parameters'}
 TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'events', 'record',
-            'metrics', 'figures', 'checks'}
+            'metrics', 'figures', 'checks', 'expect_faults'}
 
 
 class ScenarioError(ValueError):
@@ -155,6 +158,7 @@ class Scenario:
     figures: list[str] = field(default_factory=list)
     checks: list[Check] = field(default_factory=list)
     controller: ControllerProgram | None = None    # nodes.controller, else None
+    expect_faults: tuple[str, ...] = ()            # fault kind labels the run is meant to produce
 
     def schema(self, node: str) -> ParameterSchema:
         """The parameter schema of one of the scenario's nodes."""
@@ -387,12 +391,29 @@ def load_scenario(path: str | Path) -> Scenario:
             _known_metric(path, f'{key}.metric', ch['metric'])
         checks.append(Check(ch['metric'], str(ch.get('label', ch['metric'])), seed, tol, lo, hi))
 
+    expect_faults = _fault_kinds(raw.get('expect_faults'), path)
     return Scenario(path=path, name=name, duration=duration, node_parameters=snapshots,
                     overrides=overrides, events=events,
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
                     record=enabled, record_topics=list(topics), record_lockstep=lockstep,
-                    metrics=metrics, figures=list(figures), checks=checks, controller=controller)
+                    metrics=metrics, figures=list(figures), checks=checks, controller=controller,
+                    expect_faults=expect_faults)
+
+
+def _fault_kinds(value, path: Path) -> tuple[str, ...]:
+    """expect_faults: a list of fault kind labels (FaultKind), validated."""
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise _fail(path, 'expect_faults', 'expected a list of fault kinds')
+    from bldc_plant_sim.core.faults import fault_kind
+    for i, name in enumerate(value):
+        try:
+            fault_kind(name)
+        except ValueError as exc:
+            raise _fail(path, f'expect_faults[{i}]', str(exc)) from None
+    return tuple(fault_kind(v).label for v in value)
 
 
 def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
@@ -414,22 +435,35 @@ def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
     return ControllerProgram(**values)
 
 
-def scenario_dir() -> Path:
-    """The scenarios of the source tree (symlink/develop installs), else share/drive_bringup."""
-    source = Path(__file__).resolve().parents[1] / 'scenarios'
+def shipped_dir(kind: str) -> Path:
+    """The shipped files of a kind ('scenarios', 'studies'): the source tree (symlink/develop
+    installs), else share/drive_bringup/<kind>."""
+    source = Path(__file__).resolve().parents[1] / kind
     if source.is_dir():
         return source
     from ament_index_python.packages import get_package_share_directory
-    return Path(get_package_share_directory('drive_bringup')) / 'scenarios'
+    return Path(get_package_share_directory('drive_bringup')) / kind
+
+
+def find_shipped(name_or_path: str, kind: str) -> Path:
+    """A path as given, or a shipped file's name looked up in shipped_dir(kind); ScenarioError
+    naming the known ones otherwise."""
+    path = Path(name_or_path)
+    if path.suffix in ('.yaml', '.yml') or path.exists():
+        return path
+    candidate = shipped_dir(kind) / f'{name_or_path}.yaml'
+    if not candidate.exists():
+        known = sorted(p.stem for p in shipped_dir(kind).glob('*.yaml'))
+        raise ScenarioError(f'no {kind[:-1].replace("ie", "y")} {name_or_path!r} '
+                            f'(known: {", ".join(known)})')
+    return candidate
+
+
+def scenario_dir() -> Path:
+    """The shipped scenarios."""
+    return shipped_dir('scenarios')
 
 
 def find_scenario(name_or_path: str) -> Path:
     """A path as given, or a scenario name looked up in scenario_dir()."""
-    path = Path(name_or_path)
-    if path.suffix in ('.yaml', '.yml') or path.exists():
-        return path
-    candidate = scenario_dir() / f'{name_or_path}.yaml'
-    if not candidate.exists():
-        known = sorted(p.stem for p in scenario_dir().glob('*.yaml'))
-        raise ScenarioError(f'no scenario {name_or_path!r} (known: {", ".join(known)})')
-    return candidate
+    return find_shipped(name_or_path, 'scenarios')

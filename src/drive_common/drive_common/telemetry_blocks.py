@@ -48,6 +48,7 @@ _ELEMENT = {
     'double': ('d', np.float64),
     'int8': ('b', np.int8),
     'uint8': ('B', np.uint8),
+    'uint32': ('I', np.uint32),
     'int64': ('q', np.int64),
     'uint64': ('Q', np.uint64),
     'boolean': (None, np.bool_),
