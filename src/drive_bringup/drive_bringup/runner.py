@@ -214,6 +214,14 @@ class GraphRunner:
             streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
                                                       topics.PFC_STATUS, topics.PFC_STATUS_BLOCK)}
         wanted = [t for t in record_topics(self.scenario) if t in streamed and known_type(t)]
+        if self.scenario.controller is not None:
+            # Your own controller may publish no status (a core returning None): its status
+            # topics are waited for only if it publishes them once its commands are visible.
+            optional = {_absolute_topic(n) for n in (topics.DTC_STATUS, topics.DTC_STATUS_BLOCK)}
+            gate = _absolute_topic(topics.GATE_COMMAND)
+            self._spin_while_waiting(executor, lambda: node.count_publishers(gate) >= 1,
+                                     max(0.0, deadline - time.monotonic()), f'a publisher of {gate}')
+            wanted = [t for t in wanted if t not in optional or node.count_publishers(t) >= 1]
         probes = [node.create_subscription(message_class(known_type(t)), t, lambda _msg: None,
                                            topics.STREAM_QOS, raw=True)
                   for t in wanted]

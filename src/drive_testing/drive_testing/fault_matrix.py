@@ -98,6 +98,7 @@ class Case:
     events: list = field(default_factory=list)         # extra scenario events
     controller: dict | None = None                     # scenario controller entry instead of DTC
     exit_codes: tuple = (0,)
+    kind: str = ''                                     # the fault kind the result must name
 
 
 @dataclass
@@ -190,7 +191,8 @@ def _second_node(package: str, executable: str, node_name: str):
 LOCKSTEP = (('dtc_msgs/msg/GateCommand', '/drive/gate_command'),
             ('dtc_msgs/msg/DriveMeasurement', '/drive/measurement'))
 SHOOT_THROUGH_CONTROLLER = {'package': 'drive_testing', 'executable': 'fixed_responder',
-                            'core': 'drive_testing.fixed_responder:FixedResponderCore'}
+                            'core': 'drive_testing.fixed_responder:FixedResponderCore',
+                            'parameters': {'switch_on': [0.0] * 6}}   # all off until the event
 
 
 def cases() -> list[Case]:
@@ -221,9 +223,9 @@ def cases() -> list[Case]:
     shoot = {'time': INJECT_AT, 'node': 'controller', 'parameters': {'switch_on': [1.0] * 6}}
     for headless in (False, True):
         out += [Case('protection trip (sensor offset)', 'fault', headless=headless, events=[trip],
-                     exit_codes=(3,)),
+                     exit_codes=(3,), kind='motor_over_current'),
                 Case('shoot-through', 'fault', headless=headless, events=[shoot],
-                     controller=SHOOT_THROUGH_CONTROLLER, exit_codes=(3,))]
+                     controller=SHOOT_THROUGH_CONTROLLER, exit_codes=(3,), kind='shoot_through')]
     return out
 
 
@@ -295,7 +297,7 @@ def _names_fault(code: int, text: str, case: Case) -> bool:
         return code == 0
     if case.expect == 'node lost':
         return code in case.exit_codes and code != 0 and 'recorder' in text
-    return code in case.exit_codes and code != 0 and 'fault' in text
+    return code in case.exit_codes and code != 0 and 'fault' in text and case.kind in text
 
 
 def _crash(code: int | None, text: str, case: Case) -> str:
