@@ -71,6 +71,8 @@ from drive_common.ros_parameters import SchemaParameters
 from drive_common.waiting import wait_until
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
+from drive_common.telemetry import DEFAULT_LIVE_PERIOD
+from drive_logger.sample_topics import SampleTopics, finish_canonical
 from drive_logger.message_definitions import (NO_STAMP, DefinitionNotFoundError, normalize_type_name,
                                               sim_stamp_kind, type_definition)
 
@@ -122,6 +124,10 @@ RECORDER_SCHEMA = schema([
     _spec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
           choices=LOG_TIME_SOURCES),
     _spec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
+    _spec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
+          'derived from the blocks'),
+    _spec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
+          's', 0.0, 1.0),
 ])
 
 
@@ -136,6 +142,7 @@ class RecorderNode(Node):
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
+        self.viewer = SampleTopics(float(p['viewer_period'])) if p['viewer_topics'] else None
         self._lock = threading.Lock()
         self._not_spun = DirectCallbackGroup()   # subscriptions: taken by TakeLoop, not the executor
 
@@ -276,8 +283,8 @@ class RecorderNode(Node):
             for topic in self.topics.values():
                 if topic.record is None and topic.definition is not None:
                     topic.record = self.writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
-            self.writer.close()
-        counts = {name: t.record.message_count for name, t in self.topics.items() if t.record}
+            self.writer = finish_canonical(self.writer, self.viewer)
+        counts = {name: t.message_count for name, t in self.writer.topics.items()}
         self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
 
 
