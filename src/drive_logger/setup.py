@@ -25,6 +25,7 @@ setup(
             'compare_replay = drive_logger.compare_replay:main',
             'reindex = drive_logger.bag_reindex:main',
             'live_view = drive_logger.live_view:main',
+            'export = drive_logger.export:main',
         ],
     },
 )

@@ -16,7 +16,8 @@ recorder's viewer topics).
 :func:`write_canonical` copies a complete MCAP data file into a
 :class:`drive_logger.bag_writer.BagWriter` in one total order, so the file
 depends only on the messages, never on their arrival: channels registered
-sorted by topic name, messages sorted by (log time, topic, bytes), chunks
+sorted by topic name, messages sorted by (log time, topic, arrival order
+within the topic, bytes), chunks
 cut by size only, offered QoS profiles deduplicated and sorted. The
 recorder writes its bag this way at the end (two recordings of one scenario
 are byte-identical files), adding the viewer topics on the way; the
@@ -124,14 +125,17 @@ def _sorted_profiles(profiles: list) -> list:
 
 def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | None = None,
                     topics: Iterable[str] | None = None, keep_blocks: bool = True,
+                    replace_samples: bool = False, start_ns: int | None = None, end_ns: int | None = None,
                     progress: Callable[[int], None] | None = None) -> None:
     """Copy the messages of the complete MCAP file `source` into `writer` in canonical order.
 
     samples: add its per-sample topics derived from the block topics (a topic
-    the source already holds is not derived). topics: copy only these (None:
+    the source already holds is not derived, unless replace_samples: then the
+    source's messages of that topic are dropped). topics: copy only these (None:
     all; a derived topic counts as wanted when it or its block topic is named).
     keep_blocks False drops the block topics themselves. progress(n) is called
-    with the number of source messages read since the last call.
+    with the number of source messages read since the last call. start_ns,
+    end_ns: copy only messages logged in [start_ns, end_ns].
     """
     with open(source, 'rb') as stream:
         reader = make_reader(stream)
@@ -141,11 +145,14 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
         wanted = None if topics is None else set(topics)
         derived = {}
         if samples is not None:
-            derived = {t: v for t, v in samples.topics_for(sorted(present)).items()
-                       if t not in present and (wanted is None or t in wanted or v[1] in wanted)}
+            counts = summary.statistics.channel_message_counts if summary.statistics else {}
+            busy = sorted(c.topic for c in channels.values() if counts.get(c.id, 0))   # silent blocks: none
+            derived = {t: v for t, v in samples.topics_for(busy).items()
+                       if (replace_samples or t not in present) and (wanted is None or t in wanted or v[1] in wanted)}
         feeding = {v[1] for v in derived.values()}
         copied = {c.topic for c in channels.values()
-                  if (wanted is None or c.topic in wanted) and (keep_blocks or c.topic not in BLOCK_TOPICS)}
+                  if (wanted is None or c.topic in wanted) and (keep_blocks or c.topic not in BLOCK_TOPICS)
+                  and c.topic not in derived}
         entries: dict[str, tuple[TypeDefinition, list]] = {}    # topic -> (definition, QoS profiles)
         for channel in channels.values():
             profiles = _sorted_profiles(qos_yaml.load(channel.metadata.get('offered_qos_profiles')))
@@ -159,24 +166,26 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
         records: dict[str, TopicRecord] = {topic: writer.add_topic(topic, *entries[topic])
                                            for topic in sorted(entries)}
         wanted_derived = set(derived)
-        pending: list[tuple[int, str, bytes, int]] = []
+        pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, sequence, data, publish time)
         read = 0
         for _, channel, message in reader.iter_messages(log_time_order=True):
             while pending and pending[0][0] < message.log_time:
-                log_time, topic, data, publish_time = heapq.heappop(pending)
+                log_time, topic, _, data, publish_time = heapq.heappop(pending)
                 writer.write(records[topic], data, log_time, publish_time)
             topic = channel.topic
-            if topic in copied:
-                heapq.heappush(pending, (message.log_time, topic, bytes(message.data), message.publish_time))
+            if topic in copied and (start_ns is None or message.log_time >= start_ns) and (
+                    end_ns is None or message.log_time <= end_ns):
+                heapq.heappush(pending, (message.log_time, topic, message.sequence, bytes(message.data),
+                                         message.publish_time))
             if topic in feeding:
                 for item in samples.derive(topic, message.data, message.log_time, message.publish_time,
                                            wanted_derived):
-                    heapq.heappush(pending, (item[1], item[0], item[3], item[2]))
+                    heapq.heappush(pending, (item[1], item[0], 0, item[3], item[2]))
             read += 1
             if progress is not None and read % 1000 == 0:
                 progress(1000)
         while pending:
-            log_time, topic, data, publish_time = heapq.heappop(pending)
+            log_time, topic, _, data, publish_time = heapq.heappop(pending)
             writer.write(records[topic], data, log_time, publish_time)
         if progress is not None:
             progress(read % 1000)
