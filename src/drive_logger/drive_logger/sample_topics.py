@@ -73,6 +73,8 @@ class SampleTopics:
                 continue
             classes = part_classes(block_topic)
             for part in self.parts:
+                if part >= len(classes):     # the plant's block has one part
+                    continue
                 out[BLOCK_TOPICS[block_topic][1][part]] = (_type_name(classes[part]), block_topic, part)
         return out
 
@@ -105,7 +107,7 @@ class SampleTopics:
         if not kept:
             return
         names = BLOCK_TOPICS[block_topic][1]
-        parts = [(p, names[p]) for p in self.parts if wanted is None or names[p] in wanted]
+        parts = [(p, names[p]) for p in self.parts if p < len(names) and (wanted is None or names[p] in wanted)]
         for i, messages in zip(kept, expand(block, kept)):
             offset = stamps[i] - stamps[0]
             for part, topic in parts:

@@ -11,6 +11,8 @@ phase quantities: currents, voltages, back-EMFs, flux linkages) gets the
 suffixes ``_a``, ``_b``, ``_c``; width 6 (the switches SW1..SW6) gets
 ``_1`` .. ``_6``. Numbers keep their message type (float64, int8, uint8,
 int64, uint64), flags are booleans, DtcStatus.mode is a string column.
+Parquet keeps every value bit for bit (NaN payloads included); CSV keeps
+every number exactly (shortest round-trip decimal) and writes NaN as ``nan``.
 """
 from __future__ import annotations
 
@@ -75,5 +77,6 @@ def read_table(path: Path) -> dict[str, np.ndarray]:
         table = pq.read_table(path)
     else:
         import pyarrow.csv as pacsv
-        table = pacsv.read_csv(path)
+        # 'nan' is a float NaN, not a missing value (the samples have no missing values)
+        table = pacsv.read_csv(path, convert_options=pacsv.ConvertOptions(null_values=[], strings_can_be_null=False))
     return {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
