@@ -9,7 +9,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/layouts', ['layouts/dtc_live.json']),
+        ('share/' + package_name + '/layouts', ['layouts/dtc_live.json', 'layouts/dtc_bag.json', 'layouts/dtc_bag.xml']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
