@@ -30,7 +30,7 @@ from drive_logger.sample_topics import ALL_PARTS, SampleTopics, write_canonical
 from drive_logger.tables import TABLE_FORMATS, split_columns, table_name
 
 FORMATS = ('mcap',) + TABLE_FORMATS
-ROWS_PER_GROUP = 1 << 16
+ROWS_PER_GROUP = 1 << 14
 """Rows buffered per table before they are written (one Parquet row group)."""
 
 
