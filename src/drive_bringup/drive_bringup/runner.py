@@ -158,7 +158,9 @@ class GraphRunner:
         try:
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
-                            {'output': str(bag_dir), 'topics': record_topics(sc)})
+                            {'output': str(bag_dir), 'topics': record_topics(sc),
+                             'viewer_topics': sc.record_viewer_period is not None,
+                             'viewer_period': sc.record_viewer_period or 0.0})
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
                 self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
