@@ -41,6 +41,11 @@ Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 - ``flush_period`` (s, 0.5): at least this often (wall time) the current
   chunk is closed and the file fsynced, so a killed recorder loses at most
   that much; ``ros2 run drive_logger reindex <bag>`` completes its bag.
+- ``viewer_topics`` (bool, true), ``viewer_period`` (s of sim time, 0.001;
+  0 = every sample): at stop, add the per-sample viewer topics
+  (``/plant/state``, ``/dtc/status``, ``/pfc/status``) derived from the
+  recorded blocks (:class:`drive_logger.sample_topics.SampleTopics`), unless
+  the bag records a topic of that name itself.
 
 The recorder takes messages in its own wait loop (the rclpy executor's
 per-callback cost is several times the recording cost): its subscriptions
@@ -49,7 +54,11 @@ are in a callback group the executor leaves alone
 parameter services (parameters are read-only, fixed at start).
 
 Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
-finalized (MCAP summary + metadata.yaml) and the process exits 0. A bad
+finalized: the data file, written in arrival order, is rewritten in
+canonical order with the viewer topics
+(:func:`drive_logger.sample_topics.finish_canonical`: two recordings of one
+scenario are byte-identical files), metadata.yaml is written, and the
+process exits 0. A bad
 output directory or an unknown/uninstalled topic type is an error at start
 (exit code 2, nothing written); an output directory that holds the bag of a
 killed recorder is refused with the reindex command that recovers it.
