@@ -32,6 +32,7 @@ from typing import Callable, Iterable, Iterator
 
 from mcap.reader import make_reader
 
+from drive_common.telemetry import Decimator
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter, TopicRecord
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
@@ -54,7 +55,6 @@ class SampleTopics:
 
     def __init__(self, period: float = 0.0, parts: Iterable[int] = STATUS_PARTS, every: int = 1,
                  start_ns: int | None = None, end_ns: int | None = None) -> None:
-        from drive_common.telemetry import Decimator
         if every < 1:
             raise ValueError(f'every must be >= 1, got {every}')
         self.period = period
@@ -63,7 +63,6 @@ class SampleTopics:
         self.start_ns, self.end_ns = start_ns, end_ns
         self._decimators: dict[str, Decimator] = {}
         self._counters: dict[str, int] = {}
-        self._make_decimator = lambda: Decimator(period)
 
     def topics_for(self, block_topics: Iterable[str]) -> dict[str, tuple[str, str, int]]:
         """{per-sample topic: (type name, block topic, part)} derived from the given block topics."""
@@ -90,7 +89,7 @@ class SampleTopics:
         stamps = sample_stamps_ns(block).tolist()
         decimator = self._decimators.get(block_topic)
         if decimator is None:
-            decimator = self._decimators[block_topic] = self._make_decimator()
+            decimator = self._decimators[block_topic] = Decimator(self.period)
         kept = []
         for i, stamp in enumerate(stamps):
             if self.start_ns is not None and stamp < self.start_ns:
