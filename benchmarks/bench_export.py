@@ -19,7 +19,6 @@ Goal: every step's peak memory < 300 MB (streaming, bounded memory).
 from __future__ import annotations
 
 import argparse
-import resource
 import subprocess
 import sys
 import tempfile
