@@ -301,7 +301,7 @@ def main() -> int:
         ('  / project ceiling', f'{recorded_rate / ceiling:.2f}', '>= 0.90', goal(recorded_rate >= 0.9 * ceiling)),
         ('  / naive ceiling', f'{recorded_rate / naive:.2f}', '>= 1.00', goal(recorded_rate >= naive)),
         ('default graph unrecorded', f'{bare_rate:.0f} samples/s', '', ''),
-        ('recording adds (wall time)', f'{overhead:+.1f} %', '< 5 %', goal(overhead < 5)),
+        ('recording adds (wall time), viewer topics included', f'{overhead:+.1f} %', '< 8 %', goal(overhead < 8)),
         ('computation_delay on, sequential (plant+fixed_responder)', f'{delayed["sequential"]:.0f} samples/s',
          '', ''),
         ('computation_delay on, pipelined', f'{pipelined:.0f} samples/s', '', ''),

@@ -126,7 +126,9 @@ class GraphRunner:
             # safe state (/diagnostics, plant/state) so the bag shows what happened.
             time.sleep(self.scenario.node_parameters['plant']['command_timeout'] + 0.5)
         if recorder is not None:
-            code = recorder.stop(timeout=60.0)
+            # at stop the recorder rewrites its bag in canonical order: allow ~0.5 ms per plant sample
+            samples = self.scenario.duration / self.scenario.node_parameters['plant']['base_tick']
+            code = recorder.stop(timeout=60.0 + 5e-4 * samples)
             if code not in (0, None):
                 self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-2000:]}')
         for key, process in self.processes.items():
@@ -160,7 +162,9 @@ class GraphRunner:
         try:
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
-                            {'output': str(bag_dir), 'topics': record_topics(sc)})
+                            {'output': str(bag_dir), 'topics': record_topics(sc),
+                             'viewer_topics': sc.record_viewer_period is not None,
+                             'viewer_period': sc.record_viewer_period or 0.0})
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
                 self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')

@@ -27,8 +27,11 @@ Schema (keys marked * are required)::
       - time*: float           # s, 0 <= time < duration
         node*: plant | dtc_controller | pfc_controller | controller
         parameters*: {...}
-    record: {enabled: bool, topics: [str, ...], lockstep: bool}   # lockstep: also the raw
-                               # per-sample lockstep topics (default: blocks only)
+    record: {enabled: bool, topics: [str, ...], lockstep: bool, viewer_period: float | false}
+                               # lockstep: also the raw per-sample lockstep topics (default: blocks
+                               # only); viewer_period: s of sim time between the samples of the
+                               # viewer topics the recorder derives from the blocks (default 0.001,
+                               # 0 = every sample, false = no viewer topics)
     metrics: {name: {...options}}   # names: drive_analysis.registry
     figures: [str, ...]
     checks:                    # rows of the reproduction table
@@ -53,6 +56,7 @@ from typing import Any
 import yaml
 
 from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.telemetry import DEFAULT_LIVE_PERIOD
 from drive_common.uris import resolve_path
 
 NODE_SCHEMAS = {
@@ -154,6 +158,7 @@ class Scenario:
     record: bool = True
     record_topics: list[str] = field(default_factory=list)
     record_lockstep: bool = False       # also record the raw lockstep topics
+    record_viewer_period: float | None = DEFAULT_LIVE_PERIOD   # s; None: no viewer topics
     metrics: dict[str, dict] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
     checks: list[Check] = field(default_factory=list)
@@ -338,9 +343,15 @@ def load_scenario(path: str | Path) -> Scenario:
         raise _fail(path, 'events', 'events must be in time order')
 
     record = _mapping(raw.get('record'), path, 'record')
-    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep'})
+    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep', 'viewer_period'})
     if extra:
-        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep)')
+        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep, viewer_period)')
+    viewer_period = record.get('viewer_period', DEFAULT_LIVE_PERIOD)
+    if viewer_period is False:
+        viewer_period = None
+    elif isinstance(viewer_period, bool) or not isinstance(viewer_period, (int, float)) \
+            or not 0.0 <= viewer_period <= 1.0:
+        raise _fail(path, 'record.viewer_period', f'expected s in [0, 1] or false, got {viewer_period!r}')
     enabled = record.get('enabled', True)
     lockstep = record.get('lockstep', False)
     for key, value in (('enabled', enabled), ('lockstep', lockstep)):
@@ -397,6 +408,7 @@ def load_scenario(path: str | Path) -> Scenario:
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
                     record=enabled, record_topics=list(topics), record_lockstep=lockstep,
+                    record_viewer_period=None if viewer_period is None else float(viewer_period),
                     metrics=metrics, figures=list(figures), checks=checks, controller=controller,
                     expect_faults=expect_faults)
 

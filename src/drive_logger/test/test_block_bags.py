@@ -105,6 +105,11 @@ def test_bag_info_shows_block_samples_and_step_gaps(run, tmp_path, capsys):
     status = [line for line in out.splitlines() if 'Topic: /dtc/status_block ' in line]
     assert state and state[0].endswith(f'| Samples: {per_sample["/plant/state"].message_count}')
     assert status and status[0].endswith(f'| Samples: {per_sample["/dtc/status"].message_count}')
+    # the viewer topic beside its block: its samples of the block's
+    viewer = [line for line in out.splitlines() if 'Topic: /plant/state ' in line]
+    shown = BagReader(bags['blocks']).topics['/plant/state'].message_count
+    assert viewer and viewer[0].endswith(
+        f'| Samples: {shown} of {per_sample["/plant/state"].message_count} in /plant/state_block')
     assert 'Block steps' not in out
     # one block of /dtc/status_block repeated: reported
     reader = BagReader(bags['blocks'])
