@@ -113,8 +113,10 @@ class SampleTopics:
                 yield topic, log_time + offset, publish_time + offset, rows[part][j]
 
 
-_SIZES = {'double': 8, 'int64': 8, 'uint64': 8, 'int32': 4, 'uint32': 4, 'int8': 1, 'uint8': 1, 'boolean': 1}
-_CDR_DTYPES = {'double': '<f8', 'int64': '<i8', 'uint64': '<u8', 'int8': 'i1', 'uint8': 'u1', 'boolean': 'u1'}
+_CDR_DTYPES = {'double': '<f8', 'float': '<f4', 'int64': '<i8', 'uint64': '<u8', 'int32': '<i4',
+               'uint32': '<u4', 'int16': '<i2', 'uint16': '<u2', 'int8': 'i1', 'uint8': 'u1',
+               'boolean': 'u1', 'octet': 'u1', 'char': 'u1'}
+_SIZES = {kind: int(dtype[-1]) for kind, dtype in _CDR_DTYPES.items()}   # bytes per element
 ENCAPSULATION = 4
 """Bytes of the CDR encapsulation header; alignment counts from its end."""
 

@@ -11,7 +11,9 @@ from drive_logger import export
 from drive_logger.bag_reader import BagReader
 from drive_logger.bag_writer import BagWriter
 from drive_logger.sample_topics import SampleTopics, finish_canonical
-from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag, zero_padded
+from drive_common.cdr_padding import canonicalize
+from drive_logger.ros_types import message_class
+from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.012      # s: 360 controller samples at 1/30 kHz, the torque step at 9.4 ms included
@@ -30,7 +32,7 @@ def bags(tmp_path_factory):
 def _by_topic(reader, topics):
     out = {}
     for msg in reader.messages(topics):
-        out.setdefault(msg.topic, []).append((msg.log_time, zero_padded(msg.data, msg.type)))
+        out.setdefault(msg.topic, []).append((msg.log_time, canonicalize(msg.data, message_class(msg.type))))
     return out
 
 
@@ -97,11 +99,11 @@ def test_viewer_topics_are_derived_at_the_viewer_period(bags, tmp_path):
     # one sample per ms of sim time (the plant's 1/30 kHz tick: the first at or after each ms)
     assert [s.step for _, s in states] == [int(np.ceil(k * 30)) for k in range(13)]
     assert all(t == s.header.stamp.sec * 10**9 + s.header.stamp.nanosec for t, s in states)
-    full = {s.step: zero_padded(d, 'dtc_msgs/msg/PlantState')
+    full = {s.step: canonicalize(d, PlantState)
             for _, d in _by_topic(BagReader(bags['per_sample']), ['/plant/state'])['/plant/state']
             for s in [deserialize_message(d, PlantState)]}
     for m in reader.messages(['/plant/state']):
-        assert zero_padded(m.data, m.type) == full[deserialize_message(m.data, PlantState).step]
+        assert canonicalize(m.data, message_class(m.type)) == full[deserialize_message(m.data, PlantState).step]
 
 
 def test_full_rate_viewer_bag_has_every_sample_bit_exact(bags, tmp_path):
