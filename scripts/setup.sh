@@ -99,4 +99,12 @@ exec "$(dirname "$0")/python" -m drive_ros2cli "$@"
 SHIM
   chmod +x "$ROS2_BIN"
 fi
+# Warm the compiled kernels' cache (drive_common.compiled, NUMBA_CACHE_DIR=.numba_cache). It is
+# rebuilt from scratch: numba's cache of a kernel does not notice a change of a kernel it calls.
+rm -rf .numba_cache
+# shellcheck disable=SC1091
+source scripts/env.sh
+say "compiling the per-sample kernels (numba cache in .numba_cache)"
+python -c 'from pfc_controller.core import PfcCore; from drive_common.samples import PfcSample; PfcCore({}).update(PfcSample(0, 0.0, 1.0, 1.0, 80.0))' \
+  || die "compiling the kernels failed (numba)"
 say "ready: source scripts/env.sh to use the workspace"
