@@ -81,6 +81,8 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
+
 TWO_PI = 2.0 * math.pi
 SQRT2 = math.sqrt(2.0)
 
@@ -94,6 +96,122 @@ CARRIERS = ('triangle', 'sawtooth')
 
 _MAX_PIECES_PER_ADVANCE = 100_000
 _EVENT_LOG_MAX = 10_000
+
+@njit
+def carrier(t: float, f_pwm: float, duty: float, triangle: bool):
+    """PWM carrier locked to sim time: (switch on, time of the next carrier edge after t, period index).
+
+    Triangle: on for [0, d T/2] and [T - d T/2, T]; sawtooth: on for [0, d T) (module doc).
+    """
+    x = t * f_pwm
+    tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
+    k = math.floor(x + tol)
+    u = x - k
+    if u < 0.0:
+        u = 0.0
+    if triangle:
+        e1 = 0.5 * duty
+        e2 = 1.0 - e1
+        if u < e1 - tol:
+            on, nxt = True, e1
+        elif u < e2 - tol:
+            on, nxt = False, e2
+        else:
+            on, nxt = duty > 0.0, 1.0
+    elif u < duty - tol:
+        on, nxt = True, duty
+    else:
+        on, nxt = False, 1.0
+    return on, (k + nxt) / f_pwm, k
+
+
+@njit
+def substep_coefficients(h: float, L_f2: float, R_f: float, C_f2: float, L2: float, R: float):
+    """Implicit-midpoint coefficients of a filter sub-step of length h [s]: (al, g1, be, ga, g3, k_c, k_b).
+
+    al = 2 L_f / h, be = 2 C_2 / h, ga = 2 L / h; g1, g3 the branch conductances; k_c, k_b the
+    inverse node sums of the COND and BLOCK eliminations (module doc "Integration").
+    """
+    al = L_f2 / h
+    g1 = 1.0 / (al + R_f)
+    be = C_f2 / h
+    ga = L2 / h
+    g3 = 1.0 / (ga + R)
+    return al, g1, be, ga, g3, 1.0 / (be + g1 + g3), 1.0 / (be + g1)
+
+
+@njit
+def filter_substep(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, vg: float,
+                   al: float, g1: float, be: float, ga: float, g3: float, k_c: float, k_b: float,
+                   i_f0: float, v_c0: float, i_L0: float):
+    """One implicit-midpoint sub-step in a conduction mode: mid values (a, b, c) of (i_f, v_c, i_L),
+    end values (v_c1, i_L1) and whether an event (module doc: zero, overlap, over-current, start,
+    overlap end) lies inside it."""
+    A1 = vg + al * i_f0
+    if mode == COND:      # L_f di_f/dt = v_g - v_c - R_f i_f, C2 dv_c/dt = i_f - s i_L, L di_L/dt = ...
+        A3 = ga * i_L0 - V_b - u
+        b = (be * v_c0 + A1 * g1 - s * A3 * g3) * k_c
+        a = (A1 - b) * g1
+        c = (A3 + s * b) * g3
+        i_L1 = 2.0 * c - i_L0
+        v_c1 = 2.0 * b - v_c0
+        event = i_L1 < 0.0 or (s * v_c1 < 0.0 < s * v_c0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim)
+    elif mode == BLOCK:   # i_L = 0: the filter alone
+        b = (be * v_c0 + A1 * g1) * k_b
+        a = (A1 - b) * g1
+        c = 0.0
+        v_c1 = 2.0 * b - v_c0
+        i_L1 = 0.0
+        event = abs(v_c1) > V_b + u
+    else:                 # OVERLAP: v_c clamped at 0
+        a = A1 * g1
+        b = 0.0
+        c = (ga * i_L0 - V_b - u) * g3
+        i_L1 = 2.0 * c - i_L0
+        v_c1 = 0.0
+        event = i_L1 <= abs(2.0 * a - i_f0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim)
+    return a, b, c, v_c1, i_L1, event
+
+
+@njit
+def filter_substeps(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, R: float,
+                    R_f: float, L_f2: float, C_f2: float, L2: float, vp: float, w: float, ph: float,
+                    h_max: float, t: float, span: float, i_f0: float, v_c0: float, i_L0: float):
+    """Sub-steps of at most h_max over span [s] from t in one mode, stopping before an event.
+
+    Returns (t, i_f, v_c, i_L, h, event, q, e_grid, e_line, e_ind, e_sq): the time and state
+    reached, the last sub-step length, whether it holds an event (not taken), the link charge
+    and the ledger integrals (v_g i_f, i_f^2, i_L, i_L^2; midpoint rule: closes exactly).
+    """
+    q = e_grid = e_line = e_ind = e_sq = 0.0
+    t_end = t + span
+    eps = 1e-9 * span
+    h_c = -1.0
+    al = g1 = be = ga = g3 = k_c = k_b = 0.0
+    while True:
+        h = t_end - t
+        if h > h_max:
+            h = h_max if h - h_max > eps else h
+        if h != h_c:                       # coefficients of this sub-step length
+            h_c = h
+            al, g1, be, ga, g3, k_c, k_b = substep_coefficients(h, L_f2, R_f, C_f2, L2, R)
+        vg = vp * math.sin(w * (t + 0.5 * h) + ph)
+        a, b, c, v_c1, i_L1, event = filter_substep(mode, s, gate, lim, V_b, u, vg, al, g1, be, ga,
+                                                    g3, k_c, k_b, i_f0, v_c0, i_L0)
+        if event:
+            return t, i_f0, v_c0, i_L0, h, True, q, e_grid, e_line, e_ind, e_sq
+        e_grid += h * vg * a
+        e_line += h * a * a
+        if mode != BLOCK:
+            e_ind += h * c
+            e_sq += h * c * c
+            if not gate:
+                q += h * c
+        i_f0, v_c0, i_L0 = 2.0 * a - i_f0, v_c1, i_L1
+        t += h
+        if t_end - t <= eps:
+            return t_end, i_f0, v_c0, i_L0, h, False, q, e_grid, e_line, e_ind, e_sq
+
 
 # Plant-schema names -> FrontEnd keyword (see FrontEnd.from_params and the report).
 PARAMETER_NAMES = {
@@ -308,28 +426,7 @@ class FrontEnd:
     # ------------------------------------------------------------------ PWM carrier
     def _carrier(self, t: float) -> tuple[bool, float, int]:
         """(carrier says on, time of the next carrier edge after t, PWM period index at t)."""
-        x = t * self.f_pwm
-        tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
-        k = math.floor(x + tol)
-        u = x - k
-        if u < 0.0:
-            u = 0.0
-        d = self.duty
-        if self._triangle:
-            e1 = 0.5 * d
-            e2 = 1.0 - e1
-            if u < e1 - tol:
-                on, nxt = True, e1
-            elif u < e2 - tol:
-                on, nxt = False, e2
-            else:
-                on, nxt = d > 0.0, 1.0
-        else:
-            if u < d - tol:
-                on, nxt = True, d
-            else:
-                on, nxt = False, 1.0
-        return on, (k + nxt) / self.f_pwm, k
+        return carrier(t, self.f_pwm, self.duty, self._triangle)
 
     # ------------------------------------------------------------------ integration
     def advance(self, t: float, dt: float, v_out: float) -> float:
@@ -494,103 +591,43 @@ class FrontEnd:
         g3 = 1.0 / (2.0 * self.L / h + R)     # OVERLAP: v_c clamped at 0
         return A1 * g1, 0.0, (2.0 * self.L / h * self.i_L - self.V_b - u) * g3, vg
 
-    def _piece_filter(self, t: float, span: float, gate: bool, v_out: float) -> float:
-        """Sub-steps of at most h_max over span [s] from t with a fixed gate; stops at an event.
-
-        Advances self.time (to t + span, or to the located event); returns the link charge.
-        """
-        u = 0.0 if gate else v_out + self.V_d
-        R = self.R_L + (self.R_on if gate else 0.0)
-        en = self.energy
-        V_b = self.V_b
-        # Consistent mode at the piece start.
+    def _start_mode(self, u: float) -> None:
+        """The conduction mode consistent with the state at a piece start (module doc's modes):
+        a reverse-biased conducting diagonal starts an overlap (v_c snapped to 0, its energy
+        booked as numerical), a forward-biased bridge with i_L = 0 starts conduction."""
         if self.i_L > 0.0:
             if self.mode == OVERLAP:
                 if abs(self.i_f) > self.i_L:
                     self.mode, self.s = COND, (1 if self.i_f > 0.0 else -1)
             elif self.mode != COND or self.s * self.v_c < 0.0:
                 if self.s * self.v_c < 0.0:      # reverse biased diagonal: overlap (snap v_c)
-                    en.numerical += 0.5 * self.C_f * self.v_c * self.v_c
+                    self.energy.numerical += 0.5 * self.C_f * self.v_c * self.v_c
                     self.v_c = 0.0
                     self.mode = OVERLAP
                 else:
                     self.mode = COND
         else:
             self.i_L = 0.0
-            if abs(self.v_c) - V_b - u > 0.0:
+            if abs(self.v_c) - self.V_b - u > 0.0:
                 self.mode, self.s = COND, (1 if self.v_c > 0.0 else -1)
             else:
                 self.mode = BLOCK
+
+    def _piece_filter(self, t: float, span: float, gate: bool, v_out: float) -> float:
+        """Sub-steps of at most h_max over span [s] from t with a fixed gate; stops at an event.
+
+        Advances self.time (to t + span, or to the located event); returns the link charge.
+        The sub-steps are the compiled :func:`filter_substeps`; an event inside the last one
+        is located and taken by :meth:`_filter_event`.
+        """
+        u = 0.0 if gate else v_out + self.V_d
+        R = self.R_L + (self.R_on if gate else 0.0)
+        self._start_mode(u)
         mode, s = self.mode, self.s
-        lim = self.over_current_limit
-        R_f, L_f2, C_f2, L2 = self.R_f, 2.0 * self.L_f, 2.0 * self.C_f, 2.0 * self.L
-        vp, w, ph = self.v_peak, self.omega, self.line_phase
-        sin = math.sin
-        h_max = self.h_max
-        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
-        q = 0.0
-        e_grid = e_line = e_ind = e_sq = 0.0
-        t_end = t + span
-        eps = 1e-9 * span
-        h_c = -1.0
-        event = None
-        while True:
-            h = t_end - t
-            if h > h_max:
-                h = h_max if h - h_max > eps else h
-            if h != h_c:                       # coefficients of this sub-step length
-                h_c = h
-                al = L_f2 / h
-                g1 = 1.0 / (al + R_f)
-                be = C_f2 / h
-                ga = L2 / h
-                g3 = 1.0 / (ga + R)
-                k_c = 1.0 / (be + g1 + g3)
-                k_b = 1.0 / (be + g1)
-            vg = vp * sin(w * (t + 0.5 * h) + ph)
-            A1 = vg + al * i_f0
-            if mode == COND:
-                A3 = ga * i_L0 - V_b - u
-                b = (be * v_c0 + A1 * g1 - s * A3 * g3) * k_c
-                a = (A1 - b) * g1
-                c = (A3 + s * b) * g3
-                i_L1 = 2.0 * c - i_L0
-                v_c1 = 2.0 * b - v_c0
-                if i_L1 < 0.0 or (s * v_c1 < 0.0 < s * v_c0) or (
-                        gate and 0.0 < lim < i_L1 and i_L0 < lim):
-                    event = True
-            elif mode == BLOCK:
-                b = (be * v_c0 + A1 * g1) * k_b
-                a = (A1 - b) * g1
-                c = 0.0
-                v_c1 = 2.0 * b - v_c0
-                i_L1 = 0.0
-                if abs(v_c1) > V_b + u:
-                    event = True
-            else:  # OVERLAP
-                a = A1 * g1
-                b = 0.0
-                c = (ga * i_L0 - V_b - u) * g3
-                i_L1 = 2.0 * c - i_L0
-                v_c1 = 0.0
-                if i_L1 <= abs(2.0 * a - i_f0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim):
-                    event = True
-            if event:
-                break
-            # Ledger (midpoint rule: closes exactly) and state.
-            e_grid += h * vg * a
-            e_line += h * a * a
-            if mode != BLOCK:
-                e_ind += h * c
-                e_sq += h * c * c
-                if not gate:
-                    q += h * c
-            i_f0, v_c0, i_L0 = 2.0 * a - i_f0, v_c1, i_L1
-            t += h
-            if t_end - t <= eps:
-                t = t_end
-                break
-        self.i_f, self.v_c, self.i_L = i_f0, v_c0, i_L0
+        (t, self.i_f, self.v_c, self.i_L, h, event, q, e_grid, e_line, e_ind, e_sq) = filter_substeps(
+            mode, s, gate, self.over_current_limit, self.V_b, u, R, self.R_f, 2.0 * self.L_f,
+            2.0 * self.C_f, 2.0 * self.L, self.v_peak, self.omega, self.line_phase, self.h_max, t, span,
+            self.i_f, self.v_c, self.i_L)
         self.time = t
         self._book(e_grid, e_line, e_ind, e_sq, q, gate, v_out)
         if event:
