@@ -213,6 +213,93 @@ def filter_substeps(mode: int, s: int, gate: bool, lim: float, V_b: float, u: fl
             return t_end, i_f0, v_c0, i_L0, h, False, q, e_grid, e_line, e_ind, e_sq
 
 
+@njit
+def midpoint_values(t: float, h: float, mode: int, s: int, R: float, u: float, vp: float, w: float,
+                    ph: float, L_f: float, R_f: float, C_f: float, L: float, V_b: float, i_f: float,
+                    v_c: float, i_L: float):
+    """Implicit-midpoint mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece of length h [s]
+    from state (i_f, v_c, i_L) in one mode (module doc's mode equations, eliminated in closed form)."""
+    vg = vp * math.sin(w * (t + 0.5 * h) + ph)
+    al = 2.0 * L_f / h
+    g1 = 1.0 / (al + R_f)
+    A1 = vg + al * i_f
+    if mode == COND:
+        be = 2.0 * C_f / h
+        g3 = 1.0 / (2.0 * L / h + R)
+        A3 = 2.0 * L / h * i_L - V_b - u
+        b = (be * v_c + A1 * g1 - s * A3 * g3) / (be + g1 + g3)
+        return (A1 - b) * g1, b, (A3 + s * b) * g3, vg
+    if mode == BLOCK:
+        be = 2.0 * C_f / h
+        b = (be * v_c + A1 * g1) / (be + g1)
+        return (A1 - b) * g1, b, 0.0, vg
+    g3 = 1.0 / (2.0 * L / h + R)     # OVERLAP: v_c clamped at 0
+    return A1 * g1, 0.0, (2.0 * L / h * i_L - V_b - u) * g3, vg
+
+
+# Event kinds of event_quantity (each quantity is > 0 before its event).
+EV_OVERLAP, EV_ZERO, EV_OVER_CURRENT, EV_OVERLAP_END_POS, EV_OVERLAP_END_NEG = 1, 2, 3, 4, 5
+EV_START_POS, EV_START_NEG, EV_PLAIN_START = 6, 7, 8
+
+
+@njit
+def event_quantity(kind: int, x: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
+                   vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
+                   V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
+    """Event quantity after a piece of length x [s] from t (> 0 before the event): i_L (zero),
+    s v_c (overlap), lim - i_L, i_L -+ i_f (overlap end), the bridge drive (start; plain: no filter)."""
+    if kind == EV_PLAIN_START:
+        return V_b + u - abs(vp * math.sin(w * (t + x) + ph))
+    a, b, c, _ = midpoint_values(t, x, mode, s, R, u, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
+    thr = V_b + u
+    if kind == EV_ZERO:
+        return 2.0 * c - i_L0
+    if kind == EV_OVERLAP:
+        return s * (2.0 * b - v_c0)
+    if kind == EV_OVER_CURRENT:
+        return lim - (2.0 * c - i_L0)
+    if kind == EV_OVERLAP_END_POS:
+        return (2.0 * c - i_L0) - (2.0 * a - i_f0)
+    if kind == EV_OVERLAP_END_NEG:
+        return (2.0 * c - i_L0) + (2.0 * a - i_f0)
+    if kind == EV_START_POS:
+        return thr - (2.0 * b - v_c0)
+    return thr + (2.0 * b - v_c0)
+
+
+@njit
+def locate_event(kind: int, h: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
+                 vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
+                 V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
+    """Smallest x in (0, h] with event_quantity(kind, x) <= 0, given > 0 at 0+ and <= 0 at h
+    (bracketed Illinois iteration, module doc "Integration")."""
+    args = (t, mode, s, R, u, lim, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
+    lo, hi = 0.0, h
+    f_lo = event_quantity(kind, h * 1e-9, *args)
+    if f_lo <= 0.0:
+        return h * 1e-9
+    f_hi = event_quantity(kind, h, *args)
+    side = 0
+    for _ in range(60):
+        x = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        if not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        fx = event_quantity(kind, x, *args)
+        if fx <= 0.0:
+            hi, f_hi = x, fx
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        else:
+            lo, f_lo = x, fx
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        if hi - lo <= 1e-12 * h or f_hi == 0.0:
+            break
+    return hi
+
+
 # Plant-schema names -> FrontEnd keyword (see FrontEnd.from_params and the report).
 PARAMETER_NAMES = {
     'front_end.line_voltage': 'line_voltage',
@@ -500,7 +587,7 @@ class FrontEnd:
                     self.mode = BLOCK
                     self.time = t + h
                     return 0.0
-                th = self._locate(lambda x: V_b + u_off - abs(self.grid_voltage(t + x)), h)
+                th = self._locate(EV_PLAIN_START, t, h, u=u_off)
                 self.mode = BLOCK
                 self.time = t + th
                 self._event(self.time, 'start', 'bridge forward biased: conduction starts')
@@ -572,24 +659,19 @@ class FrontEnd:
         self._event(when, 'zero', 'inductor current zero (bridge blocks)')
 
     # ---- EMI filter: states i_f, v_c, i_L
+    def _circuit(self) -> tuple:
+        """(v_peak, omega, line_phase, L_f, R_f, C_2, L, V_b): the circuit constants of the kernels."""
+        return (self.v_peak, self.omega, self.line_phase, self.L_f, self.R_f, self.C_f, self.L, self.V_b)
+
     def _mid(self, t: float, h: float, mode: int, s: int, R: float, u: float):
         """Midpoint-rule mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece."""
-        vg = self.grid_voltage(t + 0.5 * h)
-        al = 2.0 * self.L_f / h
-        g1 = 1.0 / (al + self.R_f)
-        A1 = vg + al * self.i_f
-        if mode == COND:
-            be = 2.0 * self.C_f / h
-            g3 = 1.0 / (2.0 * self.L / h + R)
-            A3 = 2.0 * self.L / h * self.i_L - self.V_b - u
-            b = (be * self.v_c + A1 * g1 - s * A3 * g3) / (be + g1 + g3)
-            return (A1 - b) * g1, b, (A3 + s * b) * g3, vg
-        if mode == BLOCK:
-            be = 2.0 * self.C_f / h
-            b = (be * self.v_c + A1 * g1) / (be + g1)
-            return (A1 - b) * g1, b, 0.0, vg
-        g3 = 1.0 / (2.0 * self.L / h + R)     # OVERLAP: v_c clamped at 0
-        return A1 * g1, 0.0, (2.0 * self.L / h * self.i_L - self.V_b - u) * g3, vg
+        return midpoint_values(t, h, mode, s, R, u, *self._circuit(), self.i_f, self.v_c, self.i_L)
+
+    def _locate(self, kind: int, t: float, h: float, mode: int = BLOCK, s: int = 1, R: float = 0.0,
+                u: float = 0.0) -> float:
+        """Time [s] after t of the first event of this kind inside (0, h] (:func:`locate_event`)."""
+        return locate_event(kind, h, t, mode, s, R, u, self.over_current_limit, *self._circuit(),
+                            self.i_f, self.v_c, self.i_L)
 
     def _start_mode(self, u: float) -> None:
         """The conduction mode consistent with the state at a piece start (module doc's modes):
@@ -657,27 +739,27 @@ class FrontEnd:
         oc = gate and lim > 0.0 and i_L0 < lim
         if mode == COND:
             if i_L1 < 0.0:
-                cands.append(('zero', 2))
+                cands.append(('zero', EV_ZERO))
             if s * v_c1 < 0.0 < s * v_c0:
-                cands.append(('overlap', 1))
+                cands.append(('overlap', EV_OVERLAP))
             if oc and i_L1 > lim:
-                cands.append(('over_current', 3))
+                cands.append(('over_current', EV_OVER_CURRENT))
         elif mode == OVERLAP:
             if i_L1 - i_f1 <= 0.0:
-                cands.append(('overlap_end+', 4))
+                cands.append(('overlap_end+', EV_OVERLAP_END_POS))
             if i_L1 + i_f1 <= 0.0:
-                cands.append(('overlap_end-', 5))
+                cands.append(('overlap_end-', EV_OVERLAP_END_NEG))
             if oc and i_L1 > lim:
-                cands.append(('over_current', 3))
+                cands.append(('over_current', EV_OVER_CURRENT))
         else:
             thr = self.V_b + u
             if v_c1 - thr > 0.0:
-                cands.append(('start+', 6))
+                cands.append(('start+', EV_START_POS))
             if -v_c1 - thr > 0.0:
-                cands.append(('start-', 7))
+                cands.append(('start-', EV_START_NEG))
         best, event = h, None
         for name, kind in cands:
-            th = self._locate(self._quantity(t, mode, s, R, u, kind, lim), h)
+            th = self._locate(kind, t, h, mode, s, R, u)
             if th <= best:
                 best, event = th, name
         h = best
@@ -705,56 +787,6 @@ class FrontEnd:
         elif event == 'over_current':
             self._trip_over_current()
         return q
-
-    def _quantity(self, t, mode, s, R, u, kind, lim):
-        """Event quantity after a piece of length x (> 0 before the event)."""
-        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
-        thr = self.V_b + u
-
-        def f(x: float) -> float:
-            a, b, c, _ = self._mid(t, x, mode, s, R, u)
-            if kind == 2:
-                return 2.0 * c - i_L0
-            if kind == 1:
-                return s * (2.0 * b - v_c0)
-            if kind == 3:
-                return lim - (2.0 * c - i_L0)
-            if kind == 4:
-                return (2.0 * c - i_L0) - (2.0 * a - i_f0)
-            if kind == 5:
-                return (2.0 * c - i_L0) + (2.0 * a - i_f0)
-            if kind == 6:
-                return thr - (2.0 * b - v_c0)
-            return thr + (2.0 * b - v_c0)
-        return f
-
-    @staticmethod
-    def _locate(f, h: float) -> float:
-        """Smallest x in (0, h] with f(x) <= 0, given f(0+) > 0 >= f(h) (Illinois)."""
-        lo, hi = 0.0, h
-        f_lo = f(h * 1e-9)
-        if f_lo <= 0.0:
-            return h * 1e-9
-        f_hi = f(h)
-        side = 0
-        for _ in range(60):
-            x = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-            if not lo < x < hi:
-                x = 0.5 * (lo + hi)
-            fx = f(x)
-            if fx <= 0.0:
-                hi, f_hi = x, fx
-                if side == -1:
-                    f_lo *= 0.5
-                side = -1
-            else:
-                lo, f_lo = x, fx
-                if side == 1:
-                    f_hi *= 0.5
-                side = 1
-            if hi - lo <= 1e-12 * h or f_hi == 0.0:
-                break
-        return hi
 
     def _trip_over_current(self) -> None:
         self.over_current = True
