@@ -570,58 +570,31 @@ class FrontEnd:
 
     # ---- no filter: one state i_L, bridge input = grid voltage
     def _piece_plain(self, t: float, h: float, gate: bool, v_out: float) -> float:
-        """One piece of at most h [s] from t; advances self.time; returns the link charge."""
-        L = self.L
+        """One piece of at most h [s] from t; advances self.time; returns the link charge.
+
+        Midpoint rule on L di_L/dt = |v_g| - 2 V_f - R i_L - u (module doc, no filter): mid current
+        c = (g i0 + |v_g| - V_b - u) / (g + R), g = 2 L / h.
+        """
         vg = self.grid_voltage(t + 0.5 * h)
-        s = 1 if vg >= 0.0 else -1
         u_off = 0.0 if gate else v_out + self.V_d
         R = self._R_plain + (self.R_on if gate else 0.0)
         i0 = self.i_L
-        V_b = self.V_b
-        if i0 == 0.0:
-            # BLOCK unless the bridge (and the diode, switch off) is forward biased.
-            drive = abs(self.grid_voltage(t)) - V_b - u_off
-            if drive <= 0.0:
-                # Locate the instant the drive reaches 0 inside the piece.
-                if abs(vg) - V_b - u_off <= 0.0 and abs(self.grid_voltage(t + h)) - V_b - u_off <= 0.0:
-                    self.mode = BLOCK
-                    self.time = t + h
-                    return 0.0
-                th = self._locate(EV_PLAIN_START, t, h, u=u_off)
-                self.mode = BLOCK
-                self.time = t + th
-                self._event(self.time, 'start', 'bridge forward biased: conduction starts')
-                return 0.0
-        g = 2.0 * L / h
-        c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)       # mid-piece current
+        if i0 == 0.0 and self._plain_blocked(t, h, vg, u_off):
+            return 0.0
+        g = 2.0 * self.L / h
+        c = (g * i0 + abs(vg) - self.V_b - u_off) / (g + R)       # mid-piece current
         if i0 == 0.0 and c <= 0.0:        # forward bias too brief to build up current
             self.mode = BLOCK
             self.time = t + h
             return 0.0
         self.mode = COND
-        self.s = s
+        self.s = 1 if vg >= 0.0 else -1
         i1 = 2.0 * c - i0
-        event = None
-        lim = self.over_current_limit
-        if i1 < 0.0:
-            # i_L reaches zero: h = 2 L i0 / (R i0 - 2 D), D at the piece's (moving) middle.
-            hz = h
-            for _ in range(3):
-                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
-                den = R * i0 - 2.0 * D
-                hz = min(h, 2.0 * L * i0 / den) if den > 0.0 else h
-            h, event = hz, 'zero'
-        elif gate and lim > 0.0 and i1 > lim and i0 < lim:
-            hz = h
-            for _ in range(3):
-                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
-                den = R * (i0 + lim) - 2.0 * D
-                hz = min(h, 2.0 * L * (i0 - lim) / den) if den < 0.0 else h
-            h, event = hz, 'over_current'
+        h, event = self._plain_event(t, h, gate, i0, i1, R, u_off)
         if event is not None:
             vg = self.grid_voltage(t + 0.5 * h)
-            g = 2.0 * L / h
-            c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)
+            g = 2.0 * self.L / h
+            c = (g * i0 + abs(vg) - self.V_b - u_off) / (g + R)
             i1 = 2.0 * c - i0
         en = self.energy
         hc = h * c
@@ -636,6 +609,42 @@ class FrontEnd:
             if event == 'over_current':
                 self._trip_over_current()
         return q
+
+    def _plain_blocked(self, t: float, h: float, vg_mid: float, u_off: float) -> bool:
+        """With i_L = 0: whether the bridge stays blocked (BLOCK) until a located start, or the
+        piece end, where self.time is then set; False when it is forward biased at t."""
+        V_b = self.V_b
+        if abs(self.grid_voltage(t)) - V_b - u_off > 0.0:
+            return False
+        self.mode = BLOCK
+        if abs(vg_mid) - V_b - u_off <= 0.0 and abs(self.grid_voltage(t + h)) - V_b - u_off <= 0.0:
+            self.time = t + h
+            return True
+        self.time = t + self._locate(EV_PLAIN_START, t, h, u=u_off)
+        self._event(self.time, 'start', 'bridge forward biased: conduction starts')
+        return True
+
+    def _plain_event(self, t: float, h: float, gate: bool, i0: float, i1: float, R: float,
+                     u_off: float) -> tuple[float, str | None]:
+        """(piece length, event) of a conducting piece: i_L reaching zero, h = 2 L i0 / (R i0 - 2 D),
+        or the over-current limit, h = 2 L (i0 - lim) / (R (i0 + lim) - 2 D), D the bridge drive at
+        the piece's (moving) middle, three fixed-point passes; (h, None) without an event."""
+        L, V_b, lim = self.L, self.V_b, self.over_current_limit
+        if i1 < 0.0:
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * i0 - 2.0 * D
+                hz = min(h, 2.0 * L * i0 / den) if den > 0.0 else h
+            return hz, 'zero'
+        if gate and lim > 0.0 and i1 > lim and i0 < lim:
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * (i0 + lim) - 2.0 * D
+                hz = min(h, 2.0 * L * (i0 - lim) / den) if den < 0.0 else h
+            return hz, 'over_current'
+        return h, None
 
     def _book_conduction(self, hc: float, c: float, gate: bool, v_out: float) -> float:
         """Ledger of a piece with the inductor conducting at mid current c [A], hc = h c [C]:
