@@ -1,12 +1,16 @@
-"""Compiled vs interpreted kernels: the same scenario's headless trajectory both ways.
+"""Compiled vs interpreted kernels: the same run in this process and with ``NUMBA_DISABLE_JIT=1``.
 
-:func:`interpreted_and_compiled` runs a shipped scenario (shortened) with the
-headless runner twice: in this process (kernels compiled by numba, see
-:mod:`drive_common.compiled`) and in a subprocess with ``NUMBA_DISABLE_JIT=1``
-(the same kernels as plain Python); tests compare the arrays bit for bit.
+:func:`interpreted_and_compiled` calls a function ``module:name(*args)`` that
+returns a dict of numpy arrays twice: in this process (kernels compiled by
+numba, see :mod:`drive_common.compiled`) and in a subprocess with
+``NUMBA_DISABLE_JIT=1`` (the same kernels as plain Python); tests compare the
+arrays bit for bit with :func:`differing`. :func:`scenario_arrays` is such a
+function for shipped scenarios run headless.
 """
 from __future__ import annotations
 
+import importlib
+import json
 import os
 import subprocess
 import sys
@@ -15,41 +19,43 @@ from pathlib import Path
 import numpy as np
 
 _RUN = '''
-import sys
+import importlib, json, sys
 import numpy as np
-from drive_bringup.headless import run_headless
-from drive_bringup.scenario import load_scenario
-scenario = load_scenario(sys.argv[1])
-np.savez(sys.argv[3], **run_headless(scenario.shortened(min(float(sys.argv[2]), scenario.duration))).arrays())
+module, name = sys.argv[1].split(':')
+np.savez(sys.argv[3], **getattr(importlib.import_module(module), name)(*json.loads(sys.argv[2])))
 '''
 
 
-def scenario_path(name: str) -> Path:
-    """A shipped scenario file by name (src/drive_bringup/scenarios/<name>.yaml)."""
-    from drive_common.uris import resolve_path
-    return Path(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml'))
+def _call(target: str, args: list):
+    module, name = target.split(':')
+    return getattr(importlib.import_module(module), name)(*args)
 
 
-def headless_arrays(name: str, duration: float, out: Path, disable_jit: bool) -> dict[str, np.ndarray]:
-    """Trajectory arrays of scenario name over duration [s], run in a subprocess."""
-    env = dict(os.environ, NUMBA_DISABLE_JIT='1' if disable_jit else '0')
-    subprocess.run([sys.executable, '-c', _RUN, str(scenario_path(name)), repr(duration), str(out)],
-                   env=env, check=True, timeout=600)
-    with np.load(out) as data:
-        return {k: data[k] for k in data.files}
-
-
-def interpreted_and_compiled(name: str, duration: float, tmp: Path):
-    """(interpreted, compiled) trajectory arrays of scenario name over duration [s]."""
-    from drive_bringup.headless import run_headless
-    from drive_bringup.scenario import load_scenario
+def interpreted_and_compiled(target: str, args: list, tmp: Path):
+    """(interpreted, compiled) dicts of arrays of ``module:function(*args)`` (args: JSON values)."""
     from drive_common.compiled import jit_disabled
     if jit_disabled():
         raise RuntimeError('the compiled run needs numba with the JIT enabled (NUMBA_DISABLE_JIT unset)')
-    interpreted = headless_arrays(name, duration, tmp / f'{name}_interpreted.npz', disable_jit=True)
-    scenario = load_scenario(scenario_path(name))
-    compiled = run_headless(scenario.shortened(min(duration, scenario.duration))).arrays()
-    return interpreted, compiled
+    out = tmp / 'interpreted.npz'
+    subprocess.run([sys.executable, '-c', _RUN, target, json.dumps(args), str(out)],
+                   env=dict(os.environ, NUMBA_DISABLE_JIT='1', PYTHONPATH=os.pathsep.join(sys.path)),
+                   check=True, timeout=900)
+    with np.load(out) as data:
+        interpreted = {k: data[k] for k in data.files}
+    return interpreted, _call(target, args)
+
+
+def scenario_arrays(names: list, duration: float) -> dict:
+    """Headless trajectory arrays of shipped scenarios, each shortened to duration [s]: 'name:key'."""
+    from drive_bringup.headless import run_headless
+    from drive_bringup.scenario import load_scenario
+    from drive_common.uris import resolve_path
+    out = {}
+    for name in names:
+        scenario = load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml'))
+        arrays = run_headless(scenario.shortened(min(duration, scenario.duration))).arrays()
+        out.update({f'{name}:{k}': v for k, v in arrays.items()})
+    return out
 
 
 def differing(a: dict, b: dict) -> list[str]:
