@@ -10,7 +10,7 @@ error crosses zero.
 """
 from __future__ import annotations
 
-from drive_common.compiled import njit
+from drive_common.compiled import interpreted, njit
 
 
 @njit
@@ -21,6 +21,9 @@ def two_level(state: int, band: float, error: float) -> int:
     if error < -band:
         return -1
     return state
+
+
+_two_level = interpreted(two_level)   # the classes' per-call path (no dispatch cost)
 
 
 class TwoLevelHysteresis:
@@ -34,7 +37,7 @@ class TwoLevelHysteresis:
 
     def update(self, error: float) -> int:
         """New output for error = reference - actual."""
-        self.state = two_level(self.state, self.band, error)
+        self.state = _two_level(self.state, self.band, error)
         return self.state
 
     def reset(self, initial: int = 1) -> None:

@@ -7,7 +7,7 @@ integrator itself.
 """
 from __future__ import annotations
 
-from drive_common.compiled import njit
+from drive_common.compiled import interpreted, njit
 
 
 @njit
@@ -29,6 +29,9 @@ def speed_pi_update(kp: float, ki: float, every_n: int, sample_period: float, li
     if count >= every_n:
         count = 0
     return integral, output, count
+
+
+_speed_pi_update = interpreted(speed_pi_update)   # SpeedPI's per-call path (no dispatch cost)
 
 
 class SpeedPI:
@@ -59,7 +62,7 @@ class SpeedPI:
 
     def update(self, speed_reference: float, speed: float) -> float:
         """Call every sample; runs the PI on every N-th call (the first call runs); returns T* [N m]."""
-        self.integral, self.output, self._count = speed_pi_update(
+        self.integral, self.output, self._count = _speed_pi_update(
             self.kp, self.ki, self.every_n, self.sample_period, self.torque_limit, self.integral,
             self.output, self._count, speed_reference, speed)
         return self.output

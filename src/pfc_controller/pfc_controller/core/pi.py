@@ -16,7 +16,7 @@ call (the current loop's limits move with the duty feed-forward).
 """
 from __future__ import annotations
 
-from drive_common.compiled import njit
+from drive_common.compiled import interpreted, njit
 
 
 @njit
@@ -39,6 +39,9 @@ def pi_update(kp: float, ki: float, lo: float, hi: float, integral: float, error
     if unlimited <= lo:
         return lo, integral, unlimited, unlimited < lo or error < 0.0
     return unlimited, integral, unlimited, False
+
+
+_pi_update = interpreted(pi_update)   # PiController's per-call path (no dispatch cost)
 
 
 
@@ -69,6 +72,6 @@ class PiController:
         """One sample: return the limited output for error (per unit)."""
         lo = self.out_min if out_min is None else out_min
         hi = self.out_max if out_max is None else out_max
-        out, self.integral, self.output_unlimited, self.saturated = pi_update(
+        out, self.integral, self.output_unlimited, self.saturated = _pi_update(
             self.kp, self.ki, lo, hi, self.integral, error)
         return out
