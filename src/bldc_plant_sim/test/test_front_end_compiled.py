@@ -4,7 +4,9 @@ import numpy as np
 from bldc_plant_sim.core.dc_link import DcLink
 from bldc_plant_sim.core.front_end import FrontEnd, filter_substeps
 from drive_common.compiled import jit_disabled
-from drive_testing.compiled_parity import differing, interpreted_and_compiled
+from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
+
+pytestmark = requires_jit()
 
 TICK = 12.5e-6
 # (line V rms, load ohm, initial link V, duty, front-end keywords): filter and no-filter pieces,

@@ -26,6 +26,14 @@ np.savez(sys.argv[3], **getattr(importlib.import_module(module), name)(*json.loa
 '''
 
 
+def requires_jit():
+    """pytest mark: skip when NUMBA_DISABLE_JIT=1 is set on purpose (the compiled side is missing
+    then); without numba installed the tests run and fail."""
+    import pytest
+    return pytest.mark.skipif(os.environ.get('NUMBA_DISABLE_JIT', '0') not in ('', '0'),
+                              reason='NUMBA_DISABLE_JIT is set: nothing compiled to compare')
+
+
 def _call(target: str, args: list):
     module, name = target.split(':')
     return getattr(importlib.import_module(module), name)(*args)

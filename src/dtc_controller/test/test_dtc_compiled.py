@@ -2,8 +2,10 @@
 import numpy as np
 
 from drive_common.compiled import jit_disabled
-from drive_testing.compiled_parity import differing, interpreted_and_compiled
+from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
 from dtc_controller.core.modes.two_phase_kernel import two_phase_step
+
+pytestmark = requires_jit()
 
 # every two-phase mode and option, and three-phase modes using the shared comparator and speed PI
 DTC_SCENARIOS = ['two_phase_six_switch_torque_step', 'two_phase_six_switch_flux_control',

@@ -4,9 +4,11 @@ import math
 import numpy as np
 
 from drive_common.compiled import jit_disabled, libm_pow
-from drive_testing.compiled_parity import differing, interpreted_and_compiled
+from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
 from pfc_controller.core.average_current_control import pfc_step
 from pfc_controller.core.feedforward import feedforward_c
+
+pytestmark = requires_jit()
 
 PFC_SCENARIOS = ['pfc_no_load_fig_3_5', 'pfc_load_fig_3_6', 'pfc_without_pfc_fig_3_4',
                  'pfc_protection_trips', 'pfc_load_and_line_steps', 'pfc_seed_structure_only']
