@@ -1,4 +1,4 @@
-"""What the Foxglove live view costs a run (issue 16): the default scenario, unrecorded, three ways.
+"""What the Foxglove live view costs a run: the default scenario, unrecorded, three ways.
 
 1. the graph alone;
 2. the graph + drive_logger live_view, nobody connected (the decimation cost:

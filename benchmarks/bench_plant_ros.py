@@ -1,4 +1,4 @@
-"""Plant through ROS vs the raw rclpy publish -> reply ceiling (issue 3 speed goal).
+"""Plant through ROS vs the raw rclpy publish -> reply ceiling (its speed goal).
 
 Both measured in the same run, same message types, private DDS domain:
 1. ceiling: raw_responder answers DriveMeasurement with GateCommand and a
@@ -6,7 +6,7 @@ Both measured in the same run, same message types, private DDS domain:
 2. plant: the plant node (six-switch BLDC, T_s = 25 us) driven by a Run goal
    against fixed_responder (a real lockstep controller with a trivial core).
 3. with computation_delay on: the same plant, sequential (pipelined:=false)
-   and pipelined (issue 14: measurement k+1 goes out and the plant integrates
+   and pipelined (measurement k+1 goes out and the plant integrates
    while the controller computes; goal >= 1.4 x the ceiling), alternated
    --repeats times, best of each (on a shared machine one run is noise).
 Prints samples per wall second for each and the ratios (goal >= 0.7).

@@ -1,4 +1,4 @@
-"""Recorder size, memory and completeness on the real graph (issue 7 speed and size).
+"""Recorder size, memory and completeness on the real graph (its speed and size goals).
 
 Runs a T_s = 25 us scenario (six-switch two-phase DTC, 000 Figs. 2.9-2.11)
 through the ROS graph with the recorder for 1 s of sim time (40 000

@@ -1,4 +1,4 @@
-"""The default scenario through the ROS graph, recorded, vs the raw rclpy ceiling (issue 8).
+"""The default scenario through the ROS graph, recorded, vs the raw rclpy ceiling.
 
 Measured in the same run and the same private DDS domain:
 1. ceiling: raw_responder / measure_round_trips (publish -> reply, one at a time);
@@ -6,7 +6,7 @@ Measured in the same run and the same private DDS domain:
    processes, driven by the scenario runner), samples per wall second of
    the Run goals (start-up and analysis excluded), median of --repeats runs.
 Prints both and their ratio (goal >= 0.6), and the same run without the
-recorder, so the recording overhead on the wall time shows (issue 14 goal:
+recorder, so the recording overhead on the wall time shows (goal:
 < 5 %; the default recording takes the telemetry blocks, not the per-sample
 lockstep topics); the samples the bag holds (every plant and controller
 sample, from the blocks); then each process's CPU time per sample during

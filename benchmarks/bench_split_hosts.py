@@ -1,4 +1,4 @@
-"""Lockstep rate with the graph split across hosts vs on one host (issue 17).
+"""Lockstep rate with the graph split across hosts vs on one host.
 
 Runs the default scenario (plant + dtc_controller + recorder, recorded)
 alternately

@@ -1,4 +1,4 @@
-"""A misbehaving controller is handled by the plant as the built-ins are (issue 16).
+"""A misbehaving controller is handled by the plant as the built-ins are.
 
 An in-test responder answers the plant's measurements correctly for the
 first samples, then misbehaves: NaN or out-of-range duty, a wrong step
@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 
 from drive_common import topics
 from drive_common.waiting import wait_until
-from dtc_msgs.msg import DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement
+from dtc_msgs.msg import DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement, PlantState
 
 from test_plant_lockstep import PLANT, PlantClient
 
@@ -109,7 +109,8 @@ def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_
     # Every odd step's duty is NaN. The responder publishes each command one sample ahead (on
     # measurement k the command for k + 1); the plant waits for a controller that answers, even
     # wrongly, so it finds the next valid one and resumes: refused, resumed, refused, ...
-    # /diagnostics and the goal's result carry one report per FAULT_REPORT_PERIOD = 10 ms sim.
+    # /diagnostics and the goal's result carry one report per REPEAT_PERIOD = 0.1 s sim
+    # (bldc_plant_sim.faults_reporting); the record counts every one.
     seen = _diagnostics(ros_session)
     node = ros_session.node('flapping_pfc')
     pub = node.create_publisher(DutyCommand, topics.DUTY_COMMAND, topics.LOCKSTEP_QOS)
@@ -128,7 +129,9 @@ def test_a_flapping_controller_is_reported_at_most_once_per_report_period(start_
     wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
     wait_until(lambda: any('resumed' in s.message for s in seen), 10.0, what='resumed')
     faults = [s.message for s in seen if 'flapping_pfc' in s.message]
-    assert len(faults) == 1 and faults[0].startswith('safe state: duty command'), faults
+    assert len(faults) == 1 and faults[0].startswith('invalid_command: duty command'), faults
+    assert result.fault_count == 30 and list(result.fault_kinds) == ['invalid_command']
+    assert client.states[-1].fault_counts[PlantState.FAULT_INVALID_COMMAND] == 30
     # 'resumed' follows the reported fault only, not the unreported ones after it.
     assert sum('resumed' in s.message for s in seen) == 1, [s.message for s in seen]
     assert client.states[-1].safe_state         # the last command (step 79) was NaN
@@ -230,3 +233,122 @@ def test_a_controller_whose_core_raises_exits_1_with_its_traceback_and_the_plant
         f'[raising_controller.py] error: RuntimeError: core bug at step {GOOD_SAMPLES} (traceback above)')
     wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='last state')
     assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
+
+
+# --- every fault is loud: log line, /diagnostics ERROR and PlantState fields at its sim time ----
+def _fault_statuses(seen, kind: str) -> list:
+    return [s for s in seen if s.name == 'plant: faults' and {v.key: v.value for v in s.values}.get('kind') == kind]
+
+
+def test_a_trip_caused_by_a_runtime_parameter_change_is_reported_when_it_happens(start_node, ros_session):
+    seen = _diagnostics(ros_session)
+    start_node('drive_testing', 'fixed_responder',
+               parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]})
+    plant = start_node('bldc_plant_sim', 'plant', parameters=PLANT)
+    client = PlantClient(ros_session)
+    first = client.run(0.002)
+    assert first.success and first.end_state == 'ended normally' and first.fault_count == 0
+    assert math.isnan(first.first_fault_time) and first.first_fault == ''
+    wait_until(lambda: client.states and client.states[-1].step == 80, 10.0, what='state at the hold')
+    current = max(abs(i) for i in client.states[-1].phase_current)
+    assert current > 1.0
+    assert client.set(**{'protection.peak_current': current / 2})[0].successful
+    result = client.run(0.004)
+    assert not result.success and result.fault_count == 1 and result.first_fault == 'motor_over_current'
+    assert list(result.fault_kinds) == ['motor_over_current']
+    t_trip = result.first_fault_time
+    assert 0.002 <= t_trip <= 0.002 + 25e-6          # at the first tick after the change
+    assert result.end_state.startswith(f'ended in fault state motor_over_current (first fault at t = '
+                                       f'{t_trip:.6f} s: motor peak-current trip'), result.end_state
+    assert 'ended in fault state motor_over_current' in result.message
+    # /diagnostics: ERROR with the trip's sim time, step, kind, node and phase
+    wait_until(lambda: _fault_statuses(seen, 'motor_over_current'), 10.0, what='the trip diagnostic')
+    [status] = _fault_statuses(seen, 'motor_over_current')
+    values = {v.key: v.value for v in status.values}
+    assert status.level == status.ERROR and float(values['sim_time']) == pytest.approx(t_trip, abs=1e-9)
+    assert values['step'] == '80' and values['node'] == '/plant' and values['phase'] in 'abc'
+    # PlantState fields: no fault before the trip's step, latched from the next sample on
+    wait_until(lambda: client.states and client.states[-1].step == 160, 10.0, what='last state')
+    by_step = {s.step: s for s in client.states}
+    assert by_step[80].fault_count == 0 and math.isnan(by_step[80].first_fault_time)
+    after = by_step[81]
+    assert after.fault_count == 1 and after.first_fault_kind == PlantState.FAULT_MOTOR_OVER_CURRENT
+    assert after.fault_counts[PlantState.FAULT_MOTOR_OVER_CURRENT] == 1
+    assert after.first_fault_time == t_trip and after.safe_state and after.protection & 1
+    # the log line names the cause, the sim time and the node
+    wait_until(lambda: f'fault motor_over_current at t = {t_trip:.6f} s' in plant.output(), 10.0,
+               what='the trip log line')
+    line = next(ln for ln in plant.output().splitlines() if 'fault motor_over_current at' in ln)
+    assert 'ERROR' in line and 'node /plant' in line and 'peak-current trip' in line
+
+
+@pytest.mark.parametrize('policy', ['safe_state', 'interlock'])
+def test_a_shoot_through_controller_is_reported_naming_the_node_and_the_legs(start_node, ros_session,
+                                                                           policy):
+    seen = _diagnostics(ros_session)
+    # leg a both on (shoot-through), leg b lower on
+    start_node('drive_testing', 'fixed_responder', parameters={'switch_on': [1.0, 1.0, 0.0, 1.0, 0.0, 0.0]})
+    plant = start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'inverter.shoot_through': policy})
+    client = PlantClient(ros_session)
+    result = client.run(0.001)
+    assert not result.success and result.first_fault == 'shoot_through' and result.first_fault_time == 0.0
+    assert result.end_state.startswith('ended in fault state shoot_through (first fault at t = 0.000000 s: '
+                                       'shoot-through requested on leg a'), result.end_state
+    wait_until(lambda: _fault_statuses(seen, 'shoot_through'), 10.0, what='a shoot-through diagnostic')
+    values = {v.key: v.value for v in _fault_statuses(seen, 'shoot_through')[0].values}
+    assert values['node'] == '/fixed_responder' and values['leg'] == 'a' and values['step'] == '0'
+    assert values['policy'] == policy
+    wait_until(lambda: client.states and client.states[-1].step == 40, 10.0, what='last state')
+    last = client.states[-1]
+    assert last.fault_counts[PlantState.FAULT_SHOOT_THROUGH] == result.fault_count >= 1
+    if policy == 'safe_state':
+        assert last.safe_state and last.protection & PlantState.PROTECTION_SHOOT_THROUGH
+        assert not any(last.applied_switch_on)
+    else:
+        assert not last.safe_state and list(last.applied_switch_on) == [False, False, False, True,
+                                                                        False, False]
+    assert 'fault shoot_through at t = 0.000000 s (step 0), node /fixed_responder' in plant.output()
+
+
+def test_an_undecodable_command_is_a_malformed_command_fault(start_node, ros_session):
+    from rclpy.serialization import serialize_message
+    seen = _diagnostics(ros_session)
+    node = ros_session.node('garbling_dtc')
+    pub = node.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
+
+    def answer(msg):
+        out = GateCommand(header=msg.header, step=msg.step, topology=6,
+                          switch_on=[True, False, False, True, False, False])
+        data = serialize_message(out)
+        pub.publish(data if msg.step < GOOD_SAMPLES else data[:9])   # cut inside the header
+
+    node.create_subscription(DriveMeasurement, topics.DRIVE_MEASUREMENT, answer, topics.LOCKSTEP_QOS)
+    start_node('bldc_plant_sim', 'plant', parameters={**PLANT, 'command_timeout': 1.0})
+    client = PlantClient(ros_session)
+    result = client.run(0.001)
+    assert not result.success and 'malformed_command' in result.fault_kinds, result
+    assert result.first_fault == 'malformed_command'
+    wait_until(lambda: _fault_statuses(seen, 'malformed_command'), 10.0, what='malformed diagnostic')
+    values = {v.key: v.value for v in _fault_statuses(seen, 'malformed_command')[0].values}
+    assert values['node'] == '/garbling_dtc' and values['step'] == str(GOOD_SAMPLES)
+
+
+def test_a_leaving_nodes_placeholder_name_is_never_reported():
+    # rmw lists a leaving node's endpoints under _NODE_NAMESPACE_UNKNOWN_/_NODE_NAME_UNKNOWN_
+    # (seen after a run_controller node's clean exit): the last real name is kept.
+    from types import SimpleNamespace
+    from bldc_plant_sim.plant_node import PlantNode
+    infos: list = []
+    plant = SimpleNamespace(_last_sources={}, get_publishers_info_by_topic=lambda topic: infos)
+    unknown = SimpleNamespace(node_name='_NODE_NAME_UNKNOWN_', node_namespace='_NODE_NAMESPACE_UNKNOWN_')
+    infos[:] = [SimpleNamespace(node_name='my_controller', node_namespace='/')]
+    assert PlantNode._sources(plant, 'gate') == '/my_controller'
+    infos[:] = [unknown]
+    assert PlantNode._sources(plant, 'gate') == '/my_controller (leaving)'
+    infos[:] = []
+    assert PlantNode._sources(plant, 'gate') == 'no publisher; last seen: /my_controller, gone'
+    plant._last_sources.clear()
+    infos[:] = [unknown]
+    assert PlantNode._sources(plant, 'gate') == 'unknown node (leaving)'
+    infos[:] = []
+    assert PlantNode._sources(plant, 'gate') == 'no publisher'

@@ -1,4 +1,4 @@
-"""Core modules are ROS-agnostic: importing any of them loads no rclpy (issue 2).
+"""Core modules are ROS-agnostic: importing any of them loads no rclpy.
 
 Every module under a package's ``core/`` subpackage (and the pure helper
 modules the cores share) is imported in a fresh interpreter; the test fails

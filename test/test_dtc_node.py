@@ -1,4 +1,4 @@
-"""The dtc_controller node through ROS (issue 4: node, parameters, bad input).
+"""The dtc_controller node through ROS (node, parameters, bad input).
 
 - Started as ``ros2 run`` would, it answers each drive measurement with a
   gate command of the same step and a status.

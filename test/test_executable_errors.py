@@ -1,5 +1,5 @@
 """Every executable reads standard ROS 2 parameter files and resolves package:// itself;
-a bad file, a bad URI or a bad value ends it with exit code 2 and one line (issue 13 item 7)."""
+a bad file, a bad URI or a bad value ends it with exit code 2 and one line."""
 from __future__ import annotations
 
 import subprocess

@@ -1,4 +1,4 @@
-"""Every dtc_msgs message crosses a process boundary field-exact (issue 2).
+"""Every dtc_msgs message crosses a process boundary field-exact.
 
 The test process publishes each message type, filled with seeded random
 values in every field (NaN included where a float may be NaN), to a

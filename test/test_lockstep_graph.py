@@ -1,4 +1,4 @@
-"""The lockstep graph as ROS users see it (issue 13, items 3, 8 and 9).
+"""The lockstep graph as ROS users see it.
 
 - ``node list``/``node info`` show /plant and the controllers with their
   real lockstep publishers and subscriptions (no helper nodes).
@@ -7,7 +7,7 @@
   co-simulation); a goal sent while a run is under way is rejected.
 - Two graphs in one domain: every node refuses with a one-line error naming
   the domain (exit 2); a run under way is never finished as a success.
-- The README's hand-started flow: the plant started first with ``run_until``,
+- The hand-started flow of docs/concepts.md ("Using the nodes"): the plant started first with ``run_until``,
   the controller seconds later: a real run (switching, torque at its
   reference), not the safe state.
 """
@@ -226,7 +226,7 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
 
 def test_hand_started_flow_controller_seconds_after_the_plant_makes_a_real_run(
         start_node, ros_session):
-    """README: terminal 1 starts the plant with run_until, terminal 2 the controller later."""
+    """docs/concepts.md: terminal 1 starts the plant with run_until, terminal 2 the controller later."""
     states = BlockSamples(ros_session.node('state_probe'), PlantStateBlock,
                           topics.PLANT_STATE_BLOCK).first
     plant = start_node('bldc_plant_sim', 'plant',

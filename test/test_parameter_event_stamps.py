@@ -1,4 +1,4 @@
-"""The drive nodes stamp their /parameter_events with sim time (issue 13 item 6).
+"""The drive nodes stamp their /parameter_events with sim time.
 
 rclpy stamps a parameter event with the node's clock (wall time); the plant
 re-stamps it with its current sim time, a lockstep controller with the stamp

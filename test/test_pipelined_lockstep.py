@@ -1,4 +1,4 @@
-"""Pipelined lockstep with ``computation_delay`` (issue 14), through real ROS processes.
+"""Pipelined lockstep with ``computation_delay``, through real ROS processes.
 
 - Recorded bags of the pipelined graph (plant + dtc_controller; plant +
   dtc_controller + pfc_controller, multi-rate) equal the headless
@@ -192,3 +192,29 @@ def test_controller_killed_mid_run_gives_safe_state_and_the_plant_does_not_hang(
     assert not any(last.applied_switch_on)
     wait_until(lambda: any('safe state' in s.message for d in diagnostics for s in d.status),
                10.0, what='safe-state diagnostic')
+
+
+GOALS_PER_MODE = 120      # short goals per schedule (pipelined, sequential): 240 in all
+
+
+def test_many_short_goals_all_end_pipelined_and_sequential(start_node, ros_session):
+    # Every goal ends with its result (or aborts within the plant's own timeouts): none hangs.
+    # One plant + fixed_responder serve every goal; pipelined is changed at a hold.
+    from test_plant_lockstep import PlantClient
+    start_node('drive_testing', 'fixed_responder', parameters={'switch_on': [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]})
+    start_node('bldc_plant_sim', 'plant', parameters={
+        'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'computation_delay': True,
+        'load.mode': 'dynamometer', 'load.speed': 20.0, 'command_timeout': 10.0})
+    client = PlantClient(ros_session)
+    tick, step = 25e-6, 0
+    for pipelined in (True, False):
+        assert client.set(pipelined=pipelined)[0].successful
+        for goal in range(GOALS_PER_MODE):
+            ticks = 1 + goal % 7                     # 1..7 ticks: ends on and off due samples
+            step += ticks
+            relative = goal % 2 == 0
+            # A generous bound: a goal that never ends raises WaitTimeout here.
+            result = client.run(ticks * tick if relative else step * tick, relative=relative,
+                                timeout=120.0)
+            assert result.success and result.final_step == step, (pipelined, goal, result.message)
+            assert result.end_state == 'ended normally'

@@ -1,4 +1,4 @@
-"""The plant node as lockstep time master, through real ROS processes (issue 3).
+"""The plant node as lockstep time master, through real ROS processes.
 
 - A fixed-pattern responder answers the plant's measurements: the plant's
   ground truth equals the headless co-simulation's, sample for sample.
@@ -254,7 +254,9 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     from dtc_msgs.srv import ResetProtection
     _start_graph(start_node, {'dc_link.voltage': 56.0, 'motor.initial_speed': 0.0})
     client = PlantClient(ros_session)
-    assert client.run(0.004).success
+    result = client.run(0.004)                 # reached, but a tripped run is not a good one
+    assert not result.success and result.final_step == 160 and result.fault_count == 1
+    assert result.end_state.startswith('ended in fault state motor_over_current'), result.end_state
     wait_until(lambda: client.states[-1].step == 160, 10.0, what='last state')
     tripped = client.states[-1]
     assert tripped.protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT
@@ -271,6 +273,7 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
                not client.live[-1].protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT,
                10.0, what='trip cleared in plant/state')
     assert [s.step for s in client.states] == list(range(161))
+    assert client.live[-1].fault_count == 1    # the fault record stays latched after the reset
 
 
 def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):
@@ -290,3 +293,18 @@ def test_motor_file_values_are_the_declared_parameters(start_node, ros_session):
     assert client.get('motor.pole_pairs') == 2
     assert list(client.get('motor.backemf.harmonic_orders')) == [1.0, 3.0, 5.0]
     assert client.run(0.001).success
+
+
+def test_run_until_says_the_run_ended_in_a_fault_state(start_node):
+    # The hand-started run (run_until) of a plant that trips: the trip is logged when it
+    # happens, and the end of the run is logged at ERROR with the end state, not as normal.
+    start_node('drive_testing', 'fixed_responder', parameters={'switch_on': [float(s) for s in PATTERN]})
+    plant = start_node('bldc_plant_sim', 'plant', parameters={
+        **PLANT, 'dc_link.voltage': 56.0, 'motor.initial_speed': 0.0, 'run_until': 0.004})
+    wait_until(lambda: 'run_until finished' in plant.output(), 120.0, what='the end of run_until')
+    lines = plant.output().splitlines()
+    trip = next(i for i, ln in enumerate(lines) if 'fault motor_over_current at t = ' in ln)
+    end = next(i for i, ln in enumerate(lines) if 'run_until finished' in ln)
+    assert trip < end and '[ERROR]' in lines[trip] and '[ERROR]' in lines[end]
+    assert 'reached t = 0.004000 s (step 160), ended in fault state motor_over_current (first fault ' \
+           'at t = ' in lines[end], lines[end]

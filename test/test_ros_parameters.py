@@ -1,4 +1,4 @@
-"""Every node's parameters through the standard parameter services (issue 13 items 1, 2, 4).
+"""Every node's parameters through the standard parameter services.
 
 A recorded graph (plant, dtc_controller, pfc_controller, recorder, replay) is
 started as ``ros2 run`` would; rclpy's ``AsyncParameterClient`` -- what

@@ -1,4 +1,4 @@
-"""The node graph split across hosts (issue 17): hardware-in-the-loop on one machine.
+"""The node graph split across hosts: hardware-in-the-loop on one machine.
 
 The plant, the dtc_controller and the recorder (with the runner's client)
 run in three network namespaces joined by a bridge (drive_common.netns) —
@@ -119,7 +119,7 @@ def test_link_cut_puts_the_plant_in_the_safe_state(tmp_path):
     reader = BagReader(out / 'bag')
     errors = [m.status[0].message for _, m in reader.decoded_messages(['/diagnostics'])
               if m.status[0].level in (2, b'\x02')]
-    assert any(e.startswith('safe state: no gate command') for e in errors), errors
+    assert any(re.match(r'(command_timeout|lost_controller): no gate command', e) for e in errors), errors
     states = _plant_states(reader)
     cut_step = round(CUT_AT * 30000)
     before = [s for s in states if s.step <= cut_step]

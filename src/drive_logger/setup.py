@@ -9,7 +9,7 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
-        ('share/' + package_name + '/layouts', ['layouts/dtc_live.json']),
+        ('share/' + package_name + '/layouts', ['layouts/dtc_live.json', 'layouts/dtc_bag.json', 'layouts/dtc_bag.xml']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
@@ -25,6 +25,7 @@ setup(
             'compare_replay = drive_logger.compare_replay:main',
             'reindex = drive_logger.bag_reindex:main',
             'live_view = drive_logger.live_view:main',
+            'export = drive_logger.export:main',
         ],
     },
 )

@@ -114,6 +114,10 @@ PLANT_SPECS = (
        '0 = ideal)', 'ohm', 0.0, 10.0),
     _S('inverter.dead_time', 0.0, 'both switches of a leg off after each gate transition', 's',
        0.0, 1e-3, runtime=False),
+    _S('inverter.shoot_through', 'safe_state', 'a command with both switches of a leg on is a '
+       'shoot-through fault (reported with the leg); safe_state: all switches off until '
+       'plant/reset_protection; interlock: that leg off, the run goes on', '',
+       choices=('safe_state', 'interlock')),
     # ---- DC link ----
     _S('dc_link.mode', 'ideal', 'ideal: stiff source (stiff midpoint); split_capacitors: stiff source '
        'across C_upper + C_lower, midpoint drifts; current_fed: capacitors fed by a source current',

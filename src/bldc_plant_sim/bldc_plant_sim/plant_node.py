@@ -64,8 +64,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
+from bldc_plant_sim.core.faults import FaultKind
 from bldc_plant_sim.core.lockstep import LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
+from bldc_plant_sim.faults_reporting import FaultReporter, RunEnd, run_end
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import ReusedMessage, sec_nanosec, time_msg
@@ -89,7 +91,6 @@ AUTORUN_DISCOVERY_DELAY = 1.0   # s of wall time before run_until starts the run
 WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
-FAULT_REPORT_PERIOD = 0.01      # s of sim time: a controller's faults reported at most once per this
 FAULTED_GLANCE = 5e-4           # s of wall time a controller that fell silent is waited for per
                                 # due sample: one that answers again resumes; a dead one slows little
 STOP_WAIT = 10.0                # s stop() waits for a run to end
@@ -173,6 +174,11 @@ class _Channel:
         self.publish(self.last_sent)
 
 
+def _unknown_node(name: str, namespace: str) -> bool:
+    """A graph endpoint of a node the graph no longer knows (rmw placeholder names)."""
+    return name.startswith('_NODE_NAME_UNKNOWN') or namespace.startswith('_NODE_NAMESPACE_UNKNOWN')
+
+
 def _gate_command(msg) -> tuple:
     return tuple(bool(s) for s in msg.switch_on)
 
@@ -195,7 +201,8 @@ class PlantNode(Node):
         self._startup_pending: set[str] = set()
         self._faulted: dict[str, str | None] = {'gate': None, 'duty': None}   # why, per controller
         self._silent: set[str] = set()       # faulted by a timeout: FAULTED_GLANCE per sample
-        self._fault_reports: dict[str, tuple[float, int, bool]] = {}  # last report t, unreported, shown
+        self._fault_shown: dict[str, bool] = {}   # per controller: its last fault was shown
+        self.last_run_end: RunEnd | None = None    # how the last run ended (Run.Result fields)
         self._faults: list[str] = []
         self._last_sources: dict[str, str] = {}   # which -> the command publishers last seen
         self._pending: dict[str, Any] | None = None
@@ -248,6 +255,11 @@ class PlantNode(Node):
         self._state_msg = ReusedMessage(PlantState)
         self._state_lock = threading.RLock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        # Every fault logged + on /diagnostics at its sim time (faults_reporting.py); also
+        # the helper for faults found on the receive side: self.faults.report(kind, ...).
+        self.faults = FaultReporter(self, lambda: self.core, self._diag_pub.publish,
+                                    lambda kind: self._sources('gate') if kind == FaultKind.SHOOT_THROUGH
+                                    else '')
 
         self._action = ActionServer(self, Run, topics.RUN_ACTION, execute_callback=self._execute,
                                     goal_callback=self._accept_goal,
@@ -337,17 +349,32 @@ class PlantNode(Node):
             ok, message = self.run_to(self.core.step_of(self.parameters['run_until']))
         finally:
             self._busy.release()
-        log = self.get_logger().info if ok else self.get_logger().error
-        log(f'run_until finished: {message}')
+        end = self.last_run_end
+        interrupted = self._interrupted()
+        line = f'run_until finished: {message}'
+        if end is not None and end.end_state not in message:
+            line += f'; {end.end_state}'
+        # A clean interrupt (Ctrl-C, stop()) is not an error; a fault or a failure is.
+        faulted = end is not None and end.faulted
+        (self.get_logger().info if (ok and not faulted) or (interrupted and not faulted)
+         else self.get_logger().error)(line)
 
     def _execute(self, goal_handle):
+        """Run a goal; it always ends: succeeded, cancelled, or aborted with the reason."""
         try:
             goal = goal_handle.request
             target_time = goal.target_time + (self.core.time if goal.relative else 0.0)
             target_step = self.core.step_of(target_time)
-            ok, message = self.run_to(target_step, goal_handle)
+            try:
+                ok, message = self.run_to(target_step, goal_handle)
+            except Exception as exc:  # noqa: BLE001 - the goal must end with the reason
+                ok, message = False, f'plant error at t = {self.core.time:.6f} s: {exc!r}'
+                self.get_logger().error(f'Run goal aborted: {message}')
+            end = self.last_run_end or run_end(self.core, list(self.core.faults.counts))
             result = Run.Result(success=ok, final_step=self.core.step, final_time=self.core.time,
-                                message=message)
+                                message=message, end_state=end.end_state,
+                                fault_count=end.fault_count, first_fault_time=end.first_fault_time,
+                                first_fault=end.first_fault, fault_kinds=list(end.fault_kinds))
             if goal_handle.is_cancel_requested:
                 goal_handle.canceled()
             elif ok:
@@ -465,6 +492,8 @@ class PlantNode(Node):
         """Advance to target_step (held there); (success, message)."""
         self._running = True
         self._faults: list[str] = []
+        faults_before = list(self.core.faults.counts)
+        self.last_run_end = None
         try:
             self._run_started = time.monotonic()
             timeout = self.parameters['startup_timeout']
@@ -495,6 +524,8 @@ class PlantNode(Node):
                     self._tick()
                 except _StartupFailed as exc:
                     return False, self._startup_failed(str(exc))
+                if self.core.faults.pending:
+                    self.faults.flush()       # a trip or shoot-through in this tick: report it now
                 if goal_handle is not None and self.core.step % feedback_every == 0:
                     wall = time.monotonic() - started
                     goal_handle.publish_feedback(Run.Feedback(
@@ -505,8 +536,14 @@ class PlantNode(Node):
             reached = f'reached t = {self.core.time:.6f} s (step {self.core.step})'
             if self._faults:
                 return False, f'{reached} with faults: ' + '; '.join(self._faults[:3])
+            end = run_end(self.core, faults_before)
+            if end.faulted:                   # a protection trip or a shoot-through
+                return False, f'{reached}, {end.end_state}'
             return True, reached
         finally:
+            if not self._interrupted():      # (publishing fails once the context is shut down)
+                self.faults.flush()
+            self.last_run_end = run_end(self.core, faults_before)
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             self._gate.awaiting = self._duty.awaiting = None
@@ -540,7 +577,8 @@ class PlantNode(Node):
         if reason is not None:
             # Report a new fault once; a controller that stays silent is not re-reported.
             if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
-                self._fault(which, reason)
+                self._fault(which, reason, FaultKind.INVALID_COMMAND if msg is not None
+                            else FaultKind.COMMAND_TIMEOUT)
                 self._faulted[which] = reason
             (self._silent.add if msg is None else self._silent.discard)(which)
             self._ready.discard(which)
@@ -557,15 +595,15 @@ class PlantNode(Node):
             self._faulted[which] = None
             if not any(self._faulted.values()):
                 self.core.leave_safe_state(COMMAND_TIMEOUT)
-            if self._fault_reports[which][2]:     # the fault it ends was reported
+            if self._fault_shown.get(which):     # the fault it ends was reported
                 self._diagnose(DiagnosticStatus.OK, f'{which} commands resumed at step {k}', {})
         return msg
 
     def _receive(self, inbox: _Inbox, topic: str, msg_type: type, sample_type: type):
         """The raw subscription callback of one command topic: decode, then into the inbox.
 
-        A message that cannot be decoded is dropped with a warning: its step stays
-        unanswered and the usual timeout puts the plant in the safe state.
+        A message that cannot be decoded is dropped and reported as a malformed_command
+        fault: its step stays unanswered and the usual timeout puts the plant in the safe state.
         """
         wire = LockstepWire(msg_type, sample_type)
 
@@ -573,8 +611,10 @@ class PlantNode(Node):
             try:
                 command = wire.decode(data)[0]
             except (ValueError, struct.error) as exc:
-                self.get_logger().warning(f'{topic}: malformed message dropped: {exc}',
-                                          throttle_duration_sec=1.0)
+                which = 'gate' if topic == topics.GATE_COMMAND else 'duty'
+                self.faults.report(FaultKind.MALFORMED_COMMAND,
+                                   f'{topic}: malformed message dropped: {exc}',
+                                   self._sources(which), {'controller': which})
                 return
             inbox.put(command, info)
         return receive
@@ -597,12 +637,17 @@ class PlantNode(Node):
         """The node(s) publishing this controller's commands, for a diagnostic (a node that
         has left the graph, e.g. a crashed controller, named as the last one seen)."""
         topic = topics.GATE_COMMAND if which == 'gate' else topics.DUTY_COMMAND
-        names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name)
-                                  for i in self.get_publishers_info_by_topic(topic)}))
+        infos = self.get_publishers_info_by_topic(topic)
+        # An endpoint whose node is no longer known (it is leaving) carries placeholder
+        # names (_NODE_NAME_UNKNOWN_): never shown; the last real name seen is kept.
+        names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name) for i in infos
+                                  if not _unknown_node(i.node_name, i.node_namespace)}))
         if names:
             self._last_sources[which] = names
             return names
-        last = self._last_sources.get(which)
+        last = self._last_sources.get(which) or ('unknown node' if infos else None)
+        if infos:
+            return f'{last} (leaving)'
         return f'no publisher; last seen: {last}, gone' if last else 'no publisher'
 
     def _tick(self) -> None:
@@ -675,37 +720,34 @@ class PlantNode(Node):
         """Publish the partial block (sim time holds: end of a run, reset, stop)."""
         self._telemetry.flush()
 
+    def _interrupted(self) -> bool:
+        """The node is being stopped (Ctrl-C, SIGTERM, stop()): a clean end, logged at INFO."""
+        return self._stopping.is_set() or not rclpy.ok(context=self.context)
+
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""
+        if self._interrupted():
+            self.get_logger().info(f'run not started: {reason}')
+            return reason
         self._diagnose(DiagnosticStatus.ERROR, f'run not started: {reason}',
                        {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step)})
         self.get_logger().error(f'run not started: {reason}')
         return reason
 
-    def _fault(self, which: str, reason: str) -> None:
-        """Safe state with a diagnostic naming the commanding node(s); also in the goal's result.
-
-        A controller that keeps faulting (e.g. every other command malformed) is reported at
-        most once per FAULT_REPORT_PERIOD of sim time; the next report counts the ones left out.
-        """
+    def _fault(self, which: str, reason: str, kind: FaultKind) -> None:
+        """Safe state, a fault report naming the commanding node(s) (faults_reporting.py);
+        also in the goal's result. Repeats are counted, shown at most once per REPEAT_PERIOD."""
         self.core.enter_safe_state(COMMAND_TIMEOUT)
-        last, unreported, _ = self._fault_reports.get(which, (-FAULT_REPORT_PERIOD, 0, False))
-        if self.core.time - last < FAULT_REPORT_PERIOD:
-            self._fault_reports[which] = (last, unreported + 1, False)
-            if not self._faults:      # a goal with a fault never ends successful
-                self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason} '
-                                    '(a repeated fault; reports rate-limited)')
-            return
-        self._fault_reports[which] = (self.core.time, 0, True)
         sources = self._sources(which)
+        if kind == FaultKind.COMMAND_TIMEOUT and sources.startswith('no publisher'):
+            kind = FaultKind.LOST_CONTROLLER
         reason = f'{reason} (from {sources})'
-        if unreported:
-            reason += f'; {unreported} more fault(s) of this controller not reported before'
-        self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}')
-        self._diagnose(DiagnosticStatus.ERROR, f'safe state: {reason}',
-                       {'sim_time': f'{self.core.time:.9f}', 'step': str(self.core.step),
-                        'controller': which, 'node': sources})
-        self.get_logger().error(f'safe state applied: {reason}')
+        shown = self.faults.report(kind, f'{reason}: safe state entered', sources,
+                                   {'controller': which})
+        self._fault_shown[which] = shown
+        if shown or not self._faults:     # a goal with a fault never ends successful
+            self._faults.append(f'safe state at t = {self.core.time:.6f} s: {reason}'
+                                + ('' if shown else ' (a repeated fault; reports rate-limited)'))
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
         status = DiagnosticStatus(level=level, name='plant: lockstep', message=message,
@@ -720,6 +762,9 @@ class PlantNode(Node):
     def _reset(self, request, response):
         ok, message = self.core.reset_protection()
         response.success, response.message = ok, message
+        self.get_logger().info(f'plant/reset_protection at t = {self.core.time:.6f} s: {message}')
+        if not self._running:                # else the stepping thread reports it after its tick
+            self.faults.flush()              # the safe-state exit, if the reset ended one
         # Sim time holds: the blocks are complete up to here; the reset's extra
         # sample of the same step goes out on the live topic only (a block
         # would repeat the step).

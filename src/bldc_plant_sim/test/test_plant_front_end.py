@@ -149,3 +149,23 @@ def test_front_end_cannot_be_switched_on_after_the_start():
     plant.advance()
     with pytest.raises(ParameterError, match='front_end.enabled'):
         plant.reconfigure({**plant.params, 'front_end.enabled': True})
+
+
+def test_boost_protections_are_recorded_as_faults():
+    from bldc_plant_sim.core.faults import FaultKind
+    plant = PlantCore(_fe_params(**{'front_end.over_voltage_limit': 75.0}))
+    plant.apply_duty(0.3, True)
+    plant.advance()
+    [event] = plant.faults.drain()
+    assert event.kind == FaultKind.BOOST_OVER_VOLTAGE and 'over-voltage' in event.text
+    assert event.time == pytest.approx(0.0) and plant.faults.first_kind == FaultKind.BOOST_OVER_VOLTAGE
+    plant.reconfigure({**plant.params, 'front_end.over_voltage_limit': 140.0,
+                       'front_end.over_current_limit': 0.5})
+    plant.apply_duty(0.9, True)
+    for _ in range(400):
+        plant.advance()
+    oc = plant.fe.event_counts['over_current']
+    assert oc >= 1 and plant.faults.counts[FaultKind.BOOST_OVER_CURRENT] == oc
+    first_oc = next(e for e in plant.faults.drain() if e.kind == FaultKind.BOOST_OVER_CURRENT)
+    assert 'i_L = ' in first_oc.text and first_oc.time > 0.0
+    assert plant.state().fault_counts[FaultKind.BOOST_OVER_VOLTAGE] == 1

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from bldc_plant_sim.core.cosim import CoSimulation
+from bldc_plant_sim.core.faults import PENDING_MAX, FaultKind, FaultRecord, fault_kind
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import plant_params
 from drive_common.samples import ALL_OFF
@@ -270,3 +271,85 @@ def test_current_fed_link_charges_the_capacitors_from_the_source_port(source_cur
     c_series = 1.0 / (1.0 / 270e-6 + 1.0 / 270e-6)
     assert plant.dc.positive - v0 == pytest.approx(source_current * 0.01 / c_series, rel=1e-9)
     assert abs(plant.energy_balance_error()) < 1e-6 * abs(plant.dc.energy_source)
+
+
+# --- fault record (core/faults.py): every protection kind and shoot-through -------------------
+def test_peak_current_trip_is_recorded_with_phase_time_and_safe_state_exit():
+    params = bldc_params(**{'load.mode': 'dynamometer', 'load.speed': 0.0, 'motor.initial_angle': 0.3})
+    plant = PlantCore(params)
+    cosim = CoSimulation(plant, ScriptedGates(lambda k: A_PLUS_B_MINUS))
+    traj = cosim.run(0.005)
+    record = plant.faults
+    assert record.counts[FaultKind.MOTOR_OVER_CURRENT] == 1 and record.total == 1
+    assert record.first_kind == FaultKind.MOTOR_OVER_CURRENT
+    assert record.first_time == pytest.approx(plant.trip.trip_time, abs=0.0)
+    assert traj.end_state.startswith('ended in fault state motor_over_current (first fault at t = ')
+    assert traj.fault_kinds == ('motor_over_current',)
+    s = traj.states[-1]
+    assert s.fault_count == 1 and s.fault_counts[FaultKind.MOTOR_OVER_CURRENT] == 1
+    assert s.first_fault_kind == FaultKind.MOTOR_OVER_CURRENT and s.first_fault_time == record.first_time
+    ok, _ = plant.reset_protection()
+    assert ok
+    events = record.drain()
+    assert [e.kind for e in events] == [FaultKind.NONE] and 'safe state left' in events[0].text
+    # the record is latched: a reset does not clear it; a later run without faults ends normally
+    assert plant.state().fault_count == 1
+    assert CoSimulation(plant, ScriptedGates(lambda k: ALL_OFF)).run(0.001).end_state == 'ended normally'
+
+
+def test_a_run_without_faults_has_an_empty_record():
+    plant, traj = _switching_run(25e-6, duration=0.002)
+    assert plant.faults.total == 0 and not plant.faults.pending
+    s = traj.states[-1]
+    assert s.fault_count == 0 and s.first_fault_kind == 0 and math.isnan(s.first_fault_time)
+    assert traj.end_state == 'ended normally' and traj.fault_kinds == ()
+
+
+@pytest.mark.parametrize('policy', ['safe_state', 'interlock'])
+def test_shoot_through_is_a_fault_under_both_policies(policy):
+    plant = PlantCore(bldc_params(**{'inverter.shoot_through': policy, 'load.mode': 'dynamometer',
+                                     'load.speed': 0.0, 'motor.initial_angle': 0.3}))
+    a_shorted = (True, True, False, True, False, False)     # leg a both on, b lower
+    traj = CoSimulation(plant, ScriptedGates(lambda k: a_shorted if k == 3 else A_PLUS_B_MINUS)).run(
+        steps=8)
+    record = plant.faults
+    assert record.counts[FaultKind.SHOOT_THROUGH] == 1 and record.first_kind == FaultKind.SHOOT_THROUGH
+    assert record.first_time == pytest.approx(3 * plant.base_tick)
+    assert traj.fault_kinds == ('shoot_through',)
+    s = traj.states[-1]
+    assert s.fault_counts[FaultKind.SHOOT_THROUGH] == 1
+    if policy == 'safe_state':
+        assert s.safe_state and s.protection & 16 and not any(s.applied_switch_on)
+        plant.reset_protection()
+        assert not plant.state().safe_state and not plant.protection
+    else:
+        assert not s.safe_state and not s.protection
+        # the interlocked tick applied leg a off, leg b lower; the next ticks a+ b- again
+        assert traj.states[4].applied_switch_on == (False, False, False, True, False, False)
+        assert s.applied_switch_on == A_PLUS_B_MINUS
+
+
+def test_shoot_through_event_names_the_legs():
+    plant = PlantCore(bldc_params())
+    plant.apply_gates((True,) * 6)
+    [event] = plant.faults.drain()
+    assert event.kind == FaultKind.SHOOT_THROUGH and event.values['leg'] == 'a,b,c'
+    assert 'leg a,b,c' in event.text and event.step == 0
+
+
+def test_fault_kind_labels_and_message_constants_agree():
+    from dtc_msgs.msg import PlantState
+    for kind in FaultKind:
+        assert getattr(PlantState, f'FAULT_{kind.name}') == kind
+    assert len(PlantState().fault_counts) == len(FaultKind)
+    assert fault_kind('boost_over_current') == FaultKind.BOOST_OVER_CURRENT
+    with pytest.raises(ValueError, match='unknown fault kind'):
+        fault_kind('overheat')
+
+
+def test_undrained_fault_queue_is_bounded():
+    record = FaultRecord()
+    for k in range(PENDING_MAX + 10):
+        record.record(FaultKind.COMMAND_TIMEOUT, k * 1e-3, k, 'late')
+    assert len(record.pending) == PENDING_MAX and record.dropped == 10
+    assert record.total == PENDING_MAX + 10 and record.first_time == 0.0

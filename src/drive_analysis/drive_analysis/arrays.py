@@ -44,27 +44,87 @@ def field(arrays: Arrays, name: str, t_start=None, t_end=None, topic: str = PLAN
     return t[keep], np.asarray(arrays[f'{topic}.{name}'])[keep]
 
 
-def paired(arrays: Arrays, t_start=None, t_end=None) -> dict:
-    """Plant rows at the controller samples: {'time', 'plant.<f>', 'dtc.<f>'} within the window."""
-    p_step = np.asarray(arrays[f'{PLANT}.step']).astype(np.int64)
-    d_step = np.asarray(arrays[f'{DTC}.step']).astype(np.int64)
-    order = np.argsort(p_step, kind='stable')
-    pos = np.clip(np.searchsorted(p_step[order], d_step), 0, len(p_step) - 1)
-    found = p_step[order][pos] == d_step
-    rows_d = np.flatnonzero(found)
-    rows_p = order[pos[found]]
-    t = np.asarray(arrays[f'{PLANT}.time'])[rows_p]
-    keep = window(t, t_start, t_end)
-    out = {'time': t[keep]}
-    for key, val in arrays.items():
-        topic, _, name = key.rpartition('.')
-        if name == 'time':
-            continue
-        if topic == PLANT:
-            out['plant.' + name] = np.asarray(val)[rows_p][keep]
-        elif topic == DTC:
-            out['dtc.' + name] = np.asarray(val)[rows_d][keep]
-    return out
+class Paired:
+    """Plant rows at the controller samples within a window: ``d['time']``, ``d['plant.<f>']``,
+    ``d['dtc.<f>']``. The rows are matched once; a column is indexed when first asked for."""
+
+    def __init__(self, arrays: Arrays, t_start=None, t_end=None) -> None:
+        p_step = np.asarray(arrays[f'{PLANT}.step']).astype(np.int64)
+        d_step = np.asarray(arrays[f'{DTC}.step']).astype(np.int64)
+        order = np.argsort(p_step, kind='stable')
+        pos = np.clip(np.searchsorted(p_step[order], d_step), 0, len(p_step) - 1)
+        found = p_step[order][pos] == d_step
+        rows_p = order[pos[found]]
+        t = np.asarray(arrays[f'{PLANT}.time'])[rows_p]
+        keep = window(t, t_start, t_end)
+        self._arrays = arrays
+        self._rows = {'plant': rows_p[keep], 'dtc': np.flatnonzero(found)[keep]}
+        self._columns = {'time': t[keep]}
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        column = self._columns.get(key)
+        if column is None:
+            side, _, name = key.partition('.')
+            topic = {'plant': PLANT, 'dtc': DTC}.get(side)
+            if topic is None or name == 'time' or f'{topic}.{name}' not in self._arrays:
+                raise KeyError(key)
+            column = self._columns[key] = np.asarray(self._arrays[f'{topic}.{name}'])[self._rows[side]]
+        return column
+
+    def get(self, key: str, default=None):
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+    def __contains__(self, key: str) -> bool:
+        try:
+            self[key]
+        except KeyError:
+            return False
+        return True
+
+    def __len__(self) -> int:
+        return len(self._columns['time'])
+
+
+def paired(arrays: Arrays, t_start=None, t_end=None) -> Paired:
+    """Plant rows at the controller samples within the window (:class:`Paired`)."""
+    return Paired(arrays, t_start, t_end)
+
+
+def largest_step(reference) -> tuple[int, float, float] | None:
+    """(index of the first sample at the new value, value before, value after) of the largest
+    jump of a piecewise-constant reference; None if it never changes (NaN jumps ignored)."""
+    reference = np.asarray(reference, dtype=float)
+    if len(reference) < 2:
+        return None
+    jumps = np.abs(np.diff(reference))
+    jumps[np.isnan(jumps)] = 0.0
+    j = int(np.argmax(jumps))
+    if jumps[j] == 0.0:
+        return None
+    return j + 1, float(reference[j]), float(reference[j + 1])
+
+
+def _first_reaching(y: np.ndarray, before: float, after: float, fraction: float) -> int | None:
+    """Index of the first sample of y at or past before + fraction (after - before), or None."""
+    level = before + fraction * (after - before)
+    hit = np.flatnonzero((y - level) * np.sign(after - before) >= 0.0)
+    return int(hit[0]) if hit.size else None
+
+
+def response_time(t, y, start: int, before: float, after: float, high: float = 0.9,
+                  low: float | None = None) -> float:
+    """Step response time [s] of y after a reference step at index ``start``: from the step (or,
+    with ``low``, from the first sample reaching before + low dy) to the first sample reaching
+    before + high dy, dy = after - before; NaN if never reached."""
+    t, y = np.asarray(t, dtype=float)[start:], np.asarray(y, dtype=float)[start:]
+    hi = _first_reaching(y, before, after, high)
+    lo = 0 if low is None else _first_reaching(y, before, after, low)
+    if hi is None or lo is None:
+        return math.nan
+    return float(t[hi] - t[lo])
 
 
 def mean_or_nan(x) -> float:

@@ -10,9 +10,12 @@ is read from every sample of the block (``block_columns``), never mixed with
 the recorded per-sample messages of that name (decimated live topic or raw
 lockstep topic): the columns equal those a bag of the per-sample topics
 gives. Blocks that skip or repeat steps are refused (BagReadError naming the
-topic), not silently analysed.
+topic), not silently analysed. An export directory of tables
+(``ros2 run drive_logger export BAG --to parquet|csv OUT``) reads the same way.
 """
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 
@@ -64,7 +67,7 @@ def block_problems(blocks_by_topic: dict[str, list]) -> list[str]:
 
 def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dict[str, dict[str, np.ndarray]]:
     """Columns of the wanted per-sample topics {topic: (block topic, part)} from every block sample."""
-    from drive_common.telemetry_blocks import block_columns, layout
+    from drive_common.telemetry_blocks import block_columns
     blocks = read_blocks(reader, sorted({block for block, _ in wanted.values()}))
     problems = block_problems(blocks)
     if problems:
@@ -72,26 +75,68 @@ def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dic
                            + '; '.join(problems[:5]) + (f' (+{len(problems) - 5} more)' if len(problems) > 5 else ''))
     # Each block once: a status block carries three per-sample topics.
     columns_of = {topic: [block_columns(b) for b in msgs] for topic, msgs in blocks.items()}
-    out = {}
-    for topic, (block_topic, part) in wanted.items():
-        lay = layout(block_class(block_topic))
-        msg_type = part_classes(block_topic)[part]
-        by_source = {c.source: c.name for c in lay.columns + lay.per_block if c.part == part}
+
+    def column(block_topic: str, name: str, width: int) -> np.ndarray:
         per_block = columns_of[block_topic]
-        arrays = {'t': np.concatenate([c['time'] for c in per_block]) if per_block else np.zeros(0)}
-        for name in msg_type.get_fields_and_field_types():
-            if name == 'header':
-                continue
-            source = 'step' if name == 'step' else by_source[name]
-            values = np.concatenate([c[source] for c in per_block]) if per_block else np.zeros(0)
-            # the dtypes the recorded path gives: float64 numbers, object strings
-            arrays[name] = values.astype(object if values.dtype.kind == 'U' else float)
-        out[topic] = arrays
+        return np.concatenate([c[name] for c in per_block]) if per_block else np.zeros(0)
+    return {topic: _part_arrays(block_topic, part, column) for topic, (block_topic, part) in wanted.items()}
+
+
+def _part_arrays(block_topic: str, part: int, column) -> dict[str, np.ndarray]:
+    """The columns of one part of a block topic; column(block topic, block field, width) gives a field's values
+    (samples, or samples x width), 'time' and 'step' included."""
+    from drive_common.telemetry_blocks import layout
+    lay = layout(block_class(block_topic))
+    msg_type = part_classes(block_topic)[part]
+    by_source = {c.source: c for c in lay.columns + lay.per_block if c.part == part}
+    arrays = {'t': np.asarray(column(block_topic, 'time', 1), dtype=float)}
+    for name in msg_type.get_fields_and_field_types():
+        if name == 'header':
+            continue
+        source = by_source.get(name)
+        values = np.asarray(column(block_topic, 'step', 1) if name == 'step'
+                            else column(block_topic, source.name, source.width))
+        # the dtypes the recorded path gives: float64 numbers, object strings
+        arrays[name] = values.astype(object if values.dtype.kind in 'UO' else float)
+    return arrays
+
+
+def _table_columns(directory: Path, topics) -> dict[str, dict[str, np.ndarray]]:
+    """Columns of the wanted per-sample topics from the tables of an export directory
+    (``drive_logger export --to parquet|csv``), the same columns the bag gives."""
+    from drive_logger.block_topics import BLOCK_TOPICS
+    from drive_logger.tables import joined, read_table, table_files, table_name
+    files = table_files(directory)
+    tables: dict[str, dict[str, np.ndarray]] = {}
+
+    def column(block_topic: str, name: str, width: int) -> np.ndarray:
+        if block_topic not in tables:
+            tables[block_topic] = read_table(files[table_name(block_topic)])
+        return joined(tables[block_topic], name, width)
+    out = {}
+    for block_topic, (_, parts) in BLOCK_TOPICS.items():
+        if table_name(block_topic) not in files:
+            continue
+        for part, topic in enumerate(parts):
+            if topic in topics:
+                out[topic] = _part_arrays(block_topic, part, column)
     return out
 
 
+def is_table_export(path) -> bool:
+    """True for a directory of exported tables (no bag: no metadata.yaml, no .mcap)."""
+    from drive_logger.tables import table_files
+    path = Path(path)
+    return (path.is_dir() and not (path / 'metadata.yaml').exists() and not any(path.glob('*.mcap'))
+            and bool(table_files(path)))
+
+
 def load_columns(bag: str, salvage: bool = False, topics=ANALYSED_TOPICS) -> dict[str, dict[str, np.ndarray]]:
-    """Read the given topics of a bag into columns (missing topics are left out; blocks preferred)."""
+    """Read the given topics of a bag, or of an export directory of tables, into columns
+    (missing topics are left out; blocks preferred)."""
+    if is_table_export(bag):
+        columns = _table_columns(Path(bag), topics)
+        return {t: columns[t] for t in topics if t in columns}
     reader = BagReader(bag, salvage=salvage)
     sources = block_sources(reader)
     from_blocks = {t: sources[t] for t in topics if t in sources}

@@ -22,7 +22,7 @@ from drive_logger.bag_reader import BagReadError
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog='analyze', description=__doc__.split('\n\n')[0])
-    ap.add_argument('bag')
+    ap.add_argument('bag', help='bag directory, or a directory of tables from drive_logger export --to parquet/csv')
     ap.add_argument('--out', help='output directory (default <bag>_analysis)')
     ap.add_argument('--rated-torque', type=float, help='N m, T_rated of 001 eq. (40)')
     ap.add_argument('--window', type=float, nargs=2, metavar=('T0', 'T1'), help='steady-state window, s')

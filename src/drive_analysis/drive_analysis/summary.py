@@ -17,7 +17,8 @@ import math
 
 import numpy as np
 
-from drive_analysis.arrays import window
+from drive_analysis.arrays import (DTC, PLANT, field, flatten_columns, largest_step, paired,
+                                   response_time)
 from drive_common import signals
 
 
@@ -88,34 +89,6 @@ def power_factor(t, v, i, f1: float) -> float:
     return signals.power_factor(np.interp(grid, t, v), np.interp(grid, t, i))
 
 
-def rise_time(t, y, t_step: float, y_before: float, y_after: float,
-              low: float = 0.1, high: float = 0.9) -> float:
-    """s from the first crossing of y_before + low*dy to that of y_before + high*dy after t_step (NaN if never)."""
-    t, y = np.asarray(t, float), np.asarray(y, float)
-    after = t >= t_step
-    t, y = t[after], y[after]
-    dy = y_after - y_before
-    progress = (y - y_before) / dy if dy else np.zeros_like(y)
-    lo = np.nonzero(progress >= low)[0]
-    hi = np.nonzero(progress >= high)[0]
-    if not len(lo) or not len(hi):
-        return float('nan')
-    return float(t[hi[0]] - t[lo[0]])
-
-
-def largest_step(t, reference) -> tuple[float, float, float] | None:
-    """(t_step, before, after) of the largest jump of a piecewise-constant reference, or None."""
-    reference = np.asarray(reference, float)
-    if len(reference) < 2:
-        return None
-    jumps = np.abs(np.diff(reference))
-    jumps[np.isnan(jumps)] = 0.0
-    k = int(np.argmax(jumps))
-    if jumps[k] == 0:
-        return None
-    return float(np.asarray(t)[k + 1]), float(reference[k]), float(reference[k + 1])
-
-
 def current_balance(fundamentals) -> dict:
     """Fundamental amplitude per phase and the imbalance (max - min) / mean * 100 %."""
     f = np.asarray(fundamentals, float)
@@ -135,20 +108,6 @@ def error_stats(estimate, truth, angle: bool = False) -> dict:
             'max_abs': float(np.max(np.abs(err))), 'samples': int(len(err))}
 
 
-STATE, STATUS = '/plant/state', '/dtc/status'
-
-
-def _window(cols, t0, t1):
-    mask = window(cols['t'], t0, t1)
-    return {k: v[mask] for k, v in cols.items() if len(v) == len(cols['t'])}
-
-
-def _matched(a, b, field_a, field_b):
-    """Values of a[field_a] and b[field_b] at the steps both topics have."""
-    _, ia, ib = np.intersect1d(a['step'], b['step'], return_indices=True)
-    return a[field_a][ia], b[field_b][ib]
-
-
 def _safe(fn, *args, **kwargs):
     try:
         value = fn(*args, **kwargs)
@@ -157,51 +116,76 @@ def _safe(fn, *args, **kwargs):
     return value
 
 
+def _phase_currents(out: dict, t, currents) -> None:
+    """Fundamental frequency, THD per phase and in total (001 eq. (39)) and balance, from one
+    resampled spectrum per phase."""
+    i_ref = currents[:, int(np.nanargmax(np.nanstd(currents, axis=0)))]
+    f1 = _safe(fundamental_frequency, t, i_ref)
+    if not isinstance(f1, float):
+        return
+    out['current_fundamental_frequency'] = f1
+    spectra = [_safe(harmonics, t, currents[:, k], f1) for k in range(3)]
+    thd = [_safe(lambda h: signals.thd_of(h) * 100.0, h) if isinstance(h, np.ndarray) else h
+           for h in spectra]
+    out['current_thd_percent'] = dict(zip('abc', thd))
+    if all(isinstance(x, float) for x in thd):
+        out['current_thd_total_percent'] = signals.total_thd(thd)
+    if all(isinstance(h, np.ndarray) for h in spectra):
+        out['current_balance'] = current_balance([float(h[1]) for h in spectra])
+
+
+def _steady_state(out: dict, arrays, t0: float, t1: float, rated_torque, line_frequency) -> None:
+    """Currents, torque and speed ripple, and the line side over the steady-state window."""
+    t, currents = field(arrays, 'phase_current', t0, t1)
+    _phase_currents(out, t, currents)
+    torque = field(arrays, 'electromagnetic_torque', t0, t1)[1]
+    out['torque_ripple'] = ripple(torque)
+    if rated_torque:
+        out['torque_ripple_factor_window_percent'] = torque_ripple_factor_window_percent(torque, rated_torque)
+    out['speed_ripple'] = ripple(field(arrays, 'mechanical_speed', t0, t1)[1])
+    if f'{PLANT}.grid_voltage' in arrays:
+        grid_v = field(arrays, 'grid_voltage', t0, t1)[1]
+        grid_i = field(arrays, 'grid_current', t0, t1)[1]
+        if np.isfinite(grid_v).all() and np.isfinite(grid_i).all():
+            out['power_factor'] = _safe(power_factor, t, grid_v, grid_i, line_frequency)
+            out['grid_current_thd_percent'] = _safe(thd_percent, t, grid_i, line_frequency)
+
+
+def _controller(out: dict, arrays) -> None:
+    """Torque step response (10-90 %), estimation errors against ground truth, flux ripple."""
+    status_t = np.asarray(arrays[f'{DTC}.time'], dtype=float)
+    step = largest_step(arrays[f'{DTC}.torque_reference'])
+    has_state = f'{PLANT}.time' in arrays
+    if step is not None and has_state:
+        index, before, after = step
+        t_step = float(status_t[index])
+        t = np.asarray(arrays[f'{PLANT}.time'], dtype=float)
+        start = int(np.searchsorted(t, t_step - 1e-12))
+        out['torque_step'] = {'time': t_step, 'from': before, 'to': after,
+                              'rise_time_10_90': response_time(
+                                  t, arrays[f'{PLANT}.electromagnetic_torque'], start, before,
+                                  after, high=0.9, low=0.1)}
+    if has_state:
+        d = paired(arrays)
+        out['torque_estimation_error'] = error_stats(d['dtc.torque_estimate'],
+                                                     d['plant.electromagnetic_torque'])
+        out['angle_estimation_error'] = error_stats(d['dtc.rotor_angle_estimate'],
+                                                    d['plant.rotor_angle'], angle=True)
+    flux = np.asarray(arrays[f'{DTC}.flux_magnitude'], dtype=float)
+    out['flux_ripple'] = ripple(flux[np.isfinite(flux)]) if np.isfinite(flux).any() else None
+
+
 def summarize(cols, rated_torque=None, window=None, line_frequency=60.0) -> dict:
-    """The metrics of a run's columns (see module docstring)."""
+    """The metrics of a run's columns ({topic: {field: array}}, see the module docstring)."""
     out: dict = {'topics': {t: int(len(c.get('step', []))) for t, c in cols.items()}}
-    state, status = cols.get(STATE), cols.get(STATUS)
-    if state is not None and len(state.get('t', [])) > 8:
-        t = state['t']
+    arrays = flatten_columns(cols)
+    t = arrays.get(f'{PLANT}.time')
+    if t is not None and len(t) > 8:
         t0, t1 = window or (t[0] + 0.5 * (t[-1] - t[0]), t[-1])
         out['window'] = [float(t0), float(t1)]
-        steady = _window(state, t0, t1)
-        currents = steady['phase_current']
-        i_ref = currents[:, int(np.nanargmax(np.nanstd(currents, axis=0)))]
-        f1 = _safe(fundamental_frequency, steady['t'], i_ref)
-        if isinstance(f1, float):
-            out['current_fundamental_frequency'] = f1
-            thd = [_safe(thd_percent, steady['t'], currents[:, k], f1) for k in range(3)]
-            fund = [_safe(lambda k=k: float(harmonics(steady['t'], currents[:, k], f1, 1)[1]))
-                    for k in range(3)]
-            out['current_thd_percent'] = dict(zip('abc', thd))
-            if all(isinstance(x, float) for x in thd):
-                out['current_thd_total_percent'] = signals.total_thd(thd)
-            if all(isinstance(x, float) for x in fund):
-                out['current_balance'] = current_balance(fund)
-        torque = steady['electromagnetic_torque']
-        out['torque_ripple'] = ripple(torque)
-        if rated_torque:
-            out['torque_ripple_factor_window_percent'] = torque_ripple_factor_window_percent(torque, rated_torque)
-        out['speed_ripple'] = ripple(steady['mechanical_speed'])
-        grid_v, grid_i = steady.get('grid_voltage'), steady.get('grid_current')
-        if grid_v is not None and np.isfinite(grid_v).all() and np.isfinite(grid_i).all():
-            out['power_factor'] = _safe(power_factor, steady['t'], grid_v, grid_i, line_frequency)
-            out['grid_current_thd_percent'] = _safe(thd_percent, steady['t'], grid_i, line_frequency)
-    if status is not None and len(status.get('t', [])) > 1:
-        step = largest_step(status['t'], status['torque_reference'])
-        if step is not None and state is not None:
-            t_step, before, after = step
-            out['torque_step'] = {'time': t_step, 'from': before, 'to': after,
-                                  'rise_time_10_90': rise_time(state['t'], state['electromagnetic_torque'],
-                                                                       t_step, before, after)}
-        if state is not None:
-            est, true = _matched(status, state, 'torque_estimate', 'electromagnetic_torque')
-            out['torque_estimation_error'] = error_stats(est, true)
-            est, true = _matched(status, state, 'rotor_angle_estimate', 'rotor_angle')
-            out['angle_estimation_error'] = error_stats(est, true, angle=True)
-        out['flux_ripple'] = ripple(status['flux_magnitude'][np.isfinite(status['flux_magnitude'])]) \
-            if np.isfinite(status['flux_magnitude']).any() else None
+        _steady_state(out, arrays, t0, t1, rated_torque, line_frequency)
+    if len(arrays.get(f'{DTC}.time', ())) > 1:
+        _controller(out, arrays)
     return out
 
 

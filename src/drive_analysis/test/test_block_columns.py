@@ -1,4 +1,4 @@
-"""Analysis reads block bags exactly as per-sample bags (issue 14): same columns, same metrics."""
+"""Analysis reads block bags exactly as per-sample bags: same columns, same metrics."""
 import math
 
 import pytest

@@ -49,7 +49,8 @@ def test_window_includes_both_ends_and_paired_matches_steps():
     d = arrays.paired(_run(), 0.2, 0.4)
     np.testing.assert_allclose(d['time'], [0.2, 0.3, 0.4])
     np.testing.assert_allclose(d['dtc.torque_estimate'], d['time'])      # status of step k at the plant's t_k
-    assert 'plant.time' not in d and 'plant.step' in d
+    assert 'plant.time' not in d and 'plant.step' in d and len(d) == 3
+    assert d['plant.step'] is d['plant.step']        # a column is indexed once per pairing
 
 
 def test_flatten_columns_and_last_whole_periods():

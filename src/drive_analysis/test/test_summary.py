@@ -4,6 +4,7 @@ import math
 import numpy as np
 import pytest
 
+from drive_analysis import arrays
 from drive_analysis import summary as metrics
 
 
@@ -45,9 +46,14 @@ def test_rise_time_of_first_order_response():
     t = np.arange(0, 0.02, 1e-6)
     ref = np.where(t < 0.005, 0.5, 1.0)
     y = np.where(t < 0.005, 0.5, 1.0 - 0.5 * np.exp(-(t - 0.005) / tau))
-    t_step, before, after = metrics.largest_step(t, ref)
-    assert (t_step, before, after) == (pytest.approx(0.005, abs=2e-6), 0.5, 1.0)
-    assert metrics.rise_time(t, y, t_step, before, after) == pytest.approx(tau * math.log(9), rel=1e-2)
+    start, before, after = arrays.largest_step(ref)
+    assert (t[start], before, after) == (pytest.approx(0.005, abs=2e-6), 0.5, 1.0)
+    assert arrays.response_time(t, y, start, before, after, high=0.9, low=0.1) == pytest.approx(
+        tau * math.log(9), rel=1e-2)
+    assert arrays.response_time(t, y, start, before, after, high=0.9) == pytest.approx(
+        tau * math.log(10), rel=1e-2)
+    assert math.isnan(arrays.response_time(t, y, start, before, 2.0))   # never reached
+    assert arrays.largest_step(np.full(5, 0.5)) is None
 
 
 def test_angle_error_wraps():

@@ -17,7 +17,25 @@ from drive_analysis import registry
 from drive_analysis.arrays import flatten_columns
 from drive_bringup.scenario import Scenario
 
-__all__ = ['evaluate_metrics', 'check_rows', 'write_report']
+__all__ = ['evaluate_metrics', 'check_rows', 'write_report', 'fault_verdict', 'FAULT_EXIT']
+
+FAULT_EXIT = 3    # run_scenario's exit code for a run that ended in an unexpected fault state
+
+
+def fault_verdict(scenario: Scenario, end_state: str, fault_kinds) -> tuple[int, str]:
+    """(exit code, one line) of how a run ended, judged against scenario.expect_faults.
+
+    0 for a run without faults or whose faults are all expected; FAULT_EXIT otherwise.
+    """
+    kinds = list(dict.fromkeys(fault_kinds))
+    if not kinds and end_state == 'ended normally':
+        return 0, f'{scenario.name}: ended normally'
+    unexpected = [k for k in kinds if k not in scenario.expect_faults]
+    if kinds and not unexpected:
+        return 0, (f'{scenario.name}: {end_state}; expected by the scenario '
+                   f'(expect_faults: {", ".join(scenario.expect_faults)})')
+    which = ', '.join(unexpected) or 'safe state or protection active at the end'
+    return FAULT_EXIT, f'{scenario.name}: {end_state}; unexpected: {which}'
 
 
 def evaluate_metrics(scenario: Scenario, arrays: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -55,6 +73,8 @@ def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dic
         'description': scenario.description, 'bag': str(result.bag) if result.bag else None,
         'sim_time': result.final_time, 'wall_time': result.wall_time,
         'samples_per_second': result.samples_per_second,
+        'end_state': getattr(result, 'end_state', 'ended normally'),
+        'fault_kinds': list(getattr(result, 'fault_kinds', ())),
         'metrics': values, 'checks': rows, 'analysis': summarize(columns),
         'figures': figures,
         'headline': {'scenario': scenario.name, 'sim_time_s': result.final_time,

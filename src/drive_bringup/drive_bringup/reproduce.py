@@ -4,7 +4,8 @@
     reproduce --only two_phase      # names containing a substring
     reproduce --ros                 # through the ROS graph (slower; recorded bags)
     reproduce --out reports         # where reproduction.md / .json go
-    reproduce --readme README.md    # also refresh the table between the README's markers
+    reproduce --readme FILE         # also refresh the table between the markers of FILE
+    reproduce --docs docs/reproduction.md   # the same for the documentation site's page
 
 Each row: scenario, seed reference, what is checked, the seed's value, the
 simulated value, the criterion (seed ± tolerance, or bounds) and pass/fail.
@@ -70,11 +71,17 @@ def markdown(rows: list[dict]) -> str:
 BEGIN, END = '<!-- reproduction table: begin -->', '<!-- reproduction table: end -->'
 
 
-def update_readme(path: Path, table: str) -> None:
-    """Put table between the BEGIN/END markers of path (which must have both)."""
-    text = path.read_text()
+def _check_markers(path: Path) -> str:
+    """The text of path; SystemExit with one line if it lacks the BEGIN/END markers."""
+    text = path.read_text() if path.is_file() else ''
     if BEGIN not in text or END not in text:
         raise SystemExit(f'{path}: markers {BEGIN} / {END} not found')
+    return text
+
+
+def update_readme(path: Path, table: str) -> None:
+    """Put table between the BEGIN/END markers of path (which must have both): a README or a docs page."""
+    text = _check_markers(path)
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
     path.write_text(f'{head}{BEGIN}\n{table.strip()}\n{END}{tail}')
@@ -87,7 +94,13 @@ def main(argv=None) -> int:
     parser.add_argument('--out', type=Path, default=Path('reports'))
     parser.add_argument('--jobs', type=int, default=2)
     parser.add_argument('--readme', type=Path, help='replace the table between the markers of this file')
+    parser.add_argument('--docs', type=Path, action='append', default=[],
+                        help='replace the table between the markers of this documentation page '
+                             '(docs/reproduction.md); may be given more than once')
     args = parser.parse_args(argv)
+    targets = ([args.readme] if args.readme else []) + args.docs
+    for path in targets:            # before the run, not after it
+        _check_markers(path)
     paths = [p for p in sorted(scenario_dir().glob('*.yaml'))
              if args.only in p.stem and load_scenario(p).checks]
     if not paths:
@@ -113,8 +126,8 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / 'reproduction.md').write_text(table + footer + ('\n'.join(notes) + '\n' if notes else ''))
     (args.out / 'reproduction.json').write_text(json.dumps(rows, indent=2, default=str))
-    if args.readme:
-        update_readme(args.readme, table + footer)
+    for path in targets:
+        update_readme(path, table + footer)
     print()
     print(table + footer)
     return 0 if passed == len(rows) else 1

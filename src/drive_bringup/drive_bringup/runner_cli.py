@@ -122,7 +122,7 @@ def main(argv=None) -> int:
         wall = time.monotonic() - started
         print(f'[{scenario.name}] headless: {scenario.duration} s sim in {wall:.1f} s wall; '
               f'trajectory -> {path}')
-        return 0
+        return _judge(scenario, result.trajectory.end_state, result.trajectory.fault_kinds)
     from drive_bringup.report import write_report
     from drive_bringup.runner import GraphRunner, main_guard
 
@@ -139,9 +139,20 @@ def main(argv=None) -> int:
         if result.bag is not None:
             summary = write_report(scenario, result, out)
             print_summary(summary, out)
-        return 0
+        return _judge(scenario, result.end_state, result.fault_kinds)
 
     return main_guard(run)
+
+
+def _judge(scenario, end_state: str, fault_kinds) -> int:
+    """Print how the run ended (stderr with the reason if it fails); the exit code."""
+    from drive_bringup.report import fault_verdict
+    code, line = fault_verdict(scenario, end_state, fault_kinds)
+    if code:
+        print(f'run_scenario: {line}', file=sys.stderr)
+    else:
+        print(f'[run_scenario] {line}')
+    return code
 
 
 if __name__ == '__main__':

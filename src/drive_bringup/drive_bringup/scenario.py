@@ -27,8 +27,11 @@ Schema (keys marked * are required)::
       - time*: float           # s, 0 <= time < duration
         node*: plant | dtc_controller | pfc_controller | controller
         parameters*: {...}
-    record: {enabled: bool, topics: [str, ...], lockstep: bool}   # lockstep: also the raw
-                               # per-sample lockstep topics (default: blocks only)
+    record: {enabled: bool, topics: [str, ...], lockstep: bool, viewer_period: float | false}
+                               # lockstep: also the raw per-sample lockstep topics (default: blocks
+                               # only); viewer_period: s of sim time between the samples of the
+                               # viewer topics the recorder derives from the blocks (default 0.001,
+                               # 0 = every sample, false = no viewer topics)
     metrics: {name: {...options}}   # names: drive_analysis.registry
     figures: [str, ...]
     checks:                    # rows of the reproduction table
@@ -37,6 +40,9 @@ Schema (keys marked * are required)::
         tolerance*: float      # allowed |sim - seed| (absolute)
         label: str
         # or, instead of seed/tolerance, bounds: min / max
+    expect_faults: [str, ...]  # fault kinds this run is meant to produce (e.g. boost_over_current;
+                               # labels of bldc_plant_sim.core.faults.FaultKind): a run whose faults
+                               # are all expected passes; any other fault exits run_scenario with 3
 """
 from __future__ import annotations
 
@@ -50,6 +56,7 @@ from typing import Any
 import yaml
 
 from drive_common.parameters import ParameterError, ParameterSchema
+from drive_common.telemetry import DEFAULT_LIVE_PERIOD
 from drive_common.uris import resolve_path
 
 NODE_SCHEMAS = {
@@ -59,7 +66,7 @@ NODE_SCHEMAS = {
 }
 CONTROLLER_KEYS = {'package', 'executable', 'core', 'node_name', 'parameters'}
 TOP_KEYS = {'name', 'description', 'seed_reference', 'duration', 'nodes', 'events', 'record',
-            'metrics', 'figures', 'checks'}
+            'metrics', 'figures', 'checks', 'expect_faults'}
 
 
 class ScenarioError(ValueError):
@@ -151,10 +158,12 @@ class Scenario:
     record: bool = True
     record_topics: list[str] = field(default_factory=list)
     record_lockstep: bool = False       # also record the raw lockstep topics
+    record_viewer_period: float | None = DEFAULT_LIVE_PERIOD   # s; None: no viewer topics
     metrics: dict[str, dict] = field(default_factory=dict)
     figures: list[str] = field(default_factory=list)
     checks: list[Check] = field(default_factory=list)
     controller: ControllerProgram | None = None    # nodes.controller, else None
+    expect_faults: tuple[str, ...] = ()            # fault kind labels the run is meant to produce
 
     def schema(self, node: str) -> ParameterSchema:
         """The parameter schema of one of the scenario's nodes."""
@@ -209,8 +218,10 @@ class Scenario:
 TOPIC_NAME = re.compile(r'/?[A-Za-z_~][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
 
 
-def _known_metric(path: Path, key: str, name: str) -> None:
+def _known_metric(path: Path, key: str, name) -> None:
     from drive_analysis.registry import lookup
+    if not isinstance(name, str):
+        raise _fail(path, key, f'expected a metric name, got {name!r}')
     try:
         lookup(name)
     except KeyError as exc:
@@ -226,6 +237,14 @@ def _mapping(value, path: Path, key: str) -> dict:
         return {}
     if not isinstance(value, dict):
         raise _fail(path, key, f'expected a mapping, got {type(value).__name__}')
+    return value
+
+
+def _list(value, path: Path, key: str) -> list:
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        raise _fail(path, key, f'expected a list, got {type(value).__name__}')
     return value
 
 
@@ -294,7 +313,7 @@ def load_scenario(path: str | Path) -> Scenario:
         overrides[node] = dict(params)
 
     events = []
-    for i, ev in enumerate(raw.get('events') or []):
+    for i, ev in enumerate(_list(raw.get('events'), path, 'events')):
         key = f'events[{i}]'
         ev = _mapping(ev, path, key)
         extra = sorted(set(ev) - {'time', 'node', 'parameters'})
@@ -307,7 +326,7 @@ def load_scenario(path: str | Path) -> Scenario:
         if not 0.0 <= t < duration:
             raise _fail(path, f'{key}.time', f'{t} s is outside [0, duration = {duration} s)')
         node = ev['node']
-        if node not in snapshots:
+        if not isinstance(node, str) or node not in snapshots:
             raise _fail(path, f'{key}.node', f'{node!r} is not a node of this scenario')
         params = _resolve_paths(_mapping(ev['parameters'], path, f'{key}.parameters'))
         if not params:
@@ -324,9 +343,15 @@ def load_scenario(path: str | Path) -> Scenario:
         raise _fail(path, 'events', 'events must be in time order')
 
     record = _mapping(raw.get('record'), path, 'record')
-    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep'})
+    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep', 'viewer_period'})
     if extra:
-        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep)')
+        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep, viewer_period)')
+    viewer_period = record.get('viewer_period', DEFAULT_LIVE_PERIOD)
+    if viewer_period is False:
+        viewer_period = None
+    elif isinstance(viewer_period, bool) or not isinstance(viewer_period, (int, float)) \
+            or not 0.0 <= viewer_period <= 1.0:
+        raise _fail(path, 'record.viewer_period', f'expected s in [0, 1] or false, got {viewer_period!r}')
     enabled = record.get('enabled', True)
     lockstep = record.get('lockstep', False)
     for key, value in (('enabled', enabled), ('lockstep', lockstep)):
@@ -353,7 +378,7 @@ def load_scenario(path: str | Path) -> Scenario:
                         + ', '.join(ALL_FIGURES) + ')')
 
     checks = []
-    for i, ch in enumerate(raw.get('checks') or []):
+    for i, ch in enumerate(_list(raw.get('checks'), path, 'checks')):
         key = f'checks[{i}]'
         ch = _mapping(ch, path, key)
         extra = sorted(set(ch) - {'metric', 'seed', 'tolerance', 'min', 'max', 'label'})
@@ -373,16 +398,34 @@ def load_scenario(path: str | Path) -> Scenario:
             raise _fail(path, f'{key}.tolerance', f'must be >= 0, got {tol}')
         if lo is not None and hi is not None and lo > hi:
             raise _fail(path, key, f'min {lo} is above max {hi}')
-        if ch['metric'] not in metrics:
+        if not isinstance(ch['metric'], str) or ch['metric'] not in metrics:
             _known_metric(path, f'{key}.metric', ch['metric'])
         checks.append(Check(ch['metric'], str(ch.get('label', ch['metric'])), seed, tol, lo, hi))
 
+    expect_faults = _fault_kinds(raw.get('expect_faults'), path)
     return Scenario(path=path, name=name, duration=duration, node_parameters=snapshots,
                     overrides=overrides, events=events,
                     description=str(raw.get('description', '')),
                     seed_reference=str(raw.get('seed_reference', '')),
                     record=enabled, record_topics=list(topics), record_lockstep=lockstep,
-                    metrics=metrics, figures=list(figures), checks=checks, controller=controller)
+                    record_viewer_period=None if viewer_period is None else float(viewer_period),
+                    metrics=metrics, figures=list(figures), checks=checks, controller=controller,
+                    expect_faults=expect_faults)
+
+
+def _fault_kinds(value, path: Path) -> tuple[str, ...]:
+    """expect_faults: a list of fault kind labels (FaultKind), validated."""
+    if value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise _fail(path, 'expect_faults', 'expected a list of fault kinds')
+    from bldc_plant_sim.core.faults import fault_kind
+    for i, name in enumerate(value):
+        try:
+            fault_kind(name)
+        except ValueError as exc:
+            raise _fail(path, f'expect_faults[{i}]', str(exc)) from None
+    return tuple(fault_kind(v).label for v in value)
 
 
 def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
@@ -404,22 +447,35 @@ def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
     return ControllerProgram(**values)
 
 
-def scenario_dir() -> Path:
-    """The scenarios of the source tree (symlink/develop installs), else share/drive_bringup."""
-    source = Path(__file__).resolve().parents[1] / 'scenarios'
+def shipped_dir(kind: str) -> Path:
+    """The shipped files of a kind ('scenarios', 'studies'): the source tree (symlink/develop
+    installs), else share/drive_bringup/<kind>."""
+    source = Path(__file__).resolve().parents[1] / kind
     if source.is_dir():
         return source
     from ament_index_python.packages import get_package_share_directory
-    return Path(get_package_share_directory('drive_bringup')) / 'scenarios'
+    return Path(get_package_share_directory('drive_bringup')) / kind
+
+
+def find_shipped(name_or_path: str, kind: str) -> Path:
+    """A path as given, or a shipped file's name looked up in shipped_dir(kind); ScenarioError
+    naming the known ones otherwise."""
+    path = Path(name_or_path)
+    if path.suffix in ('.yaml', '.yml') or path.exists():
+        return path
+    candidate = shipped_dir(kind) / f'{name_or_path}.yaml'
+    if not candidate.exists():
+        known = sorted(p.stem for p in shipped_dir(kind).glob('*.yaml'))
+        raise ScenarioError(f'no {kind[:-1].replace("ie", "y")} {name_or_path!r} '
+                            f'(known: {", ".join(known)})')
+    return candidate
+
+
+def scenario_dir() -> Path:
+    """The shipped scenarios."""
+    return shipped_dir('scenarios')
 
 
 def find_scenario(name_or_path: str) -> Path:
     """A path as given, or a scenario name looked up in scenario_dir()."""
-    path = Path(name_or_path)
-    if path.suffix in ('.yaml', '.yml') or path.exists():
-        return path
-    candidate = scenario_dir() / f'{name_or_path}.yaml'
-    if not candidate.exists():
-        known = sorted(p.stem for p in scenario_dir().glob('*.yaml'))
-        raise ScenarioError(f'no scenario {name_or_path!r} (known: {", ".join(known)})')
-    return candidate
+    return find_shipped(name_or_path, 'scenarios')

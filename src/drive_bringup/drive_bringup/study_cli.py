@@ -19,21 +19,17 @@ import argparse
 import sys
 from pathlib import Path
 
+from drive_bringup.scenario import ScenarioError, find_shipped, shipped_dir
+
 
 def study_dir() -> Path:
-    """The shipped studies (source tree, else share/drive_bringup/studies)."""
-    source = Path(__file__).resolve().parents[1] / 'studies'
-    if source.is_dir():
-        return source
-    from ament_index_python.packages import get_package_share_directory
-    return Path(get_package_share_directory('drive_bringup')) / 'studies'
+    """The shipped studies."""
+    return shipped_dir('studies')
 
 
 def find_study(name_or_path: str) -> Path:
-    path = Path(name_or_path)
-    if path.suffix in ('.yaml', '.yml') or path.exists():
-        return path
-    return study_dir() / f'{name_or_path}.yaml'
+    """A path as given, or a shipped study's name."""
+    return find_shipped(name_or_path, 'studies')
 
 
 def main(argv=None) -> int:
@@ -57,10 +53,10 @@ def main(argv=None) -> int:
         print('study: --workers: must be >= 1', file=sys.stderr)
         return 2
 
-    from drive_bringup.study import StudyError, load_study, run_study, summary_text
+    from drive_bringup.study import load_study, run_study, summary_text
     try:
         study = load_study(find_study(args.study))
-    except StudyError as exc:
+    except ScenarioError as exc:     # a StudyError too
         print('study: ' + ' '.join(str(exc).split()), file=sys.stderr)   # one line
         return 2
     out = args.out or Path('studies') / study.name

@@ -69,6 +69,10 @@ def test_own_controller_entry_gives_its_program_schema_and_events(tmp_path):
      'record.topics[0]', 'not a valid ROS topic name'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {lockstep: 1}\n',
      'record.lockstep', 'expected true or false'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {viewer_period: -0.001}\n',
+     'record.viewer_period', 'expected s in [0, 1] or false'),
+    ('name: x\nduration: 0.1\nnodes: {plant: {}}\nrecord: {viewer_period: true}\n',
+     'record.viewer_period', 'expected s in [0, 1] or false'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nfigures: [no_such_figure]\n',
      'figures[0]', 'unknown figure'),
     ('name: x\nduration: 0.1\nnodes: {plant: {}}\nmetrics: {bogus: {x: 1}}\n',
@@ -107,7 +111,7 @@ def test_shipped_scenarios_are_valid():
 
 
 def test_default_recording_is_the_blocks_and_lockstep_topics_only_on_request(tmp_path):
-    """No recorder subscription on a per-sample topic by default (issue 14); record.lockstep
+    """No recorder subscription on a per-sample topic by default; record.lockstep
     adds the raw lockstep topics, record.topics replaces the list."""
     from drive_bringup.runner import record_topics
     base = 'name: x\nduration: 0.1\nnodes: {plant: {}, dtc_controller: {}}\n'
@@ -118,3 +122,7 @@ def test_default_recording_is_the_blocks_and_lockstep_topics_only_on_request(tmp
     assert lockstep == default + ['/drive/measurement', '/drive/gate_command']
     listed = record_topics(load_scenario(write(tmp_path, base + 'record: {topics: [plant/state]}\n')))
     assert listed == ['/plant/state']
+    # viewer topics (derived by the recorder, no subscription): 1 ms by default, a period, or off
+    assert load_scenario(write(tmp_path, base)).record_viewer_period == 1e-3
+    assert load_scenario(write(tmp_path, base + 'record: {viewer_period: 0}\n')).record_viewer_period == 0.0
+    assert load_scenario(write(tmp_path, base + 'record: {viewer_period: false}\n')).record_viewer_period is None

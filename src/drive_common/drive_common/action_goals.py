@@ -18,7 +18,8 @@ ends) whether the goal was accepted:
 - no reply and no status: the request is sent again, same id.
 
 :func:`goal_result` asks again for a result whose reply was lost, once the
-status says the goal has ended. ``wait(done, seconds)`` is how a helper
+handle or the status topic says the goal has ended (and every
+RESULT_ASK_ANYWAY s in any case). ``wait(done, seconds)`` is how a helper
 waits: it lets the client's node be spun and returns whether ``done()``
 holds (:func:`polling_wait` when an executor spins the node elsewhere).
 """
@@ -38,6 +39,7 @@ GOAL_RESPONSE_WAIT = 5.0   # s without a reply after which the status is asked a
 GOAL_ATTEMPTS = 6
 STATUS_WAIT = 2.0          # s the status topic may take to list a goal the server accepted
 RESULT_ASK_AGAIN = 2.0     # s after which an ended goal's result is asked for again
+RESULT_ASK_ANYWAY = 10.0   # s after which a result is asked for again, ended or not (a status missed)
 
 
 def polling_wait(done: Callable[[], bool], seconds: float) -> bool:
@@ -128,15 +130,34 @@ def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait 
                        f'({response_wait:g} s each)')
 
 
-def goal_result(handle, *, wait: Wait = polling_wait):
+def goal_result(handle, *, wait: Wait = polling_wait, watch: GoalStatusWatch | None = None):
     """The result response of an accepted goal (``.status``, ``.result``).
 
-    While the goal's status says it has ended and no result came, the result
-    is asked for again every RESULT_ASK_AGAIN s. No overall timeout; a wait
-    that returns True before the result came ends it with None.
+    A result reply can be lost (a reply writer not yet matched; or rclpy's
+    client handling a fast reply before it has registered the request), and
+    the goal handle's own status can miss the goal's end (a short goal whose
+    final status arrived before its goal reply: rclpy drops it). So the result
+    is asked for again every RESULT_ASK_AGAIN s once the handle *or* the
+    action's status topic (``watch``) says the goal has ended, and every
+    RESULT_ASK_ANYWAY s in any case; the first answer wins. No overall
+    timeout; a wait that returns True before the result came ends it with None.
     """
-    future = handle.get_result_async()
-    while not wait(future.done, RESULT_ASK_AGAIN):
-        if _ended(handle.status):
-            future = handle.get_result_async()
-    return future.result() if future.done() else None
+    watch = watch or GoalStatusWatch.of(handle._action_client)
+    key = bytes(handle.goal_id.uuid)
+
+    def ended() -> bool:
+        listed = watch.get(key)
+        return _ended(handle.status) or (listed is not None and _ended(listed[0]))
+
+    futures = [handle.get_result_async()]
+    asked = time.monotonic()
+
+    def answered() -> bool:
+        return any(f.done() for f in futures)
+
+    while not wait(answered, RESULT_ASK_AGAIN):
+        if ended() or time.monotonic() - asked >= RESULT_ASK_ANYWAY:
+            futures.append(handle.get_result_async())
+            asked = time.monotonic()
+    done = [f for f in futures if f.done()]
+    return done[0].result() if done else None

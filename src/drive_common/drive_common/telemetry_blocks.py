@@ -48,6 +48,7 @@ _ELEMENT = {
     'double': ('d', np.float64),
     'int8': ('b', np.int8),
     'uint8': ('B', np.uint8),
+    'uint32': ('I', np.uint32),
     'int64': ('q', np.int64),
     'uint64': ('Q', np.uint64),
     'boolean': (None, np.bool_),
@@ -322,32 +323,34 @@ def block_columns(block) -> dict[str, np.ndarray]:
     return columns
 
 
-def expand(block) -> Iterator[tuple]:
+def expand(block, indices=None) -> Iterator[tuple]:
     """The per-sample messages of a block, one tuple per sample in BLOCK_PARTS order.
 
     Each message equals, byte for byte once serialized, the one its node
     would have published for that sample: same step, header stamp and
-    frame_id, every field value (NaN payloads included).
+    frame_id, every field value (NaN payloads included). indices: only these
+    samples (ascending sample indexes in the block; None: every sample).
     """
     lay = layout(type(block))
     _check_lengths(block, lay)
     count = block.count
+    rows = list(range(count)) if indices is None else list(indices)
     stamps = sample_stamps_ns(block).tolist()
     per_sample = []
     for column in lay.columns:
         data = getattr(block, column.name)
-        if column.width == 1:
-            per_sample.append(list(data))
+        w = column.width
+        if w == 1:
+            per_sample.append([data[i] for i in rows])
         elif column.element == 'boolean':
-            w = column.width
-            per_sample.append([list(data[i * w:(i + 1) * w]) for i in range(count)])
+            per_sample.append([list(data[i * w:(i + 1) * w]) for i in rows])
         else:
-            values = np.array(data, dtype=_ELEMENT[column.element][1]).reshape(count, column.width)
-            per_sample.append(list(values))
+            values = np.array(data, dtype=_ELEMENT[column.element][1]).reshape(count, w)
+            per_sample.append([values[i] for i in rows])
     constants = [(c.part, c.source, getattr(block, c.name)) for c in lay.per_block]
     targets = [(c.part, c.source) for c in lay.columns]
     frame_id = block.header.frame_id
-    for i in range(count):
+    for row, i in enumerate(rows):
         msgs = tuple(msg_type() for _, msg_type in lay.parts)
         sec, nanosec = divmod(stamps[i], 1_000_000_000)
         step = block.first_step + i * block.step_stride
@@ -358,7 +361,7 @@ def expand(block) -> Iterator[tuple]:
         for part, source, value in constants:
             setattr(msgs[part], source, value)
         for (part, source), values in zip(targets, per_sample):
-            setattr(msgs[part], source, values[i])
+            setattr(msgs[part], source, values[row])
         yield msgs
 
 

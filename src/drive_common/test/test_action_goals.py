@@ -23,11 +23,26 @@ class _Future:
         return self._value
 
 
-class _Handle:
-    """A goal handle whose first `lost` result replies are lost."""
+class _Listed:
+    """A status topic that lists every goal with one status (None: lists nothing)."""
 
-    def __init__(self, accepted: bool, status: int = GoalStatus.STATUS_EXECUTING, lost: int = 0) -> None:
+    def __init__(self, status: int | None = None) -> None:
+        self.status = status
+
+    def get(self, key: bytes):
+        return None if self.status is None else (self.status, None)
+
+
+class _Handle:
+    """A goal handle whose first `lost` result replies are lost; `listed`: what the action's
+    status topic says of it (its own status may have missed the goal's end)."""
+
+    def __init__(self, accepted: bool, status: int = GoalStatus.STATUS_EXECUTING, lost: int = 0,
+                 listed: int | None = None) -> None:
+        from unique_identifier_msgs.msg import UUID
         self.accepted, self.status, self.lost, self.asked = accepted, status, lost, 0
+        self.goal_id = UUID(uuid=[7] * 16)
+        self._action_client = type('Client', (), {'_drive_status_watch': _Listed(listed)})()
 
     def get_result_async(self):
         self.asked += 1
@@ -144,6 +159,21 @@ def test_a_running_goal_is_not_asked_again_and_a_wait_that_gives_up_gets_none():
 
     assert goal_result(handle, wait=give_up_third_time) is None
     assert handle.asked == 1 and waits == [action_goals.RESULT_ASK_AGAIN] * 3
+
+
+def test_a_lost_result_is_asked_again_when_only_the_status_topic_saw_the_goal_end():
+    # A short goal's final status came before its goal reply: the handle missed it (rclpy
+    # registers the handle only then), but the status topic lists the goal as succeeded.
+    handle = _Handle(True, GoalStatus.STATUS_ACCEPTED, lost=1, listed=GoalStatus.STATUS_SUCCEEDED)
+    assert goal_result(handle, wait=_wait).result == 'the Run.Result'
+    assert handle.asked == 2
+
+
+def test_a_result_is_asked_again_anyway_when_no_status_says_the_goal_ended(monkeypatch):
+    monkeypatch.setattr(action_goals, 'RESULT_ASK_ANYWAY', 0.0)
+    handle = _Handle(True, GoalStatus.STATUS_EXECUTING, lost=2)
+    assert goal_result(handle, wait=_wait).result == 'the Run.Result'
+    assert handle.asked == 3
 
 
 class _RunServer(_Server):

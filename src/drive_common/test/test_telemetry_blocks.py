@@ -27,7 +27,7 @@ NAN_WITH_PAYLOAD = struct.unpack('<d', struct.pack('<Q', 0x7FF8_0000_0000_0123))
 NEGATIVE_NAN = struct.unpack('<d', struct.pack('<Q', 0xFFF8_0000_0000_0000))[0]
 SPECIAL_FLOATS = (float('nan'), NAN_WITH_PAYLOAD, NEGATIVE_NAN, float('inf'), float('-inf'),
                   -0.0, 5e-324, 1.7976931348623157e308)
-INT_RANGES = {'int8': (-128, 128), 'uint8': (0, 256), 'int64': (-2**63, 2**63)}
+INT_RANGES = {'int8': (-128, 128), 'uint8': (0, 256), 'uint32': (0, 2**32), 'int64': (-2**63, 2**63)}
 MODES = ('two_phase_six_switch', 'three_phase_dtifc')
 TICK = 1e-6   # s, plant base tick of the generated samples (as core.time = step * base_tick)
 

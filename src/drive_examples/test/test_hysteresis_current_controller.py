@@ -1,4 +1,4 @@
-"""The worked example of docs/write_your_own_controller.md, closed loop (issue 16).
+"""The worked example of docs/write_your_own_controller.md, closed loop.
 
 The example scenario (T* = 0.3 -> 0.6 N m at 50 ms, the BLDC of 000 held at
 30 rad/s) runs headless and through the ROS graph (``run_scenario --isolate``:

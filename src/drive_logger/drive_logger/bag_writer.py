@@ -111,6 +111,7 @@ class BagWriter:
         self.path = Path(path) if data_file is not None else check_output_directory(path)
         self.ros_distro = ros_distro or os.environ.get('ROS_DISTRO', 'jazzy')
         self.compression = compression
+        self.chunk_size = chunk_size
         self.log_time = log_time
         self.file_name = file_name or f'{self.path.name}_0.mcap'
         self.data_file = Path(data_file) if data_file is not None else self.path / self.file_name

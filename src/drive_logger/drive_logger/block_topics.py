@@ -1,4 +1,4 @@
-"""A bag's per-sample topics, taken from its block topics where it has them (issue 14).
+"""A bag's per-sample topics, taken from its block topics where it has them.
 
 A block topic (``/plant/state_block``, ``/dtc/status_block``,
 ``/pfc/status_block``; docs/architecture.md "Telemetry: blocks and live

@@ -2,7 +2,7 @@
 
 Built on ``foxglove-sdk`` (its WebSocket server speaks the protocol). Open
 the Foxglove app, "Open connection", ``ws://localhost:8765``, then import
-the layout ``share/drive_logger/layouts/dtc_live.json`` (README).
+the layout ``share/drive_logger/layouts/dtc_live.json`` (docs/live_view.md).
 
 What it serves:
 - each chosen topic as a channel with its ``ros2msg`` schema (the full

@@ -41,6 +41,11 @@ Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 - ``flush_period`` (s, 0.5): at least this often (wall time) the current
   chunk is closed and the file fsynced, so a killed recorder loses at most
   that much; ``ros2 run drive_logger reindex <bag>`` completes its bag.
+- ``viewer_topics`` (bool, true), ``viewer_period`` (s of sim time, 0.001;
+  0 = every sample): at stop, add the per-sample viewer topics
+  (``/plant/state``, ``/dtc/status``, ``/pfc/status``) derived from the
+  recorded blocks (:class:`drive_logger.sample_topics.SampleTopics`), unless
+  the bag records a topic of that name itself.
 
 The recorder takes messages in its own wait loop (the rclpy executor's
 per-callback cost is several times the recording cost): its subscriptions
@@ -49,7 +54,11 @@ are in a callback group the executor leaves alone
 parameter services (parameters are read-only, fixed at start).
 
 Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
-finalized (MCAP summary + metadata.yaml) and the process exits 0. A bad
+finalized: the data file, written in arrival order, is rewritten in
+canonical order with the viewer topics
+(:func:`drive_logger.sample_topics.finish_canonical`: two recordings of one
+scenario are byte-identical files), metadata.yaml is written, and the
+process exits 0. A bad
 output directory or an unknown/uninstalled topic type is an error at start
 (exit code 2, nothing written); an output directory that holds the bag of a
 killed recorder is refused with the reindex command that recovers it.
@@ -71,6 +80,8 @@ from drive_common.ros_parameters import SchemaParameters
 from drive_common.waiting import wait_until
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
+from drive_common.telemetry import DEFAULT_LIVE_PERIOD
+from drive_logger.sample_topics import SampleTopics, finish_canonical
 from drive_logger.message_definitions import (NO_STAMP, DefinitionNotFoundError, normalize_type_name,
                                               sim_stamp_kind, type_definition)
 
@@ -122,6 +133,10 @@ RECORDER_SCHEMA = schema([
     _spec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
           choices=LOG_TIME_SOURCES),
     _spec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
+    _spec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
+          'derived from the blocks'),
+    _spec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
+          's', 0.0, 1.0),
 ])
 
 
@@ -136,6 +151,7 @@ class RecorderNode(Node):
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
+        self.viewer = SampleTopics(float(p['viewer_period'])) if p['viewer_topics'] else None
         self._lock = threading.Lock()
         self._not_spun = DirectCallbackGroup()   # subscriptions: taken by TakeLoop, not the executor
 
@@ -276,8 +292,8 @@ class RecorderNode(Node):
             for topic in self.topics.values():
                 if topic.record is None and topic.definition is not None:
                     topic.record = self.writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
-            self.writer.close()
-        counts = {name: t.record.message_count for name, t in self.topics.items() if t.record}
+            self.writer = finish_canonical(self.writer, self.viewer)
+        counts = {name: t.message_count for name, t in self.writer.topics.items()}
         self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
 
 

@@ -23,8 +23,10 @@ Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
   the PFC topics likewise) instead of the blocks, every sample at its
   stamp, bit-exact as the nodes published them, so a controller can be
   re-driven from a block bag (:mod:`drive_logger.block_topics`). The
-  recorded per-sample messages of those names (decimated live topics) are
-  not published then; ``topics`` may name the per-sample topics.
+  recorded per-sample messages of those names (the recorder's 1 ms viewer
+  topics, or decimated live topics) are not published then; ``topics`` may
+  name the per-sample topics. Left false, a recorded bag replays as the
+  live graph looked: the blocks and the viewer topics at their rate.
 At the end a replay waits (up to 5 s) until every reliable sample it published
 is acknowledged, so a reader that matched late still gets the first ones.
 A bag that cannot be read is an error naming the problem (exit code 2).

@@ -1,4 +1,4 @@
-"""Block bags downstream (issue 14): per-sample expansion, third-party readers, bag info, replay
+"""Block bags downstream: per-sample expansion, third-party readers, bag info, replay
 with expand_blocks and compare_replay, on bags written from a headless run (no graph needed
 to make them)."""
 import argparse
@@ -13,7 +13,9 @@ from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.waiting import wait_until
 from drive_logger.bag_reader import BagReader
 from drive_logger.block_topics import per_sample_messages
-from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag, zero_padded
+from drive_common.cdr_padding import canonicalize
+from drive_logger.ros_types import message_class
+from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.012      # s: 360 controller samples, the runtime torque step at 9.4 ms included
@@ -33,7 +35,7 @@ def _by_topic(messages):
     """{topic: [(log time, CDR bytes with zeroed padding)]} (rclpy leaves padding uninitialised)."""
     out = {}
     for msg in messages:
-        out.setdefault(msg.topic, []).append((msg.log_time, zero_padded(msg.data, msg.type)))
+        out.setdefault(msg.topic, []).append((msg.log_time, canonicalize(msg.data, message_class(msg.type))))
     return out
 
 
@@ -103,6 +105,11 @@ def test_bag_info_shows_block_samples_and_step_gaps(run, tmp_path, capsys):
     status = [line for line in out.splitlines() if 'Topic: /dtc/status_block ' in line]
     assert state and state[0].endswith(f'| Samples: {per_sample["/plant/state"].message_count}')
     assert status and status[0].endswith(f'| Samples: {per_sample["/dtc/status"].message_count}')
+    # the viewer topic beside its block: its samples of the block's
+    viewer = [line for line in out.splitlines() if 'Topic: /plant/state ' in line]
+    shown = BagReader(bags['blocks']).topics['/plant/state'].message_count
+    assert viewer and viewer[0].endswith(
+        f'| Samples: {shown} of {per_sample["/plant/state"].message_count} in /plant/state_block')
     assert 'Block steps' not in out
     # one block of /dtc/status_block repeated: reported
     reader = BagReader(bags['blocks'])
@@ -132,7 +139,7 @@ def test_replay_expand_blocks_publishes_the_per_sample_messages(run, ros_session
     for topic, cls in types.items():
         def take(data, topic=topic, name=f'dtc_msgs/msg/{cls.__name__}'):
             with lock:
-                got[topic].append(zero_padded(data, name))
+                got[topic].append(canonicalize(data, message_class(name)))
         node.create_subscription(cls, topic, take, deep, raw=True)
     blocks = []
     node.create_subscription(DtcStatusBlock, '/dtc/status_block',

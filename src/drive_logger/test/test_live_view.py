@@ -1,4 +1,4 @@
-"""live_view: the running graph in the Foxglove WebSocket protocol (issue 16, live view).
+"""live_view: the running graph in the Foxglove WebSocket protocol.
 
 The core (decimation, bounded hand-off, parameter names) is tested without
 ROS; the node is tested with a real graph (plant + dtc_controller in a

@@ -310,7 +310,13 @@ def test_default_recording_takes_the_blocks_and_stays_off_the_lockstep_topics(
     assert _stop(recorder) == 0, recorder.output()
     from drive_logger.bag_reader import BagReader
     reader = BagReader(bag)
-    assert set(reader.topics) <= {'/' + t.lstrip('/') for t in DEFAULT_TOPICS}
+    # the default topics, plus the viewer topic the recorder derives from the blocks (not subscribed)
+    assert set(reader.topics) <= {'/' + t.lstrip('/') for t in DEFAULT_TOPICS} | {'/plant/state'}
     recorded = [message_bits(deserialize_message(m.data, PlantStateBlock))
                 for m in reader.messages() if m.topic == '/plant/state_block']
     assert recorded == published and len(published) == 10
+    # viewer topic: one sample per 1 ms of sim time (every 40th of 25 us), logged at its stamp
+    viewer = [(m.log_time, deserialize_message(m.data, PlantState)) for m in reader.messages(['/plant/state'])]
+    assert [s.step for _, s in viewer] == list(range(0, 400, 40))
+    assert [t for t, _ in viewer] == [25_000 * s.step for _, s in viewer]
+    assert [s.mechanical_speed for _, s in viewer] == [0.1 * s.step for _, s in viewer]

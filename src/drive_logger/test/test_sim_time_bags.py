@@ -1,4 +1,4 @@
-"""Sim-time bags through the ROS graph (issue 13, items 6 and 10).
+"""Sim-time bags through the ROS graph.
 
 - The same scenario recorded twice gives the same (topic, log time, data) for
   every sim-stamped message, and the same (log time, content) for the

@@ -95,7 +95,7 @@ def test_param_verbs_and_dump_load_round_trip(drive_graph, tmp_path):
     assert ros2.ok('param', 'get', '/plant', 'load.torque', '--hide-type').strip() == '0.2'
     assert ros2.ok('param', 'get', '/plant', 'motor.file').strip() == 'String value is: ozturk_bldc'
     assert (ros2.ok('param', 'get', '/plant', 'sensors.current_offset').strip()
-            == "Double values are: array('d', [0.0, 0.0, 0.0])")
+            == 'Double values are: [0.0, 0.0, 0.0]')
     assert ros2.ok('param', 'set', '/plant', 'load.torque', '0.3').strip() == 'Set parameter successful'
     assert ros2.ok('param', 'get', '/plant', 'load.torque').strip() == 'Double value is: 0.3'
     refused = ros2('param', 'set', '/plant', 'load.torque', '5000.0')
@@ -242,7 +242,7 @@ def _subscribers(ros2, topic: str) -> int:
 
 
 def test_bag_reindex_completes_the_bag_of_a_killed_recorder(drive_graph, tmp_path):
-    """Needs drive_logger.bag_reindex (issue 13, bags deliverable): the recorder is SIGKILLed after a
+    """Needs drive_logger.bag_reindex: the recorder is SIGKILLed after a
     run; `ros2 bag reindex` gives the bag its metadata.yaml, and `ros2 bag info` then reports exactly
     the messages that were on disk, nothing invented."""
     import os
@@ -295,7 +295,7 @@ time.sleep(600)
 
 
 def test_param_verbs_never_hang_on_a_node_that_does_not_answer(drive_graph, tmp_path):
-    """Issue 13 item 2: a node that advertises parameter services but never answers costs the
+    """A node that advertises parameter services but never answers costs the
     command its time-out and a one-line report, never a hang."""
     import subprocess
     import sys

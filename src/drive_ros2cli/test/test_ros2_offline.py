@@ -77,3 +77,64 @@ def test_parameter_yaml_keeps_floats_and_arrays():
     assert load_yaml('1e-06') == 1e-06 and load_yaml('-2E5') == -200000.0 and load_yaml('e5') == 'e5'
     assert parameter_from_value('x', load_yaml('[1, 2.5]')).value == [1.0, 2.5]
     assert parameter_from_value('x', [], declared_type=8).type_.name == 'DOUBLE_ARRAY'
+
+
+@pytest.mark.parametrize('field, ptype, value, line', [
+    ('bool_value', 1, True, 'Boolean value is: True'),
+    ('integer_value', 2, 7, 'Integer value is: 7'),
+    ('double_value', 3, 0.25, 'Double value is: 0.25'),
+    ('string_value', 4, 'ozturk_bldc', 'String value is: ozturk_bldc'),
+    ('byte_array_value', 5, [b'\x01', b'\xff'], "Byte values are: [b'\\x01', b'\\xff']"),
+    ('bool_array_value', 6, [True, False], 'Boolean values are: [True, False]'),
+    ('integer_array_value', 7, [1, -2, 3], 'Integer values are: [1, -2, 3]'),
+    ('double_array_value', 8, [0.1, 0.0, 0.0], 'Double values are: [0.1, 0.0, 0.0]'),
+    ('string_array_value', 9, ['a', 'b c'], "String values are: ['a', 'b c']"),
+])
+def test_param_get_prints_every_type_as_upstream(field, ptype, value, line):
+    """Upstream ros2param get: label and the value as a Python list, never array('d', ...)."""
+    from rcl_interfaces.msg import ParameterValue
+
+    from drive_ros2cli.verbs.param import format_get
+    msg = ParameterValue(type=ptype, **{field: value})
+    assert format_get(msg) == line
+    assert format_get(msg, hide_type=True) == line.split(': ', 1)[1]
+
+
+def test_pkg_create_writes_upstream_ament_python_layout(ros2_offline, tmp_path):
+    """`ros2 pkg create --build-type ament_python --node-name N NAME`: upstream's files and output lines."""
+    out = ros2_offline.ok('pkg', 'create', '--build-type', 'ament_python', '--node-name', 'talker',
+                          '--dependencies', 'rclpy', 'std_msgs', '--maintainer-email', 'me@example.org',
+                          '--destination-directory', str(tmp_path), 'my_pkg')
+    lines = out.splitlines()
+    assert lines[0] == 'going to create a new package'
+    assert 'package name: my_pkg' in lines and 'build type: ament_python' in lines
+    assert "dependencies: ['rclpy', 'std_msgs']" in lines and 'node_name: talker' in lines
+    assert 'creating ./my_pkg/package.xml' in lines and 'creating ./my_pkg/my_pkg/talker.py' in lines
+    root = tmp_path / 'my_pkg'
+    files = sorted(str(p.relative_to(root)) for p in root.rglob('*') if p.is_file())
+    assert files == ['my_pkg/__init__.py', 'my_pkg/talker.py', 'package.xml', 'resource/my_pkg',
+                     'setup.cfg', 'setup.py']
+    assert (root / 'test').is_dir()
+    xml = (root / 'package.xml').read_text()
+    assert '<package format="3">' in xml and '<depend>std_msgs</depend>' in xml
+    assert '<maintainer email="me@example.org">' in xml and '<build_type>ament_python</build_type>' in xml
+    assert "'talker = my_pkg.talker:main'" in (root / 'setup.py').read_text()
+    assert (root / 'setup.cfg').read_text() == ('[develop]\nscript_dir=$base/lib/my_pkg\n'
+                                                '[install]\ninstall_scripts=$base/lib/my_pkg\n')
+    again = ros2_offline('pkg', 'create', '--build-type', 'ament_python',
+                         '--destination-directory', str(tmp_path), 'my_pkg')
+    assert again.code == 1 and 'The directory already exists' in again.err
+
+
+def test_pkg_create_controller_template_and_bad_input(ros2_offline, tmp_path):
+    ros2_offline.ok('pkg', 'create', '--build-type', 'ament_python', '--template', 'drive_controller',
+                    '--destination-directory', str(tmp_path), 'my_ctrl')
+    root = tmp_path / 'my_ctrl'
+    assert 'run_controller(Core, \'my_ctrl\', args)' in (root / 'my_ctrl' / 'my_ctrl.py').read_text()
+    assert (root / 'test' / 'test_my_ctrl.py').is_file()
+    assert '<depend>drive_common</depend>' in (root / 'package.xml').read_text()
+    for args, message in [(('--build-type', 'ament_python', 'Bad-Name'), "invalid package name 'Bad-Name'"),
+                          (('--template', 'drive_controller', 'x'), 'needs --build-type ament_python'),
+                          (('--build-type', 'ament_python', 'test'), "can't be named 'test'")]:
+        result = ros2_offline('pkg', 'create', '--destination-directory', str(tmp_path), *args)
+        assert result.code == 1 and message in result.err and 'Traceback' not in result.err

@@ -1,6 +1,6 @@
 """Bags of one headless run, written without the ROS graph: per-sample topics, block topics, or both.
 
-For readers' tests (issue 14): the same samples a recorded graph would
+For readers' tests: the same samples a recorded graph would
 carry, from :func:`drive_bringup.headless.run_headless` (the same cores the
 nodes wrap), serialized as the nodes fill them
 (:class:`drive_common.conversions.ReusedMessage`, stamp = the sample's sim
@@ -16,7 +16,6 @@ decimated live topics as the nodes publish them
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from unittest import mock
 
@@ -198,24 +197,3 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
 def _first_ns(block) -> int:
     from drive_common.telemetry_blocks import stamp_ns
     return stamp_ns(block.header.stamp)
-
-
-def zero_padded(data: bytes, type_name: str) -> bytes:
-    """CDR bytes of a message with the alignment padding zeroed (every value's bits kept).
-
-    rclpy (Fast CDR) leaves padding bytes uninitialised, so two serializations
-    of equal messages may differ there; rosbags, with a type store built from
-    the installed definition, decodes the bytes and re-encodes them with zero
-    padding.
-    """
-    store = _typestore(type_name)
-    return bytes(store.serialize_cdr(store.deserialize_cdr(data, type_name), type_name))
-
-
-@lru_cache(maxsize=None)
-def _typestore(type_name: str):
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    from drive_logger.message_definitions import full_definition
-    store = get_typestore(Stores.EMPTY)
-    store.register(get_types_from_msg(full_definition(type_name), type_name))
-    return store

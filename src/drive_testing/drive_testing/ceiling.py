@@ -13,7 +13,7 @@ The naive ceiling is what plain rclpy gives without that care:
 ``naive_responder`` replies from a subscription callback spun by a
 SingleThreadedExecutor (:func:`drive_common.node_main.run_node`), and
 :func:`measure_naive_round_trips` publishes one measurement and spins its
-own SingleThreadedExecutor until the reply's callback has run (issue 14).
+own SingleThreadedExecutor until the reply's callback has run.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Trivial controller cores: a fixed gate pattern and a fixed boost duty (no rclpy).
+"""A trivial controller core: a fixed gate pattern (no rclpy).
 
 Used by the ``fixed_responder`` node, by plant tests (the ROS graph and the
 headless loop must give the same trajectory) and by benchmarks.
@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from drive_common.samples import DriveSample, DutySample, GateSample, PfcSample
+from drive_common.samples import DriveSample, GateSample
 
 
 @dataclass
@@ -23,17 +23,3 @@ class FixedGateCore:
     def reconfigure(self, params: dict) -> None:
         self.switch_on = tuple(bool(s) for s in params['switch_on'])
         self.topology = int(params['topology'])
-
-
-@dataclass
-class FixedDutyCore:
-    """Answers every PFC sample with the same duty."""
-
-    duty: float = 0.0
-    enable: bool = False
-
-    def update(self, sample: PfcSample):
-        return DutySample(step=sample.step, duty=self.duty, enable=self.enable), None
-
-    def reconfigure(self, params: dict) -> None:
-        self.duty, self.enable = float(params['duty']), bool(params['enable'])

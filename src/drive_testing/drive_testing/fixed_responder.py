@@ -27,10 +27,19 @@ FIXED_RESPONDER_SCHEMA = schema([
 ], _check_pattern)
 
 
+class FixedResponderCore(FixedGateCore):
+    """The fixed responder as a :class:`~drive_common.controller_api.ControllerCore`, so a
+    scenario can name it as its ``controller`` (graph and headless)."""
+
+    SCHEMA = FIXED_RESPONDER_SCHEMA
+
+    def __init__(self, params: dict) -> None:
+        super().__init__()
+        self.reconfigure(params)
+
+
 def make_core(params: dict) -> FixedGateCore:
-    core = FixedGateCore()
-    core.reconfigure(params)
-    return core
+    return FixedResponderCore(params)
 
 
 class FixedResponder(LockstepControllerNode):

@@ -1,4 +1,4 @@
-"""The launch-free harness itself (issue 2): domains, in-process nodes, process teardown."""
+"""The launch-free harness itself: domains, in-process nodes, process teardown."""
 import os
 import subprocess
 import sys

@@ -65,7 +65,7 @@ _SPECS = (
     ParameterSpec('estimation.initial_flux', 'backemf_table',
                   'initial stator flux: rotor flux at the first encoder angle from the table, or zero',
                   choices=('backemf_table', 'zero'), runtime=False),
-    # ---- three-phase conduction modes (issue 5: three_phase_dtifc / _pmsm / _four_switch)
+    # ---- three-phase conduction modes (three_phase_dtifc / _pmsm / _four_switch)
     ParameterSpec('three_phase.flux_model', 'voltage',
                   'stator flux: voltage model (integrator below) or current model (001 eqs. 8-9, encoder angle)',
                   choices=('voltage', 'current'), runtime=False),

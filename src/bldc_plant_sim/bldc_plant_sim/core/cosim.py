@@ -34,6 +34,8 @@ class Trajectory:
     dtc_status: list = field(default_factory=list)    # status returned at t_k (None if not due)
     pfc_status: list = field(default_factory=list)
     commands: list = field(default_factory=list)      # (gate command, duty command) returned at t_k
+    end_state: str = 'ended normally'                 # how the run ended (core/faults.py wording)
+    fault_kinds: tuple = ()                           # fault kind labels recorded during the run
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -82,6 +84,7 @@ class CoSimulation:
         self.record_every = int(record_every)
         self.on_tick = on_tick
         self.trajectory = Trajectory()
+        self._counts_start = list(plant.faults.counts)   # the trajectory's end state counts from here
 
     def _record(self, dtc_status, pfc_status, commands) -> None:
         plant = self.plant
@@ -134,7 +137,17 @@ class CoSimulation:
             tick()
         if self.record_every:
             self._record(None, None, (None, None))
+        self._judge_end()
         return self.trajectory
+
+    def _judge_end(self) -> None:
+        """The trajectory's end state, as the plant node says it for a run (same core record)."""
+        plant, tr = self.plant, self.trajectory
+        record = plant.faults
+        record.drain()                      # nobody reports them here; the counters keep them
+        before = self._counts_start
+        tr.fault_kinds = record.kinds_since(before)
+        tr.end_state = record.end_state(sum(before), bool(plant.protection) or plant.in_safe_state)
 
 
 def run_headless(params: dict, dtc=None, pfc=None, duration: float = 0.01, **kwargs) -> Trajectory:

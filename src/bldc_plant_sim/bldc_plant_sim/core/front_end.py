@@ -388,6 +388,7 @@ class FrontEnd:
         self.events: list[tuple[float, str]] = []   # (time, what): protections always,
         self.log_switching_events = False           # zero/start/overlap only when True
         self.last_event = (math.nan, '')
+        self.on_protection = None   # callable(kind, time, text) per trip ('over_current' / 'over_voltage')
         self.event_counts = {'zero': 0, 'start': 0, 'overlap': 0, 'overlap_end': 0,
                              'over_current': 0, 'over_voltage': 0}
         self.energy = FrontEndLedger()
@@ -531,7 +532,8 @@ class FrontEnd:
         if ov > 0.0 and v_out > ov and not self.over_voltage:
             self.over_voltage = True
             self.event_counts['over_voltage'] += 1
-            self._log(t, 'boost over-voltage: switch opened')
+            self._protection(t, 'over_voltage', f'boost over-voltage: v_o = {v_out:.3f} V above '
+                             f'{ov:g} V: switch opened')
         q_total = 0.0
         t_end = t + dt
         eps = min(1e-9 / self.f_pwm, 1e-6 * dt)   # edges this close to the end merge into it
@@ -802,7 +804,14 @@ class FrontEnd:
         self.gate = False
         self._oc_period = math.floor(self.time * self.f_pwm + 1e-9)
         self.event_counts['over_current'] += 1
-        self._log(self.time, f'boost over-current {self.i_L:.3f} A: switch opened')
+        self._protection(self.time, 'over_current', f'boost over-current: i_L = {self.i_L:.3f} A '
+                         f'above {self.over_current_limit:g} A: switch opened')
+
+    def _protection(self, when: float, kind: str, text: str) -> None:
+        """A protection trip: logged, and passed to on_protection (the plant's fault record)."""
+        self._log(when, text)
+        if self.on_protection is not None:
+            self.on_protection(kind, when, text)
 
     def _event(self, when: float, kind: str, text: str) -> None:
         """Count a switching event; log it only with log_switching_events (80 kHz: many)."""

@@ -4,7 +4,8 @@ Each leg is driven by its own two gates (SW1/SW2 = a, SW3/SW4 = b, SW5/SW6 = c).
 Leg codes: UPPER (upper switch on), LOWER, OFF (both off) and MIDPOINT (the
 four-switch inverter's phase tied to the split-capacitor midpoint; its gates
 are ignored). Both switches of a leg on would short the link: the gate
-driver's interlock turns both off instead (reported as applied = off).
+driver's interlock turns both off instead (reported as applied = off), and the
+plant records it as a shoot-through fault (:meth:`Inverter.shoot_through_legs`).
 
 Device model (001 Tables III/IV): a conducting switch drops V_CE + R_on |i|,
 a conducting diode V_d + R_on |i|; which one conducts follows the current
@@ -55,6 +56,11 @@ class Inverter:
             up, low = switch_on[2 * x], switch_on[2 * x + 1]
             out.append(UPPER if up and not low else LOWER if low and not up else OFF)
         return tuple(out)
+
+    def shoot_through_legs(self, switch_on) -> str:
+        """The legs ('a', 'b', 'c') whose two switches are both commanded on ('' = none)."""
+        return ''.join(PHASES[x] for x in range(3)
+                       if x != self.midpoint and switch_on[2 * x] and switch_on[2 * x + 1])
 
     def all_off(self) -> tuple:
         return tuple(MIDPOINT if x == self.midpoint else OFF for x in range(3))

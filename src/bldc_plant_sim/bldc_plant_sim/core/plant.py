@@ -33,11 +33,12 @@ from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
 from ..parameters import PLANT_SCHEMA, effective_params
 from .dc_link import DcLink
+from .faults import FaultKind, FaultRecord
 from .front_end import FrontEnd
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, Inverter
 from .load import LoadMachine
 from .motor import Motor
-from .protection import MOTOR_OVER_CURRENT, PeakCurrentTrip
+from .protection import MOTOR_OVER_CURRENT, SHOOT_THROUGH, PeakCurrentTrip
 from .sensors import Sensors
 
 TWO_PI = 2.0 * math.pi
@@ -80,6 +81,10 @@ class PlantStateSample:
     energy_friction_loss: float = 0.0
     energy_mechanical_output: float = 0.0
     energy_stored: float = 0.0
+    fault_count: int = 0
+    fault_counts: tuple = (0,) * len(FaultKind)
+    first_fault_kind: int = 0
+    first_fault_time: float = NAN
 
 
 @dataclass
@@ -114,7 +119,9 @@ class PlantCore:
         self.inverter = Inverter.from_params(p)
         self.topology = self.inverter.topology
         self.dc = DcLink.from_params(p)
-        self.fe = FrontEnd.from_params(p) if p['front_end.enabled'] else None
+        self.faults = FaultRecord()   # every fault counted, the first latched (core/faults.py)
+        self.fe = self._attach(FrontEnd.from_params(p)) if p['front_end.enabled'] else None
+        self.shoot_through_policy = p['inverter.shoot_through']
         self.load = LoadMachine.from_params(p)
         self.sensors = Sensors(p, self.motor.pole_pairs)
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
@@ -195,7 +202,7 @@ class PlantCore:
         if not p['front_end.enabled']:
             self.fe = None
         elif fe is None:
-            self.fe = FrontEnd.from_params(p, time=self.time)
+            self.fe = self._attach(FrontEnd.from_params(p, time=self.time))
         else:
             # A line voltage / phase step changes C1's energy at once: the grid supplies
             # that jump (booked as grid input, not as a move of the stored-energy baseline).
@@ -214,6 +221,7 @@ class PlantCore:
             self._count0 = self.sensors.encoder_count(self.theta_m)
         self.sensors.configure(p)
         self.trip.level = p['protection.peak_current']
+        self.shoot_through_policy = p['inverter.shoot_through']
         self.params = p
         self._requested = requested
         self._derive_constants(p['integration.max_step'])
@@ -228,10 +236,19 @@ class PlantCore:
         fe.over_current, fe.over_voltage = old.over_current, old.over_voltage
         fe.energy = old.energy
         fe.events, fe.event_counts = old.events, old.event_counts
+        return self._attach(fe)
+
+    def _attach(self, fe: FrontEnd) -> FrontEnd:
+        """Route the front end's protection trips into the fault record."""
+        fe.on_protection = self._boost_protection
         return fe
 
+    def _boost_protection(self, kind: str, when: float, text: str) -> None:
+        self.faults.record(FaultKind.BOOST_OVER_CURRENT if kind == 'over_current'
+                           else FaultKind.BOOST_OVER_VOLTAGE, when, self.step, text)
+
     def _derive_constants(self, max_step: float) -> None:
-        self._legs_of: dict = {}        # gate tuple -> leg codes (memo; reset with the inverter)
+        self._legs_of: dict = {}        # gate tuple -> (leg codes, shoot-through legs) (memo)
         self._switches_of: dict = {}    # leg codes -> applied gate tuple
         inv = self.inverter
         self._can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
@@ -248,11 +265,29 @@ class PlantCore:
 
     # ------------------------------------------------------------------ commands
     def apply_gates(self, switch_on: tuple) -> None:
-        """Latch SW1..SW6 until the next call (forced off by safe state or trip)."""
-        legs = self._legs_of.get(switch_on)
-        if legs is None:
-            legs = self._legs_of[tuple(switch_on)] = self.inverter.legs(switch_on)
-        self._commanded = legs
+        """Latch SW1..SW6 until the next call (forced off by safe state or trip).
+
+        Both switches of a leg on (shoot-through) is a fault: recorded with the
+        legs, and with ``inverter.shoot_through`` = safe_state (default) the plant
+        enters the safe state until reset_protection(); with ``interlock`` the
+        leg is turned off (the gate driver's interlock) and the run goes on.
+        """
+        memo = self._legs_of.get(switch_on)
+        if memo is None:
+            memo = self._legs_of[tuple(switch_on)] = (self.inverter.legs(switch_on),
+                                                      self.inverter.shoot_through_legs(switch_on))
+        self._commanded, shorted = memo
+        if shorted:
+            self._shoot_through(shorted)
+
+    def _shoot_through(self, shorted: str) -> None:
+        safe = self.shoot_through_policy == 'safe_state'
+        action = 'safe state entered' if safe else 'leg(s) turned off (interlock)'
+        self.faults.record(FaultKind.SHOOT_THROUGH, self.time, self.step,
+                           f'shoot-through requested on leg {",".join(shorted)}: {action}',
+                           leg=','.join(shorted), policy=self.shoot_through_policy)
+        if safe:
+            self.enter_safe_state(SHOOT_THROUGH)
 
     def apply_duty(self, duty: float, enable: bool) -> None:
         """Latch the boost duty command until the next call (duty 0 / off in the safe state)."""
@@ -271,9 +306,20 @@ class PlantCore:
 
     def leave_safe_state(self, reason: int) -> None:
         """Clear one reason; the inverter and the boost take the latched commands again."""
+        was_safe = self.in_safe_state
         self._safe &= ~int(reason)
         if self.fe is not None and not self._safe:
             self.fe.set_duty(*self._duty)
+        self._note_safe_state_exit(was_safe)
+
+    @property
+    def in_safe_state(self) -> bool:
+        """PlantState.safe_state: a safe-state reason or the latched motor trip."""
+        return bool(self._safe or self.trip.tripped)
+
+    def _note_safe_state_exit(self, was_safe: bool) -> None:
+        if was_safe and not self.in_safe_state:
+            self.faults.note(self.time, self.step, 'safe state left: switches follow the commands again')
 
     def safe_state_reason(self) -> int:
         return self._safe
@@ -281,11 +327,18 @@ class PlantCore:
     def reset_protection(self) -> tuple[bool, str]:
         """Reset the latched peak-current trip (refused while the current is above the level)
         and the latched boost protections (they re-trip at once if the cause persists)."""
+        was_safe = self.in_safe_state
         ok, text = self.trip.reset(self.i)
+        if self._safe & SHOOT_THROUGH:
+            self._safe &= ~SHOOT_THROUGH
+            text += '; shoot-through safe state reset'
         fe = self.fe
         if fe is not None and fe.protection:
             fe.reset_protection()
             text += '; boost protections reset'
+        if fe is not None and not self._safe:
+            fe.set_duty(*self._duty)
+        self._note_safe_state_exit(was_safe)
         return ok, text
 
     @property
@@ -363,11 +416,13 @@ class PlantCore:
             grid_voltage=grid_v, grid_current=grid_i, rectified_voltage=rect_v,
             inductor_current=ind_i,
             applied_switch_on=self._applied, boost_duty=boost_duty, boost_switch_enabled=boost_on,
-            protection=self.protection, safe_state=bool(self._safe or self.trip.tripped),
+            protection=self.protection, safe_state=self.in_safe_state,
             energy_grid_input=e_grid, energy_dc_source=e_src,
             energy_copper_loss=en.copper, energy_device_loss=en.device, energy_front_end_loss=e_fe,
             energy_friction_loss=en.friction, energy_mechanical_output=en.mechanical,
-            energy_stored=self.stored_energy())
+            energy_stored=self.stored_energy(),
+            fault_count=self.faults.total, fault_counts=tuple(self.faults.counts),
+            first_fault_kind=int(self.faults.first_kind), first_fault_time=self.faults.first_time)
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
@@ -601,5 +656,10 @@ class PlantCore:
             self.trip.trip(when, self.i[q])
             self._legs = self.inverter.all_off()
             self.events.append((when, f'trip phase {"abc"[q]}'))
+            self.faults.record(FaultKind.MOTOR_OVER_CURRENT, when, self.step,
+                               f'motor peak-current trip: phase {"abc"[q]} current '
+                               f'{self.i[q]:.3f} A reached {self.trip.level:g} A: all switches off, safe state '
+                               'until plant/reset_protection',
+                               phase='abc'[q], current=f'{self.i[q]:.6f}')
         else:
             self.events.append((when, f'current zero phase {"abc"[q]}'))

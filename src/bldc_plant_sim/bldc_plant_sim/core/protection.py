@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 MOTOR_OVER_CURRENT = 1     # = dtc_msgs/PlantState PROTECTION_MOTOR_OVER_CURRENT
+SHOOT_THROUGH = 16         # = dtc_msgs/PlantState PROTECTION_SHOOT_THROUGH (safe state, latched)
 
 
 class PeakCurrentTrip:

@@ -41,33 +41,30 @@ import math
 
 import numpy as np
 
-from drive_analysis.arrays import moving_average, window
+from drive_analysis.arrays import field, moving_average
 from drive_common import signals
 
 LINE_FREQUENCY = 60.0
 
 
-def _mask(arrays: dict, t_start, t_end) -> np.ndarray:
-    return window(arrays['plant/state.time'], t_start, t_end)
-
-
-def _field(arrays: dict, name: str, mask: np.ndarray) -> np.ndarray:
-    return np.asarray(arrays[f'plant/state.{name}'], dtype=float)[mask]
+def _plant(arrays: dict, name: str, t_start=None, t_end=None) -> tuple[np.ndarray, np.ndarray]:
+    """(t, plant/state.<name> as floats) within the window."""
+    t, x = field(arrays, name, t_start, t_end)
+    return t, x.astype(float, copy=False)
 
 
 def _grid(arrays: dict, t_start=None, t_end=None, cycles=None,
           line_frequency: float = LINE_FREQUENCY):
     """(v, i, periods) over the last whole line cycles of the window."""
-    mask = _mask(arrays, t_start, t_end)
-    t = _field(arrays, 'time', mask)
+    t, v = _plant(arrays, 'grid_voltage', t_start, t_end)
+    i = _plant(arrays, 'grid_current', t_start, t_end)[1]
     if len(t) < 3:
         raise ValueError('window holds too few samples')
     dt = np.diff(t)
     # The headless runner appends the final state; keep only the evenly spaced part.
     step = float(np.median(dt))
     if not abs(dt[-1] - step) < 1e-3 * step:
-        mask[np.flatnonzero(mask)[-1]] = False
-    v, i = _field(arrays, 'grid_voltage', mask), _field(arrays, 'grid_current', mask)
+        v, i = v[:-1], i[:-1]
     n, periods = signals.samples_per_whole_periods(len(v), 1.0 / step / line_frequency, cycles)
     v, i = v[len(v) - n:], i[len(i) - n:]
     if np.isnan(v).any() or np.isnan(i).any():
@@ -112,7 +109,7 @@ def line_real_power_W(arrays, t_start=None, t_end=None, cycles=None,
 
 
 def _output(arrays, t_start, t_end) -> np.ndarray:
-    return _field(arrays, 'dc_link_voltage', _mask(arrays, t_start, t_end))
+    return _plant(arrays, 'dc_link_voltage', t_start, t_end)[1]
 
 
 def mean_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
@@ -137,9 +134,7 @@ def min_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
 
 def _averaged_output(arrays, t_start, t_end, line_frequency):
     """(t, v_o averaged over a trailing half line cycle) in the window."""
-    mask = _mask(arrays, t_start, t_end)
-    t = _field(arrays, 'time', mask)
-    v = _field(arrays, 'dc_link_voltage', mask)
+    t, v = _plant(arrays, 'dc_link_voltage', t_start, t_end)
     if len(t) < 3:
         return t, v
     step = float(np.median(np.diff(t)))
@@ -171,12 +166,12 @@ def output_voltage_deviation_V(arrays, t_event=None, reference=80.0, t_start=Non
 
 
 def boost_switch_enabled_fraction(arrays, t_start=None, t_end=None) -> float:
-    on = _field(arrays, 'boost_switch_enabled', _mask(arrays, t_start, t_end))
+    on = _plant(arrays, 'boost_switch_enabled', t_start, t_end)[1]
     return float(np.mean(on)) if len(on) else math.nan
 
 
 def peak_inductor_current_A(arrays, t_start=None, t_end=None) -> float:
-    i = _field(arrays, 'inductor_current', _mask(arrays, t_start, t_end))
+    i = _plant(arrays, 'inductor_current', t_start, t_end)[1]
     return float(np.max(i)) if len(i) else math.nan
 
 

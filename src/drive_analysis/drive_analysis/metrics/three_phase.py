@@ -84,7 +84,7 @@ _PHASES = {'a': 0, 'b': 1, 'c': 2}
 def angle_error_rms_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     """RMS of the estimated minus the true electrical rotor angle [deg] (000 Fig. 5.8)."""
     d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
+    if not len(d):
         return math.nan
     err = signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
     return float(np.degrees(signals.rms(err)))
@@ -93,14 +93,14 @@ def angle_error_rms_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
 def angle_error_max_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Largest |estimated - true electrical rotor angle| [deg]."""
     d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
+    if not len(d):
         return math.nan
     return float(np.degrees(np.max(np.abs(signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])))))
 
 
 def _d_current(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray, np.ndarray]:
     d = paired(arrays, t_start, t_end)
-    ref = d.get('dtc.d_current_reference', np.zeros(len(d['time'])))
+    ref = d.get('dtc.d_current_reference', np.zeros(len(d)))
     if source == 'controller':
         return d['dtc.d_current'], ref
     if source != 'plant':
@@ -142,7 +142,7 @@ def speed_estimate_error_pct(arrays: Arrays, t_start=None, t_end=None, pole_pair
     """100 * (mean estimated electrical speed / (p * mean true mechanical speed) - 1)."""
     d = paired(arrays, t_start, t_end)
     true = mean_or_nan(d['plant.mechanical_speed']) * pole_pairs
-    if not len(d['time']) or true == 0.0:
+    if not len(d) or true == 0.0:
         return math.nan
     return float(100.0 * (mean_or_nan(d['dtc.speed_estimate']) / true - 1.0))
 
@@ -280,7 +280,7 @@ def predicted_minus_actual_torque_pct(arrays: Arrays, t_start=None, t_end=None) 
     """100 * (mean predicted - mean actual torque) / mean actual torque (001 Table X offset)."""
     d = paired(arrays, t_start, t_end)
     actual = mean_or_nan(d['plant.electromagnetic_torque'])
-    if not len(d['time']) or actual == 0.0:
+    if not len(d) or actual == 0.0:
         return math.nan
     return float(100.0 * (mean_or_nan(d['dtc.torque_estimate']) - actual) / actual)
 

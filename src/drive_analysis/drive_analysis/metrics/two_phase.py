@@ -68,7 +68,8 @@ import math
 
 import numpy as np
 
-from drive_analysis.arrays import Arrays, field, mean_or_nan, paired, samples_in
+from drive_analysis.arrays import (Arrays, field, largest_step, mean_or_nan, paired,
+                                   response_time, samples_in)
 from drive_common import signals
 
 from . import RATED_TORQUE_000
@@ -83,20 +84,20 @@ def _rms_pct_rated(err: np.ndarray, rated_torque: float) -> float:
 def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
                                           rated_torque: float = RATED_TORQUE_000) -> float:
     d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
+    if not len(d):
         return math.nan
     return _rms_pct_rated(d['dtc.torque_estimate'] - d['plant.electromagnetic_torque'], rated_torque)
 
 
 def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
     d = paired(arrays, t_start, t_end)
-    return float(np.mean(d['plant.electromagnetic_torque'])) if len(d['time']) else math.nan
+    return float(np.mean(d['plant.electromagnetic_torque'])) if len(d) else math.nan
 
 
 def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
                                         rated_torque: float = RATED_TORQUE_000) -> float:
     d = paired(arrays, t_start, t_end)
-    if not len(d['time']):
+    if not len(d):
         return math.nan
     return _rms_pct_rated(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'], rated_torque)
 
@@ -104,26 +105,16 @@ def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None
 def rise_time_s(arrays: Arrays, t_start=None, t_end=None, fraction: float = 0.9,
                 signal: str = 'plant.electromagnetic_torque', smoothing: float = 0.0) -> float:
     d = paired(arrays, t_start, t_end)
-    ref = d['dtc.torque_reference']
-    if len(ref) < 2:
+    step = largest_step(d['dtc.torque_reference'])
+    if step is None:
         return math.nan
-    jumps = np.abs(np.diff(ref))
-    j = int(np.argmax(jumps))
-    if jumps[j] == 0.0:
-        return math.nan
-    before, after = ref[j], ref[j + 1]
-    level = before + fraction * (after - before)
     y = d[signal]
     if smoothing > 0.0:
         n = samples_in(d['time'], smoothing)
         c = np.cumsum(np.concatenate(([0.0], y)))
         lo = np.maximum(np.arange(len(y)) + 1 - n, 0)
         y = (c[1:] - c[lo]) / (np.arange(len(y)) + 1 - lo)
-    y = y[j + 1:]
-    hit = np.flatnonzero((y - level) * np.sign(after - before) >= 0.0)
-    if not hit.size:
-        return math.nan
-    return float(d['time'][j + 1 + hit[0]] - d['time'][j + 1])
+    return response_time(d['time'], y, *step, high=fraction)
 
 
 def _phase_c_rms(arrays: Arrays, sectors, t_start, t_end) -> float:

@@ -116,12 +116,21 @@ def _stamp(ns: int) -> str:
     return f"{time.strftime('%b %e %Y %H:%M:%S', time.localtime(sec))}.{nsec:09d} ({sec}.{nsec:09d})"
 
 
+def _viewer_note(topic, carried: dict, blocks: dict) -> str:
+    """' | Samples: n of N in <block topic>' for a per-sample topic whose samples a block topic holds."""
+    if topic.name not in carried or carried[topic.name][0] not in blocks:
+        return ''
+    block_topic = carried[topic.name][0]
+    return f' | Samples: {topic.message_count} of {blocks[block_topic][0]} in {block_topic}'
+
+
 def info_main(args) -> int:
     from drive_logger.bag_reader import BagReader, BagReadError
-    from drive_logger.block_topics import block_summaries
+    from drive_logger.block_topics import block_sources, block_summaries
     try:
         reader = BagReader(args.bag_path)
         blocks = block_summaries(reader)
+        carried = block_sources(reader)     # per-sample topic -> (block topic, part)
     except BagReadError as exc:
         raise CliError(str(exc)) from None
     meta = reader.metadata or {}
@@ -140,7 +149,8 @@ def info_main(args) -> int:
     print(label('End') + _stamp(start + duration))
     print(label('Messages') + str(meta.get('message_count', 0)))
     lines = [f'Topic: {t.name} | Type: {t.type} | Count: {t.message_count} | Serialization Format: cdr'
-             + (f' | Samples: {blocks[t.name][0]}' if t.name in blocks else '') for t in topics]
+             + (f' | Samples: {blocks[t.name][0]}' if t.name in blocks else '')
+             + _viewer_note(t, carried, blocks) for t in topics]
     print(label('Topic information') + ('\n' + ' ' * 19).join(lines))
     problems = [f'{topic}: {p}' for topic, (_, found) in blocks.items() for p in found]
     if problems:

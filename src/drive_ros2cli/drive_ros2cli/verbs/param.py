@@ -153,10 +153,22 @@ def get_main(args) -> int:
     if value.type == 0:
         print('Parameter not set.')
         return 0
-    label, attr = GET_LABELS[value.type]
-    shown = getattr(value, attr)          # arrays print as rclpy holds them: array('d', [...]), as upstream
-    print(shown if args.hide_type else f'{label} {shown}')
+    print(format_get(value, args.hide_type))
     return 0
+
+
+def format_get(value, hide_type: bool = False) -> str:
+    """The line `ros2 param get` prints for a ParameterValue, as upstream ros2param's get verb.
+
+    Integer and double arrays arrive as array.array; upstream prints them as
+    lists (``Double values are: [0.1, 0.0, 0.0]``, ros2cli PR 804), the other
+    arrays are lists already (bytes as ``[b'\\x01']``, booleans as ``[True]``).
+    """
+    label, attr = GET_LABELS[value.type]
+    shown = getattr(value, attr)
+    if hasattr(shown, 'tolist'):
+        shown = shown.tolist()
+    return str(shown) if hide_type else f'{label} {shown}'
 
 
 def parameter_from_value(name: str, value, declared_type: int | None = None):

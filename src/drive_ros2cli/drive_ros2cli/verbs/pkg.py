@@ -1,12 +1,16 @@
-"""``ros2 pkg list|executables``: packages of the ament index and their executables."""
+"""``ros2 pkg create|list|executables``: new packages (drive_ros2cli.pkg_create), the ament index's packages and their executables."""
 from __future__ import annotations
 
+from drive_ros2cli import pkg_create
 from drive_ros2cli.verbs.run import executables, package_prefix
 
 DESCRIPTION = 'Various package related sub-commands'
 
 
 def add_verbs(verbs) -> None:
+    p = verbs.add_parser('create', help='Create a new ROS 2 package', description='Create a new ROS 2 package')
+    pkg_create.add_arguments(p)
+    p.set_defaults(main=pkg_create.create_main)
     p = verbs.add_parser('list', help='Output a list of available packages',
                          description='Output a list of available packages')
     p.set_defaults(main=list_main)

@@ -1,0 +1,303 @@
+"""Sphinx extension: the node, message and scenario reference, generated from the code at every build.
+
+At ``builder-inited`` it writes Markdown tables under ``docs/reference/_generated/``
+(gitignored), which the reference pages ``{include}``:
+
+- one file per node: its parameters from the node's ParameterSchema
+  (name, type, default, range, unit, when it may change, description) and its
+  topics, services and actions from ``drive_common.topics``;
+- ``messages.md``: every ``dtc_msgs`` message, service and action, field by
+  field with the definition's comments;
+- ``scenarios.md``: every shipped scenario (name, seed reference, duration,
+  description) from ``src/drive_bringup/scenarios/*.yaml``.
+
+Run standalone (``python docs/_ext/drive_reference.py OUT_DIR``) to write the
+same files without Sphinx. Needs the workspace sourced (the schemas import
+the node packages).
+"""
+from __future__ import annotations
+
+import ast
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+GENERATED = Path(__file__).resolve().parents[1] / 'reference' / '_generated'
+
+
+def _cell(value) -> str:
+    """A value as a Markdown table cell (pipes escaped, no line breaks)."""
+    text = ' '.join(str(value).split())
+    return text.replace('|', '\\|') if text else ' '
+
+
+def _code(value) -> str:
+    return f'`{value!r}`' if isinstance(value, str) else f'`{value}`'
+
+
+def _type_name(default) -> str:
+    if isinstance(default, list):
+        inner = {float: 'double', int: 'integer', str: 'string', bool: 'boolean'}.get(
+            type(default[0]) if default else float, 'double')
+        return f'{inner} array'
+    return {bool: 'boolean', int: 'integer', float: 'double', str: 'string'}.get(type(default), type(default).__name__)
+
+
+def _range(spec) -> str:
+    parts = []
+    if spec.choices:
+        parts.append('one of ' + ', '.join(f'`{c}`' for c in spec.choices))
+    if spec.min_value is not None or spec.max_value is not None:
+        low = '−∞' if spec.min_value is None else f'{spec.min_value:g}'
+        high = '∞' if spec.max_value is None else f'{spec.max_value:g}'
+        parts.append(f'[{low}, {high}]')
+    if spec.length is not None:
+        parts.append(f'length {spec.length}')
+    return '; '.join(parts) or '—'
+
+
+def _when(spec) -> str:
+    if spec.read_only:
+        return 'read-only'
+    return 'runtime' if spec.runtime else 'held'
+
+
+PARAMETER_HEADER = ('| name | type | default | range | unit | changes | description |\n'
+                    '|---|---|---|---|---|---|---|\n')
+
+
+def schema_table(schema) -> str:
+    """Markdown table of a drive_common.parameters.ParameterSchema."""
+    rows = []
+    for name in schema.names():
+        spec = schema[name]
+        rows.append(f'| `{name}` | {_type_name(spec.default)} | {_cell(_code(spec.default))} | '
+                    f'{_cell(_range(spec))} | {_cell(spec.unit or "—")} | {_when(spec)} | '
+                    f'{_cell(spec.description)} |')
+    return PARAMETER_HEADER + '\n'.join(rows) + '\n'
+
+
+def declared_parameters_table(path: Path, class_name: str) -> str:
+    """Table of the ``self.declare_parameter(name, default, descriptor)`` calls in a node class.
+
+    For nodes without a ParameterSchema (the live view): read from the source's
+    syntax tree, so the table follows the code. All such parameters are read-only
+    when the descriptor says so (``ro`` or ``read_only=True``).
+    """
+    tree = ast.parse(path.read_text())
+    rows = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ClassDef) and node.name == class_name:
+            for call in ast.walk(node):
+                if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute)
+                        and call.func.attr == 'declare_parameter'):
+                    continue
+                name = ast.literal_eval(call.args[0])
+                source = ast.unparse(call.args[1])
+                default = (_live_view_defaults() if source == 'list(DEFAULT_TOPICS)'
+                           else ast.literal_eval(call.args[1]))
+                descriptor = ast.unparse(call.args[2]) if len(call.args) > 2 else ''
+                text = ''
+                for kw in getattr(call.args[2], 'keywords', []) if len(call.args) > 2 else []:
+                    if kw.arg == 'description':
+                        text = ast.literal_eval(kw.value)
+                when = 'read-only' if ('read_only=True' in descriptor or descriptor == 'ro') else 'runtime'
+                rows.append(f'| `{name}` | {_type_name(default)} | {_cell(_code(default))} | — | — | {when} | '
+                            f'{_cell(text)} |')
+    if not rows:
+        raise RuntimeError(f'{path}: no declare_parameter calls in class {class_name}')
+    return PARAMETER_HEADER + '\n'.join(rows) + '\n'
+
+
+def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
+    """Per node: published and subscribed topics, services and actions (names from drive_common.topics)."""
+    from drive_common import topics as t
+    return {
+        'plant': {
+            'publishes': [(t.DRIVE_MEASUREMENT, 'dtc_msgs/msg/DriveMeasurement'),
+                          (t.PFC_MEASUREMENT, 'dtc_msgs/msg/PfcMeasurement'),
+                          (t.PLANT_STATE_BLOCK, 'dtc_msgs/msg/PlantStateBlock'),
+                          (t.PLANT_STATE, 'dtc_msgs/msg/PlantState'),
+                          (t.CLOCK, 'rosgraph_msgs/msg/Clock'),
+                          (t.DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray')],
+            'subscribes': [(t.GATE_COMMAND, 'dtc_msgs/msg/GateCommand'),
+                           (t.DUTY_COMMAND, 'dtc_msgs/msg/DutyCommand')],
+            'services': [(t.RESET_PROTECTION_SERVICE, 'dtc_msgs/srv/ResetProtection')],
+            'actions': [(t.RUN_ACTION, 'dtc_msgs/action/Run')],
+        },
+        'dtc_controller': {
+            'publishes': [(t.GATE_COMMAND, 'dtc_msgs/msg/GateCommand'),
+                          (t.DTC_STATUS_BLOCK, 'dtc_msgs/msg/DtcStatusBlock'),
+                          (t.DTC_STATUS, 'dtc_msgs/msg/DtcStatus')],
+            'subscribes': [(t.DRIVE_MEASUREMENT, 'dtc_msgs/msg/DriveMeasurement')],
+        },
+        'pfc_controller': {
+            'publishes': [(t.DUTY_COMMAND, 'dtc_msgs/msg/DutyCommand'),
+                          (t.PFC_STATUS_BLOCK, 'dtc_msgs/msg/PfcStatusBlock'),
+                          (t.PFC_STATUS, 'dtc_msgs/msg/PfcStatus')],
+            'subscribes': [(t.PFC_MEASUREMENT, 'dtc_msgs/msg/PfcMeasurement')],
+        },
+        'recorder': {
+            'subscribes': [(t.PLANT_STATE_BLOCK, 'dtc_msgs/msg/PlantStateBlock'),
+                           (t.DTC_STATUS_BLOCK, 'dtc_msgs/msg/DtcStatusBlock'),
+                           (t.PFC_STATUS_BLOCK, 'dtc_msgs/msg/PfcStatusBlock'),
+                           (t.CLOCK, 'rosgraph_msgs/msg/Clock'),
+                           (t.DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray'),
+                           (t.PARAMETER_EVENTS, 'rcl_interfaces/msg/ParameterEvent')],
+        },
+        'replay': {
+            'publishes': [('the bag\'s topics (or the per-sample topics with `expand_blocks`)', 'as recorded'),
+                          (t.CLOCK, 'rosgraph_msgs/msg/Clock')],
+        },
+        'live_view': {
+            'subscribes': [(name, 'as published') for name in _live_view_defaults()],
+        },
+        'hysteresis_current_controller': {
+            'publishes': [(t.GATE_COMMAND, 'dtc_msgs/msg/GateCommand'),
+                          (t.DTC_STATUS_BLOCK, 'dtc_msgs/msg/DtcStatusBlock'),
+                          (t.DTC_STATUS, 'dtc_msgs/msg/DtcStatus')],
+            'subscribes': [(t.DRIVE_MEASUREMENT, 'dtc_msgs/msg/DriveMeasurement')],
+        },
+    }
+
+
+def _live_view_defaults() -> list[str]:
+    tree = ast.parse((ROOT / 'src/drive_logger/drive_logger/live_view.py').read_text())
+    from drive_common import topics as t
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and getattr(node.targets[0], 'id', '') == 'DEFAULT_TOPICS':
+            return [getattr(t, elt.attr) for elt in node.value.elts]
+    raise RuntimeError('live_view.py: DEFAULT_TOPICS not found')
+
+
+def _interface_table(interfaces: dict[str, list[tuple[str, str]]]) -> str:
+    lines = ['| kind | name | type |', '|---|---|---|']
+    for kind in ('publishes', 'subscribes', 'services', 'actions'):
+        for name, type_name in interfaces.get(kind, []):
+            shown = f'`{name}`' if not name.startswith('the ') else name
+            lines.append(f'| {kind} | {shown} | `{type_name}` |' if '/' in type_name
+                         else f'| {kind} | {shown} | {type_name} |')
+    return '\n'.join(lines) + '\n'
+
+
+def node_pages() -> dict[str, tuple[str, str, str]]:
+    """node -> (package, executable, Markdown of its parameters and interfaces)."""
+    from bldc_plant_sim.parameters import PLANT_SCHEMA
+    from drive_examples.hysteresis_current_controller import SCHEMA as EXAMPLE_SCHEMA
+    from drive_logger.recorder_node import RECORDER_SCHEMA
+    from drive_logger.replay_node import REPLAY_SCHEMA
+    from dtc_controller.parameters import DTC_SCHEMA
+    from pfc_controller.parameters import PFC_SCHEMA
+    live = declared_parameters_table(ROOT / 'src/drive_logger/drive_logger/live_view.py', 'LiveViewNode')
+    nodes = {
+        'plant': ('bldc_plant_sim', 'plant', schema_table(PLANT_SCHEMA), 'bldc_plant_sim.parameters.PLANT_SCHEMA'),
+        'dtc_controller': ('dtc_controller', 'dtc_controller', schema_table(DTC_SCHEMA),
+                           'dtc_controller.parameters.DTC_SCHEMA'),
+        'pfc_controller': ('pfc_controller', 'pfc_controller', schema_table(PFC_SCHEMA),
+                           'pfc_controller.parameters.PFC_SCHEMA'),
+        'recorder': ('drive_logger', 'recorder', schema_table(RECORDER_SCHEMA),
+                     'drive_logger.recorder_node.RECORDER_SCHEMA'),
+        'replay': ('drive_logger', 'replay', schema_table(REPLAY_SCHEMA), 'drive_logger.replay_node.REPLAY_SCHEMA'),
+        'live_view': ('drive_logger', 'live_view', live, 'drive_logger.live_view.LiveViewNode'),
+        'hysteresis_current_controller': ('drive_examples', 'hysteresis_current_controller',
+                                          schema_table(EXAMPLE_SCHEMA),
+                                          'drive_examples.hysteresis_current_controller.SCHEMA'),
+    }
+    interfaces = node_interfaces()
+    pages = {}
+    for node, (package, executable, table, source) in nodes.items():
+        text = (f'`ros2 run {package} {executable}`; parameters from `{source}`.\n\n'
+                f'**Parameters** (changes: *runtime* = any time, acts at the next sample; '
+                f'*held* = only while the plant holds its time; *read-only* = set at start).\n\n'
+                f'{table}\n**Topics, services and actions** (names relative: a namespace moves them).\n\n'
+                f'{_interface_table(interfaces[node])}')
+        pages[node] = (package, executable, text)
+    return pages
+
+
+def _interface_fields(path: Path) -> str:
+    """Field table of one .msg (or one section of .srv/.action): type, name, default/value, comment."""
+    lines = ['| type | name | value | comment |', '|---|---|---|---|']
+    comments = []
+    for raw in path.read_text().splitlines() if isinstance(path, Path) else path:
+        text, _, comment = raw.partition('#')
+        text, comment = text.strip(), comment.strip()
+        if not text:
+            if comment:
+                comments.append(comment)
+            continue
+        parts = text.split(None, 2)
+        type_name, name = parts[0], parts[1]
+        value = ''
+        if '=' in name:
+            name, value = name.split('=', 1)
+        elif len(parts) > 2:
+            value = parts[2]
+        if value.startswith('='):
+            value = value[1:].strip()
+        lines.append(f'| `{_cell(type_name)}` | `{name.strip()}` | {_cell(value.strip()) if value else " "} | '
+                     f'{_cell(comment)} |')
+    return '\n'.join(lines) + '\n', ' '.join(comments)
+
+
+def messages_page() -> str:
+    """Markdown of every dtc_msgs interface, from src/dtc_msgs/{msg,srv,action}."""
+    out = []
+    base = ROOT / 'src/dtc_msgs'
+    for kind in ('msg', 'srv', 'action'):
+        for path in sorted((base / kind).glob(f'*.{kind}')):
+            out.append(f'## `dtc_msgs/{kind}/{path.stem}`\n')
+            sections = path.read_text().split('\n---\n')
+            names = {'msg': ['fields'], 'srv': ['request', 'response'],
+                     'action': ['goal', 'result', 'feedback']}[kind]
+            for title, section in zip(names, sections):
+                table, prose = _interface_fields(section.splitlines())
+                if prose:
+                    out.append(prose + '\n')
+                if len(sections) > 1:
+                    out.append(f'*{title}*\n')
+                out.append(table)
+    return '\n'.join(out)
+
+
+def scenarios_page() -> str:
+    """Markdown table of every shipped scenario (name, seed reference, duration, description)."""
+    from drive_bringup.scenario import load_scenario, scenario_dir
+    lines = ['| scenario | seed reference | duration (s sim) | checks | description |', '|---|---|---|---|---|']
+    for path in sorted(scenario_dir().glob('*.yaml')):
+        s = load_scenario(path)
+        lines.append(f'| `{s.name}` | {_cell(s.seed_reference or "—")} | {s.duration:g} | {len(s.checks)} | '
+                     f'{_cell(s.description)} |')
+    return '\n'.join(lines) + '\n'
+
+
+def write_all(out: Path = GENERATED) -> list[Path]:
+    """Write every generated reference file under out; return their paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+
+    def put(name: str, text: str) -> None:
+        path = out / name
+        if not path.exists() or path.read_text() != text:   # unchanged files keep Sphinx's cache valid
+            path.write_text(text)
+        written.append(path)
+
+    for node, (_, _, text) in node_pages().items():
+        put(f'node_{node}.md', text)
+    put('messages.md', messages_page())
+    put('scenarios.md', scenarios_page())
+    return written
+
+
+def _on_builder_inited(app) -> None:
+    write_all()
+
+
+def setup(app):
+    app.connect('builder-inited', _on_builder_inited)
+    return {'version': '1', 'parallel_read_safe': True, 'parallel_write_safe': True}
+
+
+if __name__ == '__main__':
+    for p in write_all(Path(sys.argv[1]) if len(sys.argv) > 1 else GENERATED):
+        print(p)

@@ -1,0 +1,136 @@
+"""The plant's fault record (pure Python): every fault counted, the first one latched.
+
+docs/architecture.md "Faults and diagnostics". A fault is anything that makes a
+run not a good one: a protection trip (detected inside the integration by the
+core), a shoot-through request, or a controller's command that is invalid,
+late or gone (detected by the node, recorded here too). The record keeps
+
+- a counter per :class:`FaultKind` and the total (PlantState ``fault_count``,
+  ``fault_counts[kind]``),
+- the first fault's kind, sim time and text (``first_fault_kind``,
+  ``first_fault_time``; NaN / FAULT_NONE while there is none),
+- a bounded queue of new :class:`FaultEvent` s that the ROS node drains after
+  each tick to log and diagnose them (the headless runner may ignore it).
+
+The no-fault path costs nothing per tick: the node only looks at ``pending``
+(an empty list) and the counters change only when a fault happens.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+
+class FaultKind(IntEnum):
+    """Fault kinds; the values equal dtc_msgs/PlantState FAULT_* (index into fault_counts)."""
+
+    NONE = 0
+    MOTOR_OVER_CURRENT = 1     # motor phase peak-current trip (latched: all switches off)
+    BOOST_OVER_CURRENT = 2     # boost inductor over-current: boost switch opened
+    BOOST_OVER_VOLTAGE = 3     # boost output over-voltage: boost switch opened
+    SHOOT_THROUGH = 4          # a command turned both switches of a leg on
+    INVALID_COMMAND = 5        # a command the plant cannot apply (topology, duty range)
+    MALFORMED_COMMAND = 6      # a command message that could not be decoded
+    COMMAND_TIMEOUT = 7        # a due command did not arrive within command_timeout
+    LOST_CONTROLLER = 8        # a due command did not arrive and its publisher left the graph
+    INTRUDER = 9               # a foreign publisher / second graph on a lockstep topic
+
+    @property
+    def label(self) -> str:
+        """The lower-case name used in logs, diagnostics, results and scenario files."""
+        return self.name.lower()
+
+
+FAULT_KINDS = len(FaultKind)          # = the length of PlantState.fault_counts
+PENDING_MAX = 256                     # undrained events kept (the headless runner never drains)
+
+
+def fault_kind(name: str | int) -> FaultKind:
+    """A FaultKind from its label (``'boost_over_current'``) or value; ValueError otherwise."""
+    if isinstance(name, int) and not isinstance(name, bool):
+        return FaultKind(name)
+    try:
+        return FaultKind[str(name).upper()]
+    except KeyError:
+        valid = ', '.join(k.label for k in FaultKind if k)
+        raise ValueError(f'unknown fault kind {name!r} (valid: {valid})') from None
+
+
+@dataclass(slots=True)
+class FaultEvent:
+    """One fault (or a safe-state exit, ``kind`` NONE) as it happened."""
+
+    kind: FaultKind
+    time: float                  # s, sim time
+    step: int                    # plant base tick
+    text: str                    # the cause, one line
+    node: str = ''               # the node involved ('' = the plant itself / not known yet)
+    values: dict = field(default_factory=dict)   # extra key/values (phase, leg, current, ...)
+
+
+class FaultRecord:
+    """Counters per kind, the first fault, and the queue of events not yet reported."""
+
+    def __init__(self) -> None:
+        self.counts = [0] * FAULT_KINDS
+        self.total = 0
+        self.first_kind = FaultKind.NONE
+        self.first_time = math.nan
+        self.first_text = ''
+        self.pending: list[FaultEvent] = []
+        self.dropped = 0             # events not queued because the queue was full
+
+    def record(self, kind: FaultKind, time: float, step: int, text: str, node: str = '',
+               **values) -> FaultEvent:
+        """Count a fault and queue it for reporting; the first one is latched."""
+        kind = FaultKind(kind)
+        self.counts[kind] += 1
+        self.total += 1
+        if self.first_kind == FaultKind.NONE:
+            self.first_kind, self.first_time, self.first_text = kind, time, text
+        event = FaultEvent(kind, time, step, text, node, values)
+        self._queue(event)
+        return event
+
+    def note(self, time: float, step: int, text: str, **values) -> None:
+        """Queue a non-fault event for reporting (a safe-state exit): not counted."""
+        self._queue(FaultEvent(FaultKind.NONE, time, step, text, '', values))
+
+    def _queue(self, event: FaultEvent) -> None:
+        if len(self.pending) < PENDING_MAX:
+            self.pending.append(event)
+        else:
+            self.dropped += 1
+
+    def drain(self) -> list[FaultEvent]:
+        """The queued events, oldest first; the queue is empty afterwards."""
+        events, self.pending = self.pending, []
+        return events
+
+    def since(self, total_before: int) -> int:
+        """Faults recorded since the total was total_before."""
+        return self.total - total_before
+
+    def kinds_since(self, counts_before) -> tuple[str, ...]:
+        """Labels of the kinds counted since the counters were counts_before."""
+        return tuple(FaultKind(k).label for k, (n, n0) in enumerate(zip(self.counts, counts_before))
+                     if n > n0)
+
+    def first_description(self) -> str:
+        """'<kind> (first fault at t = X s: cause)', or '' without a fault."""
+        if self.first_kind == FaultKind.NONE:
+            return ''
+        return f'{self.first_kind.label} (first fault at t = {self.first_time:.6f} s: {self.first_text})'
+
+    def end_state(self, total_before: int = 0, active: bool = False) -> str:
+        """How a run ended: 'ended normally' or 'ended in fault state <kind> (first fault ...)'.
+
+        A run ended in a fault state when a fault was recorded since total_before
+        (the total at its start) or a protection / safe state is still active.
+        """
+        if self.total == total_before and not active:
+            return 'ended normally'
+        if self.first_kind == FaultKind.NONE:
+            return 'ended in fault state (safe state or protection active)'
+        return 'ended in fault state ' + self.first_description()

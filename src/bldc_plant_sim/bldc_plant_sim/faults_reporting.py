@@ -1,0 +1,135 @@
+"""ROS side of the plant's fault record: every fault logged and on /diagnostics when it happens.
+
+docs/architecture.md "Faults and diagnostics". The ROS-agnostic core counts
+faults in :class:`~bldc_plant_sim.core.faults.FaultRecord` and queues them; the
+plant node calls :meth:`FaultReporter.flush` after each tick (a no-op without
+a new fault) and :meth:`FaultReporter.report` for the faults it detects itself
+(a late, invalid or malformed command, a lost controller, an intruder). Each
+fault gives, at its sim time:
+
+- a log line at ERROR: ``fault <kind> at t = X s (step k), node N: cause``;
+- a DiagnosticStatus ERROR named ``plant: faults`` with key/values sim_time,
+  step, kind, node and the event's own (phase, leg, controller, ...);
+- the PlantState fault fields (the core's counters and first fault).
+
+A safe-state exit (commands resumed, plant/reset_protection) is logged at INFO
+with an OK status. Repeats of one kind are shown at most once per
+REPEAT_PERIOD of sim time (a cycle-by-cycle boost limit trips every PWM
+period); the next shown report says how many were left out. Every one is
+counted in the record all the same.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from std_msgs.msg import Header
+
+from bldc_plant_sim.core.faults import FaultEvent, FaultKind, FaultRecord
+from drive_common.conversions import time_msg
+
+REPEAT_PERIOD = 0.1      # s of sim time between two shown reports of one fault kind
+DIAGNOSTIC_NAME = 'plant: faults'
+HARDWARE_ID = 'bldc_plant_sim'
+
+
+@dataclass(frozen=True)
+class RunEnd:
+    """How a run ended (Run.Result end_state / fault_count / first_fault_time / first_fault)."""
+
+    end_state: str           # 'ended normally' or 'ended in fault state <kind> (first fault ...)'
+    fault_count: int         # faults recorded during the run
+    first_fault_time: float  # s, the plant's first fault (NaN if none)
+    first_fault: str         # its kind label ('' if none)
+    fault_kinds: tuple = ()  # kind labels of the faults recorded during the run
+
+    @property
+    def faulted(self) -> bool:
+        return self.end_state != 'ended normally'
+
+
+def run_end(core, counts_before: list[int]) -> RunEnd:
+    """The end state of a run that started with core.faults.counts == counts_before."""
+    record: FaultRecord = core.faults
+    active = bool(core.protection) or core.in_safe_state
+    first = record.first_kind
+    kinds = record.kinds_since(counts_before)
+    before = sum(counts_before)
+    return RunEnd(record.end_state(before, active), record.since(before),
+                  record.first_time, first.label if first else '', kinds)
+
+
+class FaultReporter:
+    """Logs and diagnoses the fault events of a plant core (see the module docstring).
+
+    node: the rclpy node (logger, /diagnostics publisher owner); core: its PlantCore
+    (read each time: the node may replace nothing but its fields change);
+    node_of(kind): the node a core-detected fault is attributed to (e.g. the gate
+    command publisher for a shoot-through), '' for the plant itself.
+    """
+
+    def __init__(self, node, core_of: Callable[[], object], publish: Callable[[DiagnosticArray], None],
+                 node_of: Callable[[FaultKind], str] | None = None) -> None:
+        self._logger = node.get_logger()
+        self._self_name = node.get_fully_qualified_name()
+        self._core_of = core_of
+        self._publish = publish
+        self._node_of = node_of or (lambda kind: '')
+        self._last_shown: dict[FaultKind, float] = {}
+        self._left_out: dict[FaultKind, int] = {}
+
+    def report(self, kind: FaultKind, message: str, node: str = '',
+               values: dict[str, str] | None = None) -> bool:
+        """Record a fault the node detected (at the core's sim time) and report it now.
+
+        The helper for faults seen outside the core (command timeout, invalid or
+        malformed command, lost controller, an intruder on a lockstep topic).
+        Returns whether it was shown (False: a repeat within REPEAT_PERIOD, counted only).
+        """
+        core = self._core_of()
+        event = core.faults.record(kind, core.time, core.step, message, node, **(values or {}))
+        shown = self.flush(until=event)
+        return shown
+
+    def flush(self, until: FaultEvent | None = None) -> bool:
+        """Log and diagnose the core's queued events; whether `until` (if given) was shown."""
+        core = self._core_of()
+        shown_until = False
+        for event in core.faults.drain():
+            shown = self._show(event)
+            if event is until:
+                shown_until = shown
+        return shown_until
+
+    def _show(self, event: FaultEvent) -> bool:
+        if event.kind == FaultKind.NONE:       # a safe-state exit
+            self._logger.info(f'{event.text} at t = {event.time:.6f} s (step {event.step})')
+            self._diagnose(DiagnosticStatus.OK, event.text, event, 'safe_state_exit')
+            return True
+        last = self._last_shown.get(event.kind, -math.inf)
+        if event.time - last < REPEAT_PERIOD:
+            self._left_out[event.kind] = self._left_out.get(event.kind, 0) + 1
+            return False
+        self._last_shown[event.kind] = event.time
+        text = event.text
+        left_out = self._left_out.pop(event.kind, 0)
+        if left_out:
+            text += f' ({left_out} more {event.kind.label} fault(s) since the last report, not shown)'
+        node = event.node or self._node_of(event.kind) or self._self_name
+        self._logger.error(f'fault {event.kind.label} at t = {event.time:.6f} s (step {event.step}), '
+                           f'node {node}: {text}')
+        self._diagnose(DiagnosticStatus.ERROR, f'{event.kind.label}: {text}', event, event.kind.label,
+                       node)
+        return True
+
+    def _diagnose(self, level: bytes, message: str, event: FaultEvent, kind: str,
+                  node: str = '') -> None:
+        values = {'sim_time': f'{event.time:.9f}', 'step': str(event.step), 'kind': kind,
+                  'node': node or self._self_name}
+        values.update({k: str(v) for k, v in event.values.items()})
+        status = DiagnosticStatus(level=level, name=DIAGNOSTIC_NAME, message=message,
+                                  hardware_id=HARDWARE_ID,
+                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        self._publish(DiagnosticArray(header=Header(stamp=time_msg(event.time)), status=[status]))

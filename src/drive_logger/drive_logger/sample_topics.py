@@ -1,0 +1,286 @@
+"""Per-sample messages derived from a bag's telemetry blocks, and bag files in one total order.
+
+Viewers (Foxglove, PlotJuggler, ``ros2 bag``) plot per-sample topics: one
+message per sample, one scalar (or small fixed array) per field. The blocks
+(docs/architecture.md "Telemetry: blocks and live topics") carry every
+sample as arrays; :class:`SampleTopics` turns a block's bytes into the
+per-sample messages of its parts (``/plant/state`` from
+``/plant/state_block``, ``/dtc/status`` from ``/dtc/status_block``, ...),
+serialized bit-exact in canonical CDR and logged at their sample's time
+(the block's log time plus the sample's stamp offset; with sim log times:
+the sample's stamp), either every sample (``period`` 0, the full-rate
+export) or the first sample at or after each multiple of ``period`` of sim
+time (:class:`drive_common.telemetry.Decimator`, the live topics' rule: the
+recorder's viewer topics).
+
+:func:`write_canonical` copies a complete MCAP data file into a
+:class:`drive_logger.bag_writer.BagWriter` in one total order, so the file
+depends only on the messages, never on their arrival: channels registered
+sorted by topic name, messages sorted by (log time, topic, arrival order
+within the topic, bytes), chunks
+cut by size only, offered QoS profiles deduplicated and sorted. The
+recorder writes its bag this way at the end (two recordings of one scenario
+are byte-identical files), adding the viewer topics on the way; the
+exporter (:mod:`drive_logger.export`) uses it for full-rate viewer bags.
+"""
+from __future__ import annotations
+
+import heapq
+import os
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+from mcap.reader import make_reader
+
+from drive_common.telemetry import Decimator
+from drive_logger import qos_yaml
+from drive_logger.bag_writer import BagWriter, TopicRecord
+from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
+from drive_logger.message_definitions import TypeDefinition, type_definition
+
+STATUS_PARTS = (0,)
+"""Parts whose per-sample topics the recorder adds for viewers (the status: plant/state, dtc/status, pfc/status)."""
+ALL_PARTS = (0, 1, 2)
+"""Every part: status, measurement, command (the full-rate export)."""
+
+
+class SampleTopics:
+    """Derive per-sample messages from block messages (see the module docstring).
+
+    :param period: s of sim time between kept samples (0: every sample).
+    :param parts: part indexes (BLOCK_PARTS order) whose topics are derived.
+    :param every: keep every N-th of the samples the period keeps (counted per block topic).
+    :param start_ns, end_ns: keep samples stamped in [start_ns, end_ns] only (None: no bound).
+    """
+
+    def __init__(self, period: float = 0.0, parts: Iterable[int] = STATUS_PARTS, every: int = 1,
+                 start_ns: int | None = None, end_ns: int | None = None) -> None:
+        if every < 1:
+            raise ValueError(f'every must be >= 1, got {every}')
+        self.period = period
+        self.parts = tuple(parts)
+        self.every = every
+        self.start_ns, self.end_ns = start_ns, end_ns
+        self._decimators: dict[str, Decimator] = {}
+        self._counters: dict[str, int] = {}
+
+    def topics_for(self, block_topics: Iterable[str]) -> dict[str, tuple[str, str, int]]:
+        """{per-sample topic: (type name, block topic, part)} derived from the given block topics."""
+        out = {}
+        for block_topic in block_topics:
+            if block_topic not in BLOCK_TOPICS:
+                continue
+            classes = part_classes(block_topic)
+            for part in self.parts:
+                if part >= len(classes):     # the plant's block has one part
+                    continue
+                out[BLOCK_TOPICS[block_topic][1][part]] = (_type_name(classes[part]), block_topic, part)
+        return out
+
+    def derive(self, block_topic: str, data: bytes, log_time: int, publish_time: int,
+               wanted: set[str] | None = None) -> Iterator[tuple[str, int, int, bytes]]:
+        """(topic, log time, publish time, canonical CDR) of the kept samples of one block message."""
+        from rclpy.serialization import deserialize_message
+        from drive_common.telemetry_blocks import sample_stamps_ns
+
+        block = deserialize_message(data, block_class(block_topic))
+        if not block.count:
+            return
+        stamps = sample_stamps_ns(block).tolist()
+        decimator = self._decimators.get(block_topic)
+        if decimator is None:
+            decimator = self._decimators[block_topic] = Decimator(self.period)
+        kept = []
+        for i, stamp in enumerate(stamps):
+            if self.start_ns is not None and stamp < self.start_ns:
+                continue
+            if self.end_ns is not None and stamp > self.end_ns:
+                continue
+            if not decimator.keep(stamp):
+                continue
+            counter = self._counters.get(block_topic, 0)
+            self._counters[block_topic] = counter + 1
+            if counter % self.every == 0:
+                kept.append(i)
+        if not kept:
+            return
+        names = BLOCK_TOPICS[block_topic][1]
+        parts = [(p, names[p]) for p in self.parts if p < len(names) and (wanted is None or names[p] in wanted)]
+        rows = {part: sample_cdr(block, part, kept) for part, _ in parts}
+        for j, i in enumerate(kept):
+            offset = stamps[i] - stamps[0]
+            for part, topic in parts:
+                yield topic, log_time + offset, publish_time + offset, rows[part][j]
+
+
+_SIZES = {'double': 8, 'int64': 8, 'uint64': 8, 'int32': 4, 'uint32': 4, 'int8': 1, 'uint8': 1, 'boolean': 1}
+_CDR_DTYPES = {'double': '<f8', 'int64': '<i8', 'uint64': '<u8', 'int8': 'i1', 'uint8': 'u1', 'boolean': 'u1'}
+ENCAPSULATION = 4
+"""Bytes of the CDR encapsulation header; alignment counts from its end."""
+
+
+def _field_offsets(msg) -> tuple[dict[str, int], int]:
+    """({field: byte offset after the encapsulation header}, end) of msg's little-endian CDR.
+
+    For the per-sample telemetry messages: a std_msgs/Header, then primitives,
+    fixed arrays of primitives and strings (each item aligned to its size).
+    """
+    def align(pos: int, size: int) -> int:
+        return (pos + size - 1) // size * size
+    offsets, pos = {}, 0
+    for name, kind in type(msg).get_fields_and_field_types().items():
+        if kind == 'std_msgs/Header':
+            offsets['header.stamp.sec'], offsets['header.stamp.nanosec'] = pos, pos + 4
+            pos = align(pos + 8, 4) + 4 + len(msg.header.frame_id.encode()) + 1
+        elif kind == 'string':
+            pos = align(pos, 4) + 4 + len(getattr(msg, name).encode()) + 1
+        else:
+            element, _, width = kind.rstrip(']').partition('[')
+            if element not in _SIZES:
+                raise TypeError(f'{type(msg).__name__}.{name}: {kind} has no fixed CDR layout here')
+            pos = align(pos, _SIZES[element])
+            offsets[name] = pos
+            pos += _SIZES[element] * int(width or 1)
+    return offsets, pos
+
+
+def sample_cdr(block, part: int, indices: list[int]) -> list[bytes]:
+    """Canonical CDR of the per-sample messages of one part of a block, samples `indices`.
+
+    All samples of a block share one layout (one frame_id, one mode string), so
+    the first is serialized by rclpy (canonical_bytes: padding zeroed) as the
+    template and the others get their values written at the fields' offsets,
+    all samples at once: the bytes equal each message's own canonical
+    serialization (test_export), at a fraction of the cost.
+    """
+    import numpy as np
+    from rclpy.serialization import serialize_message
+    from drive_common.cdr_padding import canonical_bytes
+    from drive_common.telemetry_blocks import block_columns, expand, layout, sample_stamps_ns
+
+    first = next(expand(block, indices[:1]))[part]
+    template = canonical_bytes(first, serialize_message(first))
+    offsets, end = _field_offsets(first)
+    if template[1] != 1 or ENCAPSULATION + end != len(template):
+        raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(template)} bytes)')
+    rows = np.tile(np.frombuffer(template, dtype=np.uint8), (len(indices), 1))
+    index = np.asarray(indices)
+
+    def put(field: str, values) -> None:
+        raw = np.ascontiguousarray(values).view(np.uint8).reshape(len(index), -1)
+        start = ENCAPSULATION + offsets[field]
+        rows[:, start:start + raw.shape[1]] = raw
+    stamps = sample_stamps_ns(block)[index]
+    put('header.stamp.sec', (stamps // 1_000_000_000).astype('<i4'))
+    put('header.stamp.nanosec', (stamps % 1_000_000_000).astype('<u4'))
+    columns = block_columns(block)
+    put('step', columns['step'][index].astype('<u8'))
+    for column in layout(type(block)).columns:
+        if column.part == part:
+            put(column.source, columns[column.name][index].astype(_CDR_DTYPES[column.element]))
+    return [row.tobytes() for row in rows]
+
+
+def _type_name(msg_class: type) -> str:
+    return f'dtc_msgs/msg/{msg_class.__name__}'
+
+
+def _sorted_profiles(profiles: list) -> list:
+    """Offered QoS profiles, duplicates dropped, in a fixed order (discovery order varies between runs)."""
+    unique = {qos_yaml.dump([p]): p for p in profiles}
+    return [unique[key] for key in sorted(unique)]
+
+
+def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | None = None,
+                    topics: Iterable[str] | None = None, keep_blocks: bool = True,
+                    replace_samples: bool = False, start_ns: int | None = None, end_ns: int | None = None,
+                    progress: Callable[[int], None] | None = None) -> None:
+    """Copy the messages of the complete MCAP file `source` into `writer` in canonical order.
+
+    samples: add its per-sample topics derived from the block topics (a topic
+    the source already holds is not derived, unless replace_samples: then the
+    source's messages of that topic are dropped). topics: copy only these (None:
+    all; a derived topic counts as wanted when it or its block topic is named).
+    keep_blocks False drops the block topics themselves. progress(n) is called
+    with the number of source messages read since the last call. start_ns,
+    end_ns: copy only messages logged in [start_ns, end_ns].
+    """
+    with open(source, 'rb') as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        channels = {c.id: c for c in summary.channels.values()}
+        present = {c.topic for c in channels.values()}
+        wanted = None if topics is None else set(topics)
+        derived = {}
+        if samples is not None:
+            counts = summary.statistics.channel_message_counts if summary.statistics else {}
+            busy = sorted(c.topic for c in channels.values() if counts.get(c.id, 0))   # silent blocks: none
+            derived = {t: v for t, v in samples.topics_for(busy).items()
+                       if (replace_samples or t not in present) and (wanted is None or t in wanted or v[1] in wanted)}
+        feeding = {v[1] for v in derived.values()}
+        copied = {c.topic for c in channels.values()
+                  if (wanted is None or c.topic in wanted) and (keep_blocks or c.topic not in BLOCK_TOPICS)
+                  and c.topic not in derived}
+        entries: dict[str, tuple[TypeDefinition, list]] = {}    # topic -> (definition, QoS profiles)
+        for channel in channels.values():
+            profiles = _sorted_profiles(qos_yaml.load(channel.metadata.get('offered_qos_profiles')))
+            if channel.topic in copied:
+                schema = summary.schemas[channel.schema_id]
+                entries[channel.topic] = (TypeDefinition(schema.name, schema.data.decode(),
+                                                         channel.metadata.get('topic_type_hash', '')), profiles)
+            for topic, (type_name, block_topic, _) in derived.items():
+                if block_topic == channel.topic:     # a derived topic offers its block topic's QoS
+                    entries[topic] = (type_definition(type_name), profiles)
+        records: dict[str, TopicRecord] = {topic: writer.add_topic(topic, *entries[topic])
+                                           for topic in sorted(entries)}
+        wanted_derived = set(derived)
+        pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, sequence, data, publish time)
+        read = 0
+        for _, channel, message in reader.iter_messages(log_time_order=True):
+            while pending and pending[0][0] < message.log_time:
+                log_time, topic, _, data, publish_time = heapq.heappop(pending)
+                writer.write(records[topic], data, log_time, publish_time)
+            topic = channel.topic
+            if topic in copied and (start_ns is None or message.log_time >= start_ns) and (
+                    end_ns is None or message.log_time <= end_ns):
+                heapq.heappush(pending, (message.log_time, topic, message.sequence, bytes(message.data),
+                                         message.publish_time))
+            if topic in feeding:
+                for item in samples.derive(topic, message.data, message.log_time, message.publish_time,
+                                           wanted_derived):
+                    heapq.heappush(pending, (item[1], item[0], 0, item[3], item[2]))
+            read += 1
+            if progress is not None and read % 1000 == 0:
+                progress(1000)
+        while pending:
+            log_time, topic, _, data, publish_time = heapq.heappop(pending)
+            writer.write(records[topic], data, log_time, publish_time)
+        if progress is not None:
+            progress(read % 1000)
+
+
+def finish_canonical(writer: BagWriter, samples: SampleTopics | None = None) -> BagWriter:
+    """Finish writer's bag with its data file in canonical order (plus the topics of samples).
+
+    The data file as written (arrival order, chunks cut at every flush: what
+    a crash leaves) is finished, copied in canonical order next to it and
+    renamed over it; then metadata.yaml is written. Returns the writer of
+    the canonical file (closed), whose topics and counts metadata.yaml holds.
+    """
+    writer.finish_data()
+    tmp = writer.data_file.with_name(writer.data_file.name + '.sorting')
+    out = BagWriter(writer.path, compression=writer.compression, chunk_size=writer.chunk_size,
+                    ros_distro=writer.ros_distro, log_time=writer.log_time, data_file=tmp,
+                    file_name=writer.file_name)
+    try:
+        write_canonical(writer.data_file, out, samples)
+    except BaseException:
+        out.finish_data()
+        tmp.unlink(missing_ok=True)
+        writer.write_metadata_yaml()      # the bag as recorded stays complete
+        raise
+    out.finish_data()
+    os.replace(tmp, writer.data_file)
+    out.data_file = writer.data_file
+    out.write_metadata_yaml()
+    return out

@@ -1,0 +1,170 @@
+"""Bags for viewers and tables: the canonical file order, the recorder's viewer topics, and
+``drive_logger export`` to a full-rate viewer bag and to Parquet/CSV tables (bags written from a
+headless run: no graph needed)."""
+import random
+
+import numpy as np
+import pytest
+
+from drive_bringup.scenario import find_scenario, load_scenario
+from drive_logger import export
+from drive_logger.bag_reader import BagReader
+from drive_logger.bag_writer import BagWriter
+from drive_logger.sample_topics import SampleTopics, finish_canonical
+from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag, zero_padded
+
+SCENARIO = 'two_phase_six_switch_torque_step'
+DURATION = 0.012      # s: 360 controller samples at 1/30 kHz, the torque step at 9.4 ms included
+PER_SAMPLE_TOPICS = ('/plant/state', '/dtc/status', '/drive/measurement', '/drive/gate_command')
+
+
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory):
+    scenario = load_scenario(find_scenario(SCENARIO)).shortened(DURATION)
+    samples = headless_samples(scenario)
+    root = tmp_path_factory.mktemp('export')
+    return {'per_sample': write_per_sample_bag(samples, root / 'per_sample'),
+            'blocks': write_block_bag(samples, root / 'blocks', block_size=16)}   # + decimated live topics
+
+
+def _by_topic(reader, topics):
+    out = {}
+    for msg in reader.messages(topics):
+        out.setdefault(msg.topic, []).append((msg.log_time, zero_padded(msg.data, msg.type)))
+    return out
+
+
+def _shuffled_copy(source, path, seed: int) -> BagWriter:
+    """The messages of source written as a recorder may receive them: each topic in its order,
+    the topics interleaved at random (equal log times in varying order), chunks cut often."""
+    reader = BagReader(source)
+    writer = BagWriter(path, chunk_size=4096)
+    streams = {}
+    for msg in reader.messages():
+        streams.setdefault(msg.topic, []).append(msg)
+    from drive_logger.message_definitions import TypeDefinition
+    records = {}
+    rng = random.Random(seed)
+    names = list(streams)
+    rng.shuffle(names)
+    for topic in names:
+        info = reader.topics[topic]
+        records[topic] = writer.add_topic(topic, TypeDefinition(info.type, reader._schema_for(info.type).data.decode(),
+                                                                info.type_hash), info.qos_profiles)
+    while streams:
+        topic = rng.choice(sorted(streams))
+        msg = streams[topic].pop(0)
+        if not streams[topic]:
+            del streams[topic]
+        writer.write(records[topic], msg.data, msg.log_time, msg.publish_time)
+        if rng.random() < 0.05:
+            writer.flush()
+    return writer
+
+
+def test_canonical_bag_does_not_depend_on_arrival_order_and_adds_viewer_topics(bags, tmp_path):
+    files = []
+    for seed in (1, 2):
+        # same bag name (the file names itself in its rosbag2 record)
+        writer = finish_canonical(_shuffled_copy(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed),
+                                  SampleTopics(1e-3))
+        files.append(writer.data_file.read_bytes())
+        assert (tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').exists()
+    assert files[0] == files[1]
+    meta = [(tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').read_text() for seed in (1, 2)]
+    assert meta[0] == meta[1]
+    reader = BagReader(tmp_path / 'run1' / 'bag')
+    assert list(reader.topics) == sorted(reader.topics)
+    # the bag already held decimated /plant/state and /dtc/status: kept as they are, not derived twice
+    assert reader.topics['/plant/state'].message_count == BagReader(bags['blocks']).topics['/plant/state'].message_count
+    times = [m.log_time for m in reader.messages()]
+    assert times == sorted(times)
+
+
+def test_viewer_topics_are_derived_at_the_viewer_period(bags, tmp_path):
+    from rclpy.serialization import deserialize_message
+    from dtc_msgs.msg import PlantState
+    without_live = [t for t in BagReader(bags['blocks']).topics if t not in PER_SAMPLE_TOPICS]
+    writer = BagWriter(tmp_path / 'src')
+    source = BagReader(bags['blocks'])
+    from drive_logger.sample_topics import write_canonical
+    write_canonical(source.files[0], writer, topics=without_live)
+    writer.close()
+    out = finish_canonical(_shuffled_copy(tmp_path / 'src', tmp_path / 'viewer', 3), SampleTopics(1e-3))
+    reader = BagReader(out.path)
+    assert {'/plant/state', '/dtc/status'} <= set(reader.topics)
+    states = [(m.log_time, deserialize_message(m.data, PlantState)) for m in reader.messages(['/plant/state'])]
+    # one sample per ms of sim time (the plant's 1/30 kHz tick: the first at or after each ms)
+    assert [s.step for _, s in states] == [int(np.ceil(k * 30)) for k in range(13)]
+    assert all(t == s.header.stamp.sec * 10**9 + s.header.stamp.nanosec for t, s in states)
+    full = {s.step: zero_padded(d, 'dtc_msgs/msg/PlantState')
+            for _, d in _by_topic(BagReader(bags['per_sample']), ['/plant/state'])['/plant/state']
+            for s in [deserialize_message(d, PlantState)]}
+    for m in reader.messages(['/plant/state']):
+        assert zero_padded(m.data, m.type) == full[deserialize_message(m.data, PlantState).step]
+
+
+def test_full_rate_viewer_bag_has_every_sample_bit_exact(bags, tmp_path):
+    out = tmp_path / 'viewer'
+    assert export.main([str(bags['blocks']), '--to', 'mcap', str(out), '--quiet']) == 0
+    reader = BagReader(out)
+    assert (out / 'metadata.yaml').exists() and not any(t.endswith('_block') for t in reader.topics)
+    expected = _by_topic(BagReader(bags['per_sample']), PER_SAMPLE_TOPICS)
+    got = _by_topic(reader, PER_SAMPLE_TOPICS)
+    for topic in PER_SAMPLE_TOPICS:
+        assert got[topic] == expected[topic], topic
+    from rosbags.rosbag2 import Reader
+    with Reader(out) as rosbags_reader:      # a third-party reader of rosbag2 bags
+        assert rosbags_reader.message_count == reader.metadata['message_count']
+
+
+def test_parquet_and_csv_tables_hold_the_block_samples_bit_exact(bags, tmp_path):
+    from drive_analysis.bag_columns import load_columns
+    import pandas as pd
+    bag_columns = load_columns(str(bags['blocks']))
+    for fmt in ('parquet', 'csv'):
+        out = tmp_path / fmt
+        assert export.main([str(bags['blocks']), '--to', fmt, str(out), '--quiet']) == 0
+        assert sorted(p.name for p in out.iterdir()) == [f'dtc_status.{fmt}', f'plant_state.{fmt}']
+        table_columns = load_columns(str(out))       # analyze takes an export directory too
+        assert set(table_columns) == set(bag_columns)
+        for topic, columns in bag_columns.items():
+            assert set(table_columns[topic]) == set(columns), topic
+            for name, values in columns.items():
+                got = table_columns[topic][name]
+                assert got.dtype == values.dtype and got.shape == values.shape, (topic, name)
+                if values.dtype == object:
+                    same = (got == values).all()
+                elif fmt == 'parquet':      # bit for bit, NaN payloads included
+                    same = np.array_equal(got.view(np.uint64), values.view(np.uint64))
+                else:                       # exact numbers, NaN as NaN
+                    same = np.array_equal(got, values, equal_nan=True)
+                assert same, (fmt, topic, name)
+    table = pd.read_parquet(tmp_path / 'parquet' / 'plant_state.parquet')
+    assert list(table.columns[:5]) == ['time', 'step', 'phase_current_a', 'phase_current_b', 'phase_current_c']
+    assert {'applied_switch_on_1', 'applied_switch_on_6', 'mechanical_speed'} <= set(table.columns)
+    assert table['step'].tolist() == list(range(361))
+    status = pd.read_parquet(tmp_path / 'parquet' / 'dtc_status.parquet')
+    assert {'measurement_phase_current_c', 'command_switch_on_6', 'mode', 'flux_alpha'} <= set(status.columns)
+
+
+def test_export_options_select_topics_time_and_every_nth(bags, tmp_path, capsys):
+    import pandas as pd
+    out = tmp_path / 'part'
+    assert export.main([str(bags['blocks']), '--to', 'parquet', str(out), '--topics', '/plant/state',
+                        '--start', '0.001', '--end', '0.002', '--every', '3', '--quiet']) == 0
+    assert [p.name for p in out.iterdir()] == ['plant_state.parquet']
+    table = pd.read_parquet(out / 'plant_state.parquet')
+    assert table['step'].tolist() == list(range(30, 61, 3))      # 1 ms .. 2 ms at 1/30 kHz, every 3rd
+    viewer = tmp_path / 'viewer_part'
+    assert export.main([str(bags['blocks']), '--to', 'mcap', str(viewer), '--topics', '/dtc/status',
+                        '--every', '10', '--quiet']) == 0
+    reader = BagReader(viewer)
+    assert list(reader.topics) == ['/dtc/status'] and reader.topics['/dtc/status'].message_count == 36
+    capsys.readouterr()
+    assert export.main([str(bags['blocks']), '--to', 'csv', str(out), '--quiet']) == 2
+    assert export.main([str(bags['blocks']), '--to', 'csv', str(tmp_path / 'x'), '--every', '0']) == 2
+    assert export.main([str(tmp_path / 'missing'), '--to', 'csv', str(tmp_path / 'y')]) == 2
+    errors = capsys.readouterr().err.strip().splitlines()
+    assert len(errors) == 3 and all(line.startswith('export: ') for line in errors)
+    assert 'already exists' in errors[0] and '--every' in errors[1] and 'does not exist' in errors[2]

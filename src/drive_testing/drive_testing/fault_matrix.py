@@ -1,0 +1,415 @@
+"""Fault injection matrix: every fault kind into real runs, and what each run said about it.
+
+Each case runs ``run_scenario`` (graph: plant, controller and recorder as
+processes in a private domain; or ``--headless``) on a short scenario and
+injects one fault at a known sim time: a signal to the controller or the
+recorder, bytes or messages from an outsider on a lockstep topic, a bad
+parameter through the parameter service, or a scenario event that makes the
+drive itself fault (shoot-through, a protection trip). Per case it records
+
+- reported: a WARN/ERROR log line of a node, an ERROR/WARN ``/diagnostics``
+  status and the run's result (exit code and summary) that name it, as the
+  kind of fault requires (:data:`EXPECTED`);
+- silent: injected and none of those (goal 0);
+- crashed: a traceback, a hang or an exit code the fault does not explain (goal 0);
+- changed: an outsider's run whose recorded drive data differs from a clean run (goal 0).
+"""
+from __future__ import annotations
+
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import yaml
+
+SCENARIO = 'two_phase_six_switch_torque_step'
+DURATION = 0.03            # s of sim time per run
+INJECT_AT = 0.01           # s of sim time at which a fault is injected
+COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
+RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
+BLOCK_TOPICS = ('/plant/state_block', '/dtc/status_block')
+LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
+
+# What a case must report: 'fault' -> log + diagnostics + a failed result naming it (headless:
+# the result); 'outsider' -> log + diagnostics, the run ends normally with unchanged data;
+# 'refused' -> the parameter service refuses with a reason, the run is unchanged;
+# 'node lost' -> the runner's result names the node that died.
+EXPECTED = ('fault', 'outsider', 'refused', 'node lost')
+
+
+@dataclass
+class Injection:
+    """What an injector may use during a graph run."""
+
+    domain_id: int
+    node: object                      # an rclpy node in the run's domain
+    diagnostics: list
+    wait_sim: Callable[[float], None]
+    notes: list = field(default_factory=list)
+
+    def pid(self, executable: str) -> int:
+        """The pid of the run's node process started as ``executable``."""
+        from drive_testing.harness import processes_with_env
+        for pid in processes_with_env(f'ROS_DOMAIN_ID={self.domain_id}'):
+            try:
+                cmdline = Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')
+            except OSError:
+                continue
+            if b'--ros-args' in cmdline and any(part.endswith(executable.encode()) for part in cmdline):
+                return pid
+        raise LookupError(f'no {executable} process in domain {self.domain_id}')
+
+    def publish(self, msg_type, topic: str, messages, period: float = 0.002) -> None:
+        """Publish messages (objects or raw CDR bytes) on topic as an outsider."""
+        from drive_common import topics
+        pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
+        for msg in messages:
+            pub.publish(msg)
+            time.sleep(period)    # an outsider's pace, not a synchronisation
+        self.node.destroy_publisher(pub)
+
+    def set_parameter(self, node_name: str, name: str, value) -> tuple[bool, str]:
+        """(successful, reason) of a set_parameters call on /node_name."""
+        from rclpy.parameter import Parameter
+        from rclpy.parameter_client import AsyncParameterClient
+        from drive_common.waiting import wait_until
+        client = AsyncParameterClient(self.node, node_name)
+        client.wait_for_services(timeout_sec=30.0)
+        future = client.set_parameters([Parameter(name, value=value)])
+        wait_until(future.done, 30.0, what=f'set {name} on {node_name}')
+        result = future.result().results[0]
+        return result.successful, result.reason
+
+
+@dataclass
+class Case:
+    name: str
+    expect: str                                       # one of EXPECTED
+    inject: Callable[[Injection], None] | None = None   # graph injector (None: by scenario)
+    headless: bool = False
+    events: list = field(default_factory=list)         # extra scenario events
+    controller: dict | None = None                     # scenario controller entry instead of DTC
+    exit_codes: tuple = (0,)
+    kind: str = ''                                     # the fault kind the result must name
+
+
+@dataclass
+class Outcome:
+    case: str
+    where: str
+    expect: str
+    log: bool = False
+    diagnostics: bool = False
+    result: bool = False
+    crashed: str = ''
+    changed: bool | None = None
+    detail: str = ''
+
+    @property
+    def reported(self) -> bool:
+        if self.expect == 'fault':
+            return self.result and (self.where == 'headless' or (self.log and self.diagnostics))
+        if self.expect == 'outsider':
+            return self.log and self.diagnostics and self.result
+        return self.result
+
+    @property
+    def silent(self) -> bool:
+        return not (self.log or self.diagnostics or self.result)
+
+
+# --- injectors -------------------------------------------------------------------------------
+def _signal(executable: str, sig: int, resume_after: float | None = None):
+    def inject(ctx: Injection) -> None:
+        ctx.wait_sim(INJECT_AT)
+        pid = ctx.pid(executable)
+        os.kill(pid, sig)
+        if resume_after is not None:
+            time.sleep(resume_after)    # the controller stays stopped past command_timeout
+            os.kill(pid, signal.SIGCONT)
+    return inject
+
+
+def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], bytes]):
+    def inject(ctx: Injection) -> None:
+        from drive_logger.ros_types import message_class
+        ctx.wait_sim(INJECT_AT)
+        rng = random.Random(7)
+        ctx.publish(message_class(msg_type_name), topic, [make(rng) for _ in range(20)])
+    return inject
+
+
+def _valid_messages(msg_type_name: str, topic: str):
+    def inject(ctx: Injection) -> None:
+        from drive_logger.ros_types import message_class
+        cls = message_class(msg_type_name)
+        ctx.wait_sim(INJECT_AT)
+        messages = []
+        for step in range(0, 2000, 100):
+            msg = cls()
+            msg.step = step
+            messages.append(msg)
+        ctx.publish(cls, topic, messages)
+    return inject
+
+
+def _truncated(rng: random.Random) -> bytes:
+    return b'\x00\x01\x00\x00' + bytes(rng.randrange(256) for _ in range(rng.randrange(0, 12)))
+
+
+def _random(rng: random.Random) -> bytes:
+    return bytes(rng.randrange(256) for _ in range(rng.randrange(0, 120)))
+
+
+def _parameter(node: str, name: str, value):
+    def inject(ctx: Injection) -> None:
+        ctx.wait_sim(INJECT_AT)
+        ok, reason = ctx.set_parameter(node, name, value)
+        ctx.notes.append(('refused' if not ok and reason else 'taken', f'{name}={value!r}: {reason}'))
+    return inject
+
+
+def _second_node(package: str, executable: str, node_name: str):
+    def inject(ctx: Injection) -> None:
+        from drive_common.processes import NodeProcess
+        from drive_testing.harness import isolated_env
+        ctx.wait_sim(INJECT_AT)
+        process = NodeProcess(package, executable, env=isolated_env(ctx.domain_id),
+                              node_name=node_name)
+        ctx.notes.append(('process', process))
+    return inject
+
+
+LOCKSTEP = (('dtc_msgs/msg/GateCommand', '/drive/gate_command'),
+            ('dtc_msgs/msg/DriveMeasurement', '/drive/measurement'))
+SHOOT_THROUGH_CONTROLLER = {'package': 'drive_testing', 'executable': 'fixed_responder',
+                            'core': 'drive_testing.fixed_responder:FixedResponderCore',
+                            'parameters': {'switch_on': [0.0] * 6}}   # all off until the event
+
+
+def cases() -> list[Case]:
+    """The matrix: every fault kind over the graph, the scenario-driven ones headless too."""
+    out = [
+        Case('controller SIGKILL', 'fault', _signal('dtc_controller', signal.SIGKILL), exit_codes=(1, 3)),
+        Case('controller SIGTERM', 'fault', _signal('dtc_controller', signal.SIGTERM), exit_codes=(1, 3)),
+        Case('controller SIGSTOP (late commands)', 'fault',
+             _signal('dtc_controller', signal.SIGSTOP, resume_after=2.5 * COMMAND_TIMEOUT),
+             exit_codes=(1, 3)),
+        Case('recorder SIGKILL', 'node lost', _signal('recorder', signal.SIGKILL), exit_codes=(1,)),
+    ]
+    for type_name, topic in LOCKSTEP:
+        short = type_name.rsplit('/', 1)[1]
+        out += [Case(f'truncated {short} bytes', 'outsider', _raw_bytes(type_name, topic, _truncated)),
+                Case(f'random bytes on {topic}', 'outsider', _raw_bytes(type_name, topic, _random)),
+                Case(f'intruding {short} messages', 'outsider', _valid_messages(type_name, topic))]
+    out += [
+        Case('second fake controller', 'outsider',
+             _second_node('drive_testing', 'fixed_responder', 'intruding_controller')),
+        Case('second plant, late', 'outsider', _second_node('bldc_plant_sim', 'plant', 'late_plant')),
+        Case('out-of-range plant parameter', 'refused', _parameter('/plant', 'load.torque', 1e9)),
+        Case('wrong-type plant parameter', 'refused', _parameter('/plant', 'load.torque', 'high')),
+        Case('out-of-range controller parameter', 'refused',
+             _parameter('/dtc_controller', 'torque_band', -1.0)),
+    ]
+    trip = {'time': INJECT_AT, 'node': 'plant', 'parameters': {'sensors.current_offset': [100.0, 0.0, 0.0]}}
+    shoot = {'time': INJECT_AT, 'node': 'controller', 'parameters': {'switch_on': [1.0] * 6}}
+    for headless in (False, True):
+        out += [Case('protection trip (sensor offset)', 'fault', headless=headless, events=[trip],
+                     exit_codes=(3,), kind='motor_over_current'),
+                Case('shoot-through', 'fault', headless=headless, events=[shoot],
+                     controller=SHOOT_THROUGH_CONTROLLER, exit_codes=(3,), kind='shoot_through')]
+    return out
+
+
+# --- running ---------------------------------------------------------------------------------
+def _scenario_file(case: Case, directory: Path) -> Path:
+    from drive_bringup.scenario import find_scenario
+    tree = yaml.safe_load(find_scenario(SCENARIO).read_text())
+    tree['duration'] = DURATION
+    tree['events'] = [e for e in tree.get('events') or [] if e['time'] < DURATION] + case.events
+    tree['events'].sort(key=lambda e: e['time'])
+    tree['checks'], tree['figures'] = [], []
+    if case.controller is not None:
+        tree['nodes'].pop('dtc_controller', None)
+        tree['events'] = [e for e in tree['events'] if e['node'] != 'dtc_controller']
+        tree['nodes']['controller'] = dict(case.controller)
+        tree['metrics'] = {}
+    tree['nodes']['plant'].setdefault('parameters', {})['command_timeout'] = COMMAND_TIMEOUT
+    path = directory / f'{SCENARIO}_{re.sub(r"[^a-z0-9]+", "_", case.name.lower())}.yaml'
+    path.write_text(yaml.safe_dump(tree))
+    return path
+
+
+def _block_data(bag: Path) -> list[bytes]:
+    from drive_logger.bag_reader import BagReader
+    return [msg.data for msg in BagReader(bag).messages(BLOCK_TOPICS)]
+
+
+def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) -> Outcome:
+    """Run one case; its Outcome (``reference``: a clean run's block data, for outsiders)."""
+    where = 'headless' if case.headless else 'graph'
+    outcome = Outcome(case.name, where, case.expect)
+    scenario = _scenario_file(case, directory)
+    out = directory / f'out_{where}_{scenario.stem}'
+    command = [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
+               '--overwrite']
+    if case.headless:
+        command.append('--headless')
+        code, text = _run(command, None)
+        outcome.result = _names_fault(code, text, case)
+        outcome.crashed = _crash(code, text, case)
+        return outcome
+    from drive_testing.harness import reserve_domain
+    with reserve_domain() as domain_id:
+        code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
+    logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
+        if (out / 'logs').is_dir() else ''
+    outcome.log = bool(LOG_LINE.search(logs))
+    outcome.diagnostics = any(_level(s) >= 1 for s in ctx.diagnostics)
+    outcome.crashed = _crash(code, text + logs, case) or next(
+        (f'injection failed: {why}' for kind, why in ctx.notes if kind == 'injection failed'), '')
+    if case.expect == 'refused':
+        outcome.result = any(kind == 'refused' for kind, _ in ctx.notes)
+    else:
+        outcome.result = _names_fault(code, text, case)
+    if case.expect in ('outsider', 'refused') and reference is not None and (out / 'bag').is_dir():
+        outcome.changed = _block_data(out / 'bag') != reference
+    outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
+    return outcome
+
+
+def _level(status) -> int:
+    """A DiagnosticStatus level as a number (rclpy gives a byte: b'\\x02')."""
+    level = status.level
+    return level[0] if isinstance(level, (bytes, bytearray)) else int(level)
+
+
+def _names_fault(code: int, text: str, case: Case) -> bool:
+    if case.expect == 'outsider':
+        return code == 0
+    if case.expect == 'node lost':
+        return code in case.exit_codes and code != 0 and 'recorder' in text
+    return code in case.exit_codes and code != 0 and 'fault' in text and case.kind in text
+
+
+def _crash(code: int | None, text: str, case: Case) -> str:
+    if code is None:
+        return 'hung'
+    if 'Traceback (most recent call last)' in text:
+        return 'traceback'
+    if code not in case.exit_codes:
+        return f'exit code {code}'
+    return ''
+
+
+def _run(command, env) -> tuple[int | None, str]:
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=RUN_TIMEOUT, env=env)
+    except subprocess.TimeoutExpired as exc:
+        return None, (exc.stdout or '') + (exc.stderr or '')
+    return done.returncode, done.stdout + done.stderr
+
+
+def _run_graph(command, case: Case, domain_id: int):
+    """Start run_scenario in domain_id, inject while it runs, wait for its end."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rosgraph_msgs.msg import Clock
+    from drive_common import topics
+    from drive_common.waiting import wait_until
+    from drive_testing.harness import RosSession, isolated_env
+    env = isolated_env(domain_id)
+    log = tempfile.TemporaryFile(mode='w+')
+    runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True, env=env,
+                              start_new_session=True)
+    session = RosSession(domain_id)
+    node = session.node('fault_injector')
+    diagnostics: list = []
+    node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
+                             lambda m: diagnostics.extend(m.status), 100)
+    clock = [0.0]
+    node.create_subscription(Clock, topics.CLOCK,
+                             lambda m: clock.__setitem__(0, m.clock.sec + m.clock.nanosec * 1e-9), 10)
+
+    def wait_sim(t: float) -> None:
+        wait_until(lambda: clock[0] >= t or runner.poll() is not None, RUN_TIMEOUT,
+                   what=f'sim time {t} s')
+
+    ctx = Injection(domain_id, node, diagnostics, wait_sim)
+    try:
+        if case.inject is not None:
+            try:
+                case.inject(ctx)
+            except Exception as exc:  # noqa: BLE001 - the run ended before the fault could go in
+                ctx.notes.append(('injection failed', f'{type(exc).__name__}: {exc}'))
+        try:
+            code = runner.wait(timeout=RUN_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            os.killpg(runner.pid, signal.SIGKILL)
+            runner.wait()
+            code = None
+        deadline = time.monotonic() + 2.0     # diagnostics published at the very end
+        while time.monotonic() < deadline and not diagnostics and case.expect != 'refused':
+            time.sleep(0.05)
+    finally:
+        for kind, item in ctx.notes:
+            if kind == 'process':
+                item.stop()
+        session.close()
+    log.seek(0)
+    return code, log.read(), ctx
+
+
+def clean_reference(directory: Path) -> list[bytes]:
+    """The block data of the scenario run without a fault (what outsiders must not change)."""
+    clean = Case('clean', 'outsider')
+    scenario = _scenario_file(clean, directory)
+    out = directory / 'clean'
+    from drive_testing.harness import isolated_env, reserve_domain
+    with reserve_domain() as domain_id:
+        code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out',
+                           str(out), '--overwrite', '--domain-id', str(domain_id)],
+                          isolated_env(domain_id))
+    if code != 0:
+        raise RuntimeError(f'the clean run failed (exit {code}): {text[-2000:]}')
+    return _block_data(out / 'bag')
+
+
+def run_matrix(directory: Path, select: Callable[[Case], bool] = lambda case: True,
+               progress: Callable[[Outcome], None] = lambda outcome: None) -> list[Outcome]:
+    """Run the selected cases (a clean reference first); their outcomes."""
+    reference = clean_reference(directory)
+    outcomes = []
+    for case in cases():
+        if select(case):
+            outcome = run_case(case, directory, reference)
+            outcomes.append(outcome)
+            progress(outcome)
+    return outcomes
+
+
+def table(outcomes: list[Outcome]) -> str:
+    """The matrix as text: one row per case, then the totals with their goals."""
+    rows = [f'{"case":42s} {"where":9s} {"expect":9s} log diag result  crashed   changed']
+    for o in outcomes:
+        rows.append(f'{o.case:42s} {o.where:9s} {o.expect:9s} {_mark(o.log):3s} {_mark(o.diagnostics):4s} '
+                    f'{_mark(o.result):6s}  {o.crashed or "-":9s} '
+                    f'{"-" if o.changed is None else "YES" if o.changed else "no"}')
+    rows.append('')
+    rows.append(f'faults injected: {len(outcomes)}')
+    rows.append(f'reported (as their kind requires): {sum(o.reported for o in outcomes)}')
+    rows.append(f'silent: {sum(o.silent for o in outcomes)} (goal 0)')
+    rows.append(f'crashes: {sum(bool(o.crashed) for o in outcomes)} (goal 0)')
+    rows.append(f'runs an outsider changed: {sum(bool(o.changed) for o in outcomes)} (goal 0)')
+    return '\n'.join(rows)
+
+
+def _mark(flag: bool) -> str:
+    return 'yes' if flag else 'NO'
