@@ -106,12 +106,12 @@ rm -rf .numba_cache
 source scripts/env.sh
 say "compiling the per-sample kernels (numba cache in .numba_cache)"
 python - <<'PY' || die "compiling the kernels failed (numba)"
-# 1 ms of scenarios that use every compiled kernel: two-phase DTC modes, PFC core, front end.
+# 1 ms of scenarios that use every compiled kernel: two- and three-phase DTC modes, PFC core, front end.
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import load_scenario
 from drive_common.uris import resolve_path
 for name in ('two_phase_six_switch_torque_step', 'two_phase_four_switch_torque_step',
-             'pfc_no_load_fig_3_5'):
+             'three_phase_dtifc_sensorless', 'pfc_no_load_fig_3_5'):
     run_headless(load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml')).shortened(1e-3))
 PY
 say "ready: source scripts/env.sh to use the workspace"

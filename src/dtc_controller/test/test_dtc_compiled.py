@@ -3,19 +3,25 @@ import numpy as np
 
 from drive_common.compiled import jit_disabled
 from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
+from dtc_controller.core.modes.three_phase_kernel import three_phase_step
 from dtc_controller.core.modes.two_phase_kernel import two_phase_step
 
 pytestmark = requires_jit()
 
-# every two-phase mode and option, and three-phase modes using the shared comparator and speed PI
+# every two-phase mode and option; every three-phase scenario: pmsm (sstp), four-switch (fstp) with
+# each drop compensation and the current model, dtifc sensorless and field weakening
 DTC_SCENARIOS = ['two_phase_six_switch_torque_step', 'two_phase_six_switch_flux_control',
                  'two_phase_six_switch_nonideal_torque', 'two_phase_four_switch_torque_step',
                  'two_phase_four_switch_flux_control', 'sstp_voltage_model_no_compensation',
-                 'fstp_voltage_model_proposed_compensation', 'three_phase_dtifc_sensorless']
+                 'sstp_voltage_model_simple_compensation', 'sstp_current_model_full_load',
+                 'fstp_voltage_model_no_compensation', 'fstp_voltage_model_simple_compensation',
+                 'fstp_voltage_model_proposed_compensation', 'fstp_current_model_full_load',
+                 'three_phase_dtifc_sensorless', 'three_phase_dtifc_field_weakening']
 
 
-def test_kernel_is_compiled():
-    assert not jit_disabled() and hasattr(two_phase_step, 'py_func')
+def test_kernels_are_compiled():
+    assert not jit_disabled()
+    assert hasattr(two_phase_step, 'py_func') and hasattr(three_phase_step, 'py_func')
 
 
 def test_compiled_equals_interpreted_bit_for_bit(tmp_path):
@@ -23,4 +29,6 @@ def test_compiled_equals_interpreted_bit_for_bit(tmp_path):
                                                      [DTC_SCENARIOS, 0.02], tmp_path)
     torque = compiled['two_phase_four_switch_torque_step:dtc/status.torque_estimate']
     assert torque.size > 100 and np.ptp(torque) > 0.0          # a real, moving trajectory
+    for name in ('fstp_voltage_model_proposed_compensation', 'three_phase_dtifc_field_weakening'):
+        assert np.ptp(compiled[f'{name}:dtc/status.torque_estimate']) > 0.0
     assert differing(interpreted, compiled) == []

@@ -163,12 +163,3 @@ def printed_000_typos() -> list[str]:
                            f'circuit V{derived[0]}({derived[1]})')
     return out
 
-
-def format_table(table: dict, sectors, code=lambda v: v.code(6)) -> str:
-    """Compact text of a {(sector, phi, tau): vector} table, one line per (phi, tau)."""
-    lines = []
-    for phi in (1, -1):
-        for tau in (1, -1):
-            cells = ' '.join(f'{table[(s, phi, tau)].name}({code(table[(s, phi, tau)])})' for s in sectors)
-            lines.append(f'phi={phi:+d} tau={tau:+d}: {cells}')
-    return '\n'.join(lines)

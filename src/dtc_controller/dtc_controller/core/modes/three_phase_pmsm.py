@@ -3,7 +3,7 @@
 :class:`ThreePhaseBase` holds what the three three-phase modes share, per sample k:
 phase currents (one missing sensor reconstructed) -> alpha/beta (amplitude-invariant
 Clarke); applied voltage of sample k-1 from its switch state, the measured DC link
-and midpoint (:func:`vectors.voltage_coefficients`, cached per switch state) plus the
+and midpoint (:func:`vectors.voltage_coefficients` of each vector, tabulated once) plus the
 inverter voltage-drop correction (:mod:`voltage_drop_compensation`); stator flux by
 a voltage model (pure 000 eqs. 1.22-1.23, low-pass 001, Hu-Wu 000 Fig. 5.3) or the
 current model (001 eqs. 8-9); rotor angle from the encoder or eq. (5.38); electrical
