@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
 from drive_common.signals import clarke
 
 from .switching_tables import derive_flux_table, sector_of_angle, select_vector
@@ -120,6 +121,7 @@ def four_sector_center(sector: int) -> float:
     return (sector - 0.5) * QUARTER
 
 
+@njit
 def four_sector_of_angle(theta: float) -> int:
     """Sector 1..4 (I..IV) of a flux angle [rad]; sector I = [0, 90) deg."""
     return int((theta % TWO_PI) // QUARTER) % 4 + 1

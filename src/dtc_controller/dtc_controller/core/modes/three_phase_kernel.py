@@ -20,16 +20,17 @@ import math
 import numpy as np
 
 from drive_common.compiled import njit
-from drive_common.signals import INV_SQRT3, TWO_PI
+from drive_common.signals import TWO_PI
 
 from ..hysteresis import two_level
 from ..speed_loop import speed_pi_update
-from ..switching_tables import SECTOR_WIDTH
+from ..stator_flux_estimators import compensate_low_pass, integrator_step, rotor_angle
+from ..switching_tables import sector_of_angle
+from ..three_phase_tables import four_sector_of_angle
 from ..vectors import leg_states
+from ..voltage_drop_compensation import drop_correction, leg_drop
 from .two_phase_kernel import LEG_CODES, coefficient_table, interp, selection_table
 
-_QUARTER = 0.5 * math.pi
-INTEGRATORS = ('pure', 'low_pass', 'hu_wu')
 # Table rows (each periodic: points + 1 values): rotor flux alpha/beta, k_d, k_q.
 R_PSI_ALPHA, R_PSI_BETA, R_K_D, R_K_Q = range(4)
 # Parameter vector (float64; flags 0/1, codes as floats).
@@ -74,20 +75,6 @@ def _rotor_flux(prm, tab, theta: float):
 
 
 @njit
-def _leg_drop(scheme: int, upper: int, i: float, v_ce: float, v_d: float, v_f: float, r_on: float) -> float:
-    """One leg's assumed drop [V]: Table V (simple) or Table III + R_on i (proposed), 001."""
-    if scheme == 1:
-        return v_f * (1.0 if i > 0.0 else -1.0 if i < 0.0 else 0.0)
-    if i > 0.0:
-        f = v_ce if upper != 0 else v_d
-    elif i < 0.0:
-        f = -v_d if upper != 0 else -v_ce
-    else:
-        f = 0.0
-    return f + r_on * i
-
-
-@njit
 def _applied_voltage(prm, st, coef, legs, upper, i_a, i_b, i_c):
     """(v_alpha, v_beta) [V] of sample k-1: ideal vector plus the drop correction (001 eqs. 24-38)."""
     vec = int(st[S_PREV_VECTOR])
@@ -103,9 +90,11 @@ def _applied_voltage(prm, st, coef, legs, upper, i_a, i_b, i_c):
         d = [0.0, 0.0, 0.0]
         for x in range(3):
             if x != mid:
-                d[x] = _leg_drop(scheme, upper[vec, x], cur[x], prm[P_V_CE], prm[P_V_D], prm[P_V_F], prm[P_R_ON])
-        v_al += (d[1] + d[2] - 2.0 * d[0]) / 3.0
-        v_be += (d[2] - d[1]) * INV_SQRT3
+                d[x] = leg_drop(scheme == 1, upper[vec, x] != 0, cur[x], prm[P_V_CE], prm[P_V_D], prm[P_V_F],
+                                prm[P_R_ON])
+        d_al, d_be = drop_correction(d[0], d[1], d[2])
+        v_al += d_al
+        v_be += d_be
     return v_al, v_be
 
 
@@ -134,21 +123,9 @@ def _flux(prm, st, tab, coef, legs, upper, i_a, i_b, i_c, i_al, i_be, theta_enc,
         st[S_PREV_THETA] = theta0
     else:
         v_al, v_be = _applied_voltage(prm, st, coef, legs, upper, i_a, i_b, i_c)
-        r, ts = prm[P_R], prm[P_TS]
-        pa, pb = st[S_PSI_ALPHA], st[S_PSI_BETA]
-        pa_new = pa + (v_al - r * 0.5 * (st[S_I_ALPHA] + i_al)) * ts
-        pb_new = pb + (v_be - r * 0.5 * (st[S_I_BETA] + i_be)) * ts
-        if kind == 1:
-            pa_new -= prm[P_LEAK] * pa
-            pb_new -= prm[P_LEAK] * pb
-        elif kind == 2:
-            m2 = pa * pa + pb * pb
-            lim = prm[P_LIMIT]
-            if m2 > lim * lim:
-                g = prm[P_LEAK] * (1.0 - lim / math.sqrt(m2))
-                pa_new -= g * pa
-                pb_new -= g * pb
-        st[S_PSI_ALPHA], st[S_PSI_BETA] = pa_new, pb_new
+        st[S_PSI_ALPHA], st[S_PSI_BETA] = integrator_step(
+            kind, prm[P_R], prm[P_TS], prm[P_LEAK], prm[P_LIMIT], st[S_PSI_ALPHA], st[S_PSI_BETA],
+            st[S_I_ALPHA], st[S_I_BETA], v_al, v_be, i_al, i_be)
     st[S_I_ALPHA] = i_al
     st[S_I_BETA] = i_be
 
@@ -159,8 +136,7 @@ def _angle_and_speed(prm, st, psi_al, psi_be, i_al, i_be, theta_enc, speed_m):
     if prm[P_SENSORLESS] == 0.0:
         st[S_OMEGA_E] = int(prm[P_POLES]) * speed_m
         return theta_enc, st[S_OMEGA_E]
-    L = prm[P_L]
-    theta = math.atan2(psi_be - L * i_be, psi_al - L * i_al) % TWO_PI
+    theta = rotor_angle(psi_al, psi_be, i_al, i_be, prm[P_L])
     if st[S_STARTED] != 0.0:
         d = theta - st[S_PREV_THETA]
         if d > math.pi:
@@ -192,10 +168,7 @@ def three_phase_step(prm, st, tab, coef, legs, upper, select, i_a, i_b, i_c, i_a
         torque = 1.5 * p * (k_d * i_d + k_q * i_q)          # 000 eq. (5.32)
     else:
         if prm[P_LPF_COMP] != 0.0 and int(prm[P_INTEGRATOR]) == 1 and prm[P_CURRENT_MODEL] == 0.0:
-            cutoff = prm[P_CUTOFF]
-            if not abs(w_e) < 0.5 * cutoff:                # compensate_low_pass
-                r = cutoff / w_e
-                psi_al, psi_be = psi_al + r * psi_be, psi_be - r * psi_al
+            psi_al, psi_be = compensate_low_pass(psi_al, psi_be, w_e, prm[P_CUTOFF], 0.5 * prm[P_CUTOFF])
         torque = 1.5 * p * (psi_al * i_be - psi_be * i_al)  # 001 eq. (10)
     psi_mag = math.sqrt(psi_al * psi_al + psi_be * psi_be)
     speed_reg = w_e / p if sensorless else speed_m
@@ -220,10 +193,7 @@ def three_phase_step(prm, st, tab, coef, legs, upper, select, i_a, i_b, i_c, i_a
         phi = two_level(int(st[S_PHI]), prm[P_PHI_BAND], flux_ref - psi_mag)
     st[S_TAU], st[S_PHI] = tau, phi
     ang = math.atan2(psi_be, psi_al)
-    if prm[P_FOUR_SECTORS] != 0.0:
-        sector = int((ang % TWO_PI) // _QUARTER) % 4 + 1
-    else:
-        sector = int(((ang + 0.5 * SECTOR_WIDTH) % TWO_PI) // SECTOR_WIDTH) % 6 + 1
+    sector = four_sector_of_angle(ang) if prm[P_FOUR_SECTORS] != 0.0 else sector_of_angle(ang)
     vector = select[sector - 1, 1 - phi, (1 - tau) // 2]
     st[S_STARTED] = 1.0
     st[S_PREV_VECTOR] = vector

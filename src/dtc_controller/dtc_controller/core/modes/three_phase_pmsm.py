@@ -25,7 +25,7 @@ import numpy as np
 from ..backemf_table import BackEmfTable
 from ..line_to_line import DqBackEmf
 from ..status import NAN, DtcStatusSample
-from ..stator_flux_estimators import CurrentModelFlux, make_voltage_model
+from ..stator_flux_estimators import INTEGRATORS, CurrentModelFlux, make_voltage_model
 from ..three_phase_tables import six_switch_sector, six_switch_table
 from ..voltage_drop_compensation import SCHEMES, VoltageDropCompensation
 from . import three_phase_kernel as K
@@ -96,7 +96,7 @@ class ThreePhaseBase(DtcMode):
         prm[K.P_PSI_M], prm[K.P_ROTOR_TABLE] = psi_m, self.dq is not None
         if self.dq is not None:
             prm[K.P_SCALE], prm[K.P_POINTS] = backemf._scale, backemf.points
-        prm[K.P_CURRENT_MODEL], prm[K.P_INTEGRATOR] = self.current_model, K.INTEGRATORS.index(self.integrator)
+        prm[K.P_CURRENT_MODEL], prm[K.P_INTEGRATOR] = self.current_model, INTEGRATORS.index(self.integrator)
         prm[K.P_CUTOFF], prm[K.P_LIMIT] = cutoff, limit
         prm[K.P_LEAK] = getattr(self.flux, '_leak', 0.0)
         prm[K.P_SENSORLESS], prm[K.P_INITIAL_ANGLE] = self.sensorless, self.initial_angle

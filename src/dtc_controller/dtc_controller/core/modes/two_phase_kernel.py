@@ -16,14 +16,12 @@ import math
 import numpy as np
 
 from drive_common.compiled import njit
-from drive_common.signals import TWO_PI
 
 from ..hysteresis import two_level
 from ..speed_loop import speed_pi_update
-from ..switching_tables import SECTOR_WIDTH
+from ..switching_tables import sector_of_angle
 from ..vectors import HIGH, LOW, MIDPOINT, OPEN, voltage_coefficients
 
-_HALF = 0.5 * SECTOR_WIDTH
 LEG_CODES = {HIGH: 0, LOW: 1, OPEN: 2, MIDPOINT: 3}
 L_HIGH, L_LOW, L_OPEN = 0, 1, 2
 
@@ -184,7 +182,7 @@ def two_phase_step(prm, st, tab, coef, legs, select, split_select, i_a, i_b, i_c
                                 + interp(tab, K_BETA, scale, points, theta) * i_be)   # eq. (2.16)
     t_ref, speed_ref = _torque_reference(prm, st, speed_m)
     ang = math.atan2(psi_be, psi_al) if prm[P_FLUX_SECTOR] != 0.0 else theta
-    sector = int(((ang + _HALF) % TWO_PI) // SECTOR_WIDTH) % 6 + 1
+    sector = sector_of_angle(ang)
     rot = int(prm[P_ROTATION])
     tau = two_level(int(st[S_TAU]), prm[P_TORQUE_BAND], rot * (t_ref - torque))
     st[S_TAU] = tau
