@@ -2,7 +2,7 @@
 import numpy as np
 
 from drive_common.compiled import jit_disabled
-from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
+from drive_testing.compiled_parity import DTC_OPTION_CASES, differing, interpreted_and_compiled, requires_jit
 from dtc_controller.core.modes.three_phase_kernel import three_phase_step
 from dtc_controller.core.modes.two_phase_kernel import two_phase_step
 
@@ -31,4 +31,14 @@ def test_compiled_equals_interpreted_bit_for_bit(tmp_path):
     assert torque.size > 100 and np.ptp(torque) > 0.0          # a real, moving trajectory
     for name in ('fstp_voltage_model_proposed_compensation', 'three_phase_dtifc_field_weakening'):
         assert np.ptp(compiled[f'{name}:dtc/status.torque_estimate']) > 0.0
+    assert differing(interpreted, compiled) == []
+
+
+def test_three_phase_options_compiled_equal_interpreted(tmp_path):
+    """Options no shipped scenario uses (sine rotor flux, LPF compensation, table flux reference,
+    sensorless pmsm, encoder dtifc, a runtime change of rotation and drop compensation)."""
+    interpreted, compiled = interpreted_and_compiled('drive_testing.compiled_parity:dtc_option_arrays',
+                                                     [2000], tmp_path)
+    for n in range(len(DTC_OPTION_CASES)):
+        assert np.ptp(compiled[f'{n}:torque_estimate']) > 0.0 and np.ptp(compiled[f'{n}:sector']) > 0.0
     assert differing(interpreted, compiled) == []
