@@ -24,4 +24,6 @@ if [ "${1:-}" != "--no-workspace" ] && [ -f "$_DTC_ROOT/install/local_setup.bash
   eval "$_dtc_nounset"
   unset _dtc_nounset
 fi
+# Compiled kernels (drive_common.compiled, numba) cache their machine code in the workspace.
+export NUMBA_CACHE_DIR="${NUMBA_CACHE_DIR:-$_DTC_ROOT/.numba_cache}"
 unset _DTC_ROOT

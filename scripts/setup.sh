@@ -99,4 +99,19 @@ exec "$(dirname "$0")/python" -m drive_ros2cli "$@"
 SHIM
   chmod +x "$ROS2_BIN"
 fi
+# Warm the compiled kernels' cache (drive_common.compiled, NUMBA_CACHE_DIR=.numba_cache). It is
+# rebuilt from scratch: numba's cache of a kernel does not notice a change of a kernel it calls.
+rm -rf .numba_cache
+# shellcheck disable=SC1091
+source scripts/env.sh
+say "compiling the per-sample kernels (numba cache in .numba_cache)"
+python - <<'PY' || die "compiling the kernels failed (numba)"
+# 1 ms of scenarios that use every compiled kernel: two- and three-phase DTC modes, PFC core, front end.
+from drive_bringup.headless import run_headless
+from drive_bringup.scenario import load_scenario
+from drive_common.uris import resolve_path
+for name in ('two_phase_six_switch_torque_step', 'two_phase_four_switch_torque_step',
+             'three_phase_dtifc_sensorless', 'pfc_no_load_fig_3_5'):
+    run_headless(load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml')).shortened(1e-3))
+PY
 say "ready: source scripts/env.sh to use the workspace"

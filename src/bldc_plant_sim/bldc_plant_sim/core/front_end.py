@@ -81,6 +81,8 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
+
 TWO_PI = 2.0 * math.pi
 SQRT2 = math.sqrt(2.0)
 
@@ -94,6 +96,209 @@ CARRIERS = ('triangle', 'sawtooth')
 
 _MAX_PIECES_PER_ADVANCE = 100_000
 _EVENT_LOG_MAX = 10_000
+
+@njit
+def carrier(t: float, f_pwm: float, duty: float, triangle: bool):
+    """PWM carrier locked to sim time: (switch on, time of the next carrier edge after t, period index).
+
+    Triangle: on for [0, d T/2] and [T - d T/2, T]; sawtooth: on for [0, d T) (module doc).
+    """
+    x = t * f_pwm
+    tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
+    k = math.floor(x + tol)
+    u = x - k
+    if u < 0.0:
+        u = 0.0
+    if triangle:
+        e1 = 0.5 * duty
+        e2 = 1.0 - e1
+        if u < e1 - tol:
+            on, nxt = True, e1
+        elif u < e2 - tol:
+            on, nxt = False, e2
+        else:
+            on, nxt = duty > 0.0, 1.0
+    elif u < duty - tol:
+        on, nxt = True, duty
+    else:
+        on, nxt = False, 1.0
+    return on, (k + nxt) / f_pwm, k
+
+
+@njit
+def substep_coefficients(h: float, L_f2: float, R_f: float, C_f2: float, L2: float, R: float):
+    """Implicit-midpoint coefficients of a filter sub-step of length h [s]: (al, g1, be, ga, g3, k_c, k_b).
+
+    al = 2 L_f / h, be = 2 C_2 / h, ga = 2 L / h; g1, g3 the branch conductances; k_c, k_b the
+    inverse node sums of the COND and BLOCK eliminations (module doc "Integration").
+    """
+    al = L_f2 / h
+    g1 = 1.0 / (al + R_f)
+    be = C_f2 / h
+    ga = L2 / h
+    g3 = 1.0 / (ga + R)
+    return al, g1, be, ga, g3, 1.0 / (be + g1 + g3), 1.0 / (be + g1)
+
+
+@njit
+def filter_substep(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, vg: float,
+                   al: float, g1: float, be: float, ga: float, g3: float, k_c: float, k_b: float,
+                   i_f0: float, v_c0: float, i_L0: float):
+    """One implicit-midpoint sub-step in a conduction mode: mid values (a, b, c) of (i_f, v_c, i_L),
+    end values (v_c1, i_L1) and whether an event (module doc: zero, overlap, over-current, start,
+    overlap end) lies inside it."""
+    A1 = vg + al * i_f0
+    if mode == COND:      # L_f di_f/dt = v_g - v_c - R_f i_f, C2 dv_c/dt = i_f - s i_L, L di_L/dt = ...
+        A3 = ga * i_L0 - V_b - u
+        b = (be * v_c0 + A1 * g1 - s * A3 * g3) * k_c
+        a = (A1 - b) * g1
+        c = (A3 + s * b) * g3
+        i_L1 = 2.0 * c - i_L0
+        v_c1 = 2.0 * b - v_c0
+        event = i_L1 < 0.0 or (s * v_c1 < 0.0 < s * v_c0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim)
+    elif mode == BLOCK:   # i_L = 0: the filter alone
+        b = (be * v_c0 + A1 * g1) * k_b
+        a = (A1 - b) * g1
+        c = 0.0
+        v_c1 = 2.0 * b - v_c0
+        i_L1 = 0.0
+        event = abs(v_c1) > V_b + u
+    else:                 # OVERLAP: v_c clamped at 0
+        a = A1 * g1
+        b = 0.0
+        c = (ga * i_L0 - V_b - u) * g3
+        i_L1 = 2.0 * c - i_L0
+        v_c1 = 0.0
+        event = i_L1 <= abs(2.0 * a - i_f0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim)
+    return a, b, c, v_c1, i_L1, event
+
+
+@njit
+def filter_substeps(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, R: float,
+                    R_f: float, L_f2: float, C_f2: float, L2: float, vp: float, w: float, ph: float,
+                    h_max: float, t: float, span: float, i_f0: float, v_c0: float, i_L0: float):
+    """Sub-steps of at most h_max over span [s] from t in one mode, stopping before an event.
+
+    Returns (t, i_f, v_c, i_L, h, event, q, e_grid, e_line, e_ind, e_sq): the time and state
+    reached, the last sub-step length, whether it holds an event (not taken), the link charge
+    and the ledger integrals (v_g i_f, i_f^2, i_L, i_L^2; midpoint rule: closes exactly).
+    """
+    q = e_grid = e_line = e_ind = e_sq = 0.0
+    t_end = t + span
+    eps = 1e-9 * span
+    h_c = -1.0
+    al = g1 = be = ga = g3 = k_c = k_b = 0.0
+    while True:
+        h = t_end - t
+        if h > h_max:
+            h = h_max if h - h_max > eps else h
+        if h != h_c:                       # coefficients of this sub-step length
+            h_c = h
+            al, g1, be, ga, g3, k_c, k_b = substep_coefficients(h, L_f2, R_f, C_f2, L2, R)
+        vg = vp * math.sin(w * (t + 0.5 * h) + ph)
+        a, b, c, v_c1, i_L1, event = filter_substep(mode, s, gate, lim, V_b, u, vg, al, g1, be, ga,
+                                                    g3, k_c, k_b, i_f0, v_c0, i_L0)
+        if event:
+            return t, i_f0, v_c0, i_L0, h, True, q, e_grid, e_line, e_ind, e_sq
+        e_grid += h * vg * a
+        e_line += h * a * a
+        if mode != BLOCK:
+            e_ind += h * c
+            e_sq += h * c * c
+            if not gate:
+                q += h * c
+        i_f0, v_c0, i_L0 = 2.0 * a - i_f0, v_c1, i_L1
+        t += h
+        if t_end - t <= eps:
+            return t_end, i_f0, v_c0, i_L0, h, False, q, e_grid, e_line, e_ind, e_sq
+
+
+@njit
+def midpoint_values(t: float, h: float, mode: int, s: int, R: float, u: float, vp: float, w: float,
+                    ph: float, L_f: float, R_f: float, C_f: float, L: float, V_b: float, i_f: float,
+                    v_c: float, i_L: float):
+    """Implicit-midpoint mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece of length h [s]
+    from state (i_f, v_c, i_L) in one mode (module doc's mode equations, eliminated in closed form)."""
+    vg = vp * math.sin(w * (t + 0.5 * h) + ph)
+    al = 2.0 * L_f / h
+    g1 = 1.0 / (al + R_f)
+    A1 = vg + al * i_f
+    if mode == COND:
+        be = 2.0 * C_f / h
+        g3 = 1.0 / (2.0 * L / h + R)
+        A3 = 2.0 * L / h * i_L - V_b - u
+        b = (be * v_c + A1 * g1 - s * A3 * g3) / (be + g1 + g3)
+        return (A1 - b) * g1, b, (A3 + s * b) * g3, vg
+    if mode == BLOCK:
+        be = 2.0 * C_f / h
+        b = (be * v_c + A1 * g1) / (be + g1)
+        return (A1 - b) * g1, b, 0.0, vg
+    g3 = 1.0 / (2.0 * L / h + R)     # OVERLAP: v_c clamped at 0
+    return A1 * g1, 0.0, (2.0 * L / h * i_L - V_b - u) * g3, vg
+
+
+# Event kinds of event_quantity (each quantity is > 0 before its event).
+EV_OVERLAP, EV_ZERO, EV_OVER_CURRENT, EV_OVERLAP_END_POS, EV_OVERLAP_END_NEG = 1, 2, 3, 4, 5
+EV_START_POS, EV_START_NEG, EV_PLAIN_START = 6, 7, 8
+
+
+@njit
+def event_quantity(kind: int, x: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
+                   vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
+                   V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
+    """Event quantity after a piece of length x [s] from t (> 0 before the event): i_L (zero),
+    s v_c (overlap), lim - i_L, i_L -+ i_f (overlap end), the bridge drive (start; plain: no filter)."""
+    if kind == EV_PLAIN_START:
+        return V_b + u - abs(vp * math.sin(w * (t + x) + ph))
+    a, b, c, _ = midpoint_values(t, x, mode, s, R, u, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
+    thr = V_b + u
+    if kind == EV_ZERO:
+        return 2.0 * c - i_L0
+    if kind == EV_OVERLAP:
+        return s * (2.0 * b - v_c0)
+    if kind == EV_OVER_CURRENT:
+        return lim - (2.0 * c - i_L0)
+    if kind == EV_OVERLAP_END_POS:
+        return (2.0 * c - i_L0) - (2.0 * a - i_f0)
+    if kind == EV_OVERLAP_END_NEG:
+        return (2.0 * c - i_L0) + (2.0 * a - i_f0)
+    if kind == EV_START_POS:
+        return thr - (2.0 * b - v_c0)
+    return thr + (2.0 * b - v_c0)
+
+
+@njit
+def locate_event(kind: int, h: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
+                 vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
+                 V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
+    """Smallest x in (0, h] with event_quantity(kind, x) <= 0, given > 0 at 0+ and <= 0 at h
+    (bracketed Illinois iteration, module doc "Integration")."""
+    args = (t, mode, s, R, u, lim, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
+    lo, hi = 0.0, h
+    f_lo = event_quantity(kind, h * 1e-9, *args)
+    if f_lo <= 0.0:
+        return h * 1e-9
+    f_hi = event_quantity(kind, h, *args)
+    side = 0
+    for _ in range(60):
+        x = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        if not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        fx = event_quantity(kind, x, *args)
+        if fx <= 0.0:
+            hi, f_hi = x, fx
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        else:
+            lo, f_lo = x, fx
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+        if hi - lo <= 1e-12 * h or f_hi == 0.0:
+            break
+    return hi
+
 
 # Plant-schema names -> FrontEnd keyword (see FrontEnd.from_params and the report).
 PARAMETER_NAMES = {
@@ -309,28 +514,7 @@ class FrontEnd:
     # ------------------------------------------------------------------ PWM carrier
     def _carrier(self, t: float) -> tuple[bool, float, int]:
         """(carrier says on, time of the next carrier edge after t, PWM period index at t)."""
-        x = t * self.f_pwm
-        tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
-        k = math.floor(x + tol)
-        u = x - k
-        if u < 0.0:
-            u = 0.0
-        d = self.duty
-        if self._triangle:
-            e1 = 0.5 * d
-            e2 = 1.0 - e1
-            if u < e1 - tol:
-                on, nxt = True, e1
-            elif u < e2 - tol:
-                on, nxt = False, e2
-            else:
-                on, nxt = d > 0.0, 1.0
-        else:
-            if u < d - tol:
-                on, nxt = True, d
-            else:
-                on, nxt = False, 1.0
-        return on, (k + nxt) / self.f_pwm, k
+        return carrier(t, self.f_pwm, self.duty, self._triangle)
 
     # ------------------------------------------------------------------ integration
     def advance(self, t: float, dt: float, v_out: float) -> float:
@@ -388,58 +572,31 @@ class FrontEnd:
 
     # ---- no filter: one state i_L, bridge input = grid voltage
     def _piece_plain(self, t: float, h: float, gate: bool, v_out: float) -> float:
-        """One piece of at most h [s] from t; advances self.time; returns the link charge."""
-        L = self.L
+        """One piece of at most h [s] from t; advances self.time; returns the link charge.
+
+        Midpoint rule on L di_L/dt = |v_g| - 2 V_f - R i_L - u (module doc, no filter): mid current
+        c = (g i0 + |v_g| - V_b - u) / (g + R), g = 2 L / h.
+        """
         vg = self.grid_voltage(t + 0.5 * h)
-        s = 1 if vg >= 0.0 else -1
         u_off = 0.0 if gate else v_out + self.V_d
         R = self._R_plain + (self.R_on if gate else 0.0)
         i0 = self.i_L
-        V_b = self.V_b
-        if i0 == 0.0:
-            # BLOCK unless the bridge (and the diode, switch off) is forward biased.
-            drive = abs(self.grid_voltage(t)) - V_b - u_off
-            if drive <= 0.0:
-                # Locate the instant the drive reaches 0 inside the piece.
-                if abs(vg) - V_b - u_off <= 0.0 and abs(self.grid_voltage(t + h)) - V_b - u_off <= 0.0:
-                    self.mode = BLOCK
-                    self.time = t + h
-                    return 0.0
-                th = self._locate(lambda x: V_b + u_off - abs(self.grid_voltage(t + x)), h)
-                self.mode = BLOCK
-                self.time = t + th
-                self._event(self.time, 'start', 'bridge forward biased: conduction starts')
-                return 0.0
-        g = 2.0 * L / h
-        c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)       # mid-piece current
+        if i0 == 0.0 and self._plain_blocked(t, h, vg, u_off):
+            return 0.0
+        g = 2.0 * self.L / h
+        c = (g * i0 + abs(vg) - self.V_b - u_off) / (g + R)       # mid-piece current
         if i0 == 0.0 and c <= 0.0:        # forward bias too brief to build up current
             self.mode = BLOCK
             self.time = t + h
             return 0.0
         self.mode = COND
-        self.s = s
+        self.s = 1 if vg >= 0.0 else -1
         i1 = 2.0 * c - i0
-        event = None
-        lim = self.over_current_limit
-        if i1 < 0.0:
-            # i_L reaches zero: h = 2 L i0 / (R i0 - 2 D), D at the piece's (moving) middle.
-            hz = h
-            for _ in range(3):
-                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
-                den = R * i0 - 2.0 * D
-                hz = min(h, 2.0 * L * i0 / den) if den > 0.0 else h
-            h, event = hz, 'zero'
-        elif gate and lim > 0.0 and i1 > lim and i0 < lim:
-            hz = h
-            for _ in range(3):
-                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
-                den = R * (i0 + lim) - 2.0 * D
-                hz = min(h, 2.0 * L * (i0 - lim) / den) if den < 0.0 else h
-            h, event = hz, 'over_current'
+        h, event = self._plain_event(t, h, gate, i0, i1, R, u_off)
         if event is not None:
             vg = self.grid_voltage(t + 0.5 * h)
-            g = 2.0 * L / h
-            c = (g * i0 + abs(vg) - V_b - u_off) / (g + R)
+            g = 2.0 * self.L / h
+            c = (g * i0 + abs(vg) - self.V_b - u_off) / (g + R)
             i1 = 2.0 * c - i0
         en = self.energy
         hc = h * c
@@ -454,6 +611,42 @@ class FrontEnd:
             if event == 'over_current':
                 self._trip_over_current()
         return q
+
+    def _plain_blocked(self, t: float, h: float, vg_mid: float, u_off: float) -> bool:
+        """With i_L = 0: whether the bridge stays blocked (BLOCK) until a located start, or the
+        piece end, where self.time is then set; False when it is forward biased at t."""
+        V_b = self.V_b
+        if abs(self.grid_voltage(t)) - V_b - u_off > 0.0:
+            return False
+        self.mode = BLOCK
+        if abs(vg_mid) - V_b - u_off <= 0.0 and abs(self.grid_voltage(t + h)) - V_b - u_off <= 0.0:
+            self.time = t + h
+            return True
+        self.time = t + self._locate(EV_PLAIN_START, t, h, u=u_off)
+        self._event(self.time, 'start', 'bridge forward biased: conduction starts')
+        return True
+
+    def _plain_event(self, t: float, h: float, gate: bool, i0: float, i1: float, R: float,
+                     u_off: float) -> tuple[float, str | None]:
+        """(piece length, event) of a conducting piece: i_L reaching zero, h = 2 L i0 / (R i0 - 2 D),
+        or the over-current limit, h = 2 L (i0 - lim) / (R (i0 + lim) - 2 D), D the bridge drive at
+        the piece's (moving) middle, three fixed-point passes; (h, None) without an event."""
+        L, V_b, lim = self.L, self.V_b, self.over_current_limit
+        if i1 < 0.0:
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * i0 - 2.0 * D
+                hz = min(h, 2.0 * L * i0 / den) if den > 0.0 else h
+            return hz, 'zero'
+        if gate and lim > 0.0 and i1 > lim and i0 < lim:
+            hz = h
+            for _ in range(3):
+                D = abs(self.grid_voltage(t + 0.5 * hz)) - V_b - u_off
+                den = R * (i0 + lim) - 2.0 * D
+                hz = min(h, 2.0 * L * (i0 - lim) / den) if den < 0.0 else h
+            return hz, 'over_current'
+        return h, None
 
     def _book_conduction(self, hc: float, c: float, gate: bool, v_out: float) -> float:
         """Ledger of a piece with the inductor conducting at mid current c [A], hc = h c [C]:
@@ -477,122 +670,57 @@ class FrontEnd:
         self._event(when, 'zero', 'inductor current zero (bridge blocks)')
 
     # ---- EMI filter: states i_f, v_c, i_L
+    def _circuit(self) -> tuple:
+        """(v_peak, omega, line_phase, L_f, R_f, C_2, L, V_b): the circuit constants of the kernels."""
+        return (self.v_peak, self.omega, self.line_phase, self.L_f, self.R_f, self.C_f, self.L, self.V_b)
+
     def _mid(self, t: float, h: float, mode: int, s: int, R: float, u: float):
         """Midpoint-rule mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece."""
-        vg = self.grid_voltage(t + 0.5 * h)
-        al = 2.0 * self.L_f / h
-        g1 = 1.0 / (al + self.R_f)
-        A1 = vg + al * self.i_f
-        if mode == COND:
-            be = 2.0 * self.C_f / h
-            g3 = 1.0 / (2.0 * self.L / h + R)
-            A3 = 2.0 * self.L / h * self.i_L - self.V_b - u
-            b = (be * self.v_c + A1 * g1 - s * A3 * g3) / (be + g1 + g3)
-            return (A1 - b) * g1, b, (A3 + s * b) * g3, vg
-        if mode == BLOCK:
-            be = 2.0 * self.C_f / h
-            b = (be * self.v_c + A1 * g1) / (be + g1)
-            return (A1 - b) * g1, b, 0.0, vg
-        g3 = 1.0 / (2.0 * self.L / h + R)     # OVERLAP: v_c clamped at 0
-        return A1 * g1, 0.0, (2.0 * self.L / h * self.i_L - self.V_b - u) * g3, vg
+        return midpoint_values(t, h, mode, s, R, u, *self._circuit(), self.i_f, self.v_c, self.i_L)
 
-    def _piece_filter(self, t: float, span: float, gate: bool, v_out: float) -> float:
-        """Sub-steps of at most h_max over span [s] from t with a fixed gate; stops at an event.
+    def _locate(self, kind: int, t: float, h: float, mode: int = BLOCK, s: int = 1, R: float = 0.0,
+                u: float = 0.0) -> float:
+        """Time [s] after t of the first event of this kind inside (0, h] (:func:`locate_event`)."""
+        return locate_event(kind, h, t, mode, s, R, u, self.over_current_limit, *self._circuit(),
+                            self.i_f, self.v_c, self.i_L)
 
-        Advances self.time (to t + span, or to the located event); returns the link charge.
-        """
-        u = 0.0 if gate else v_out + self.V_d
-        R = self.R_L + (self.R_on if gate else 0.0)
-        en = self.energy
-        V_b = self.V_b
-        # Consistent mode at the piece start.
+    def _start_mode(self, u: float) -> None:
+        """The conduction mode consistent with the state at a piece start (module doc's modes):
+        a reverse-biased conducting diagonal starts an overlap (v_c snapped to 0, its energy
+        booked as numerical), a forward-biased bridge with i_L = 0 starts conduction."""
         if self.i_L > 0.0:
             if self.mode == OVERLAP:
                 if abs(self.i_f) > self.i_L:
                     self.mode, self.s = COND, (1 if self.i_f > 0.0 else -1)
             elif self.mode != COND or self.s * self.v_c < 0.0:
                 if self.s * self.v_c < 0.0:      # reverse biased diagonal: overlap (snap v_c)
-                    en.numerical += 0.5 * self.C_f * self.v_c * self.v_c
+                    self.energy.numerical += 0.5 * self.C_f * self.v_c * self.v_c
                     self.v_c = 0.0
                     self.mode = OVERLAP
                 else:
                     self.mode = COND
         else:
             self.i_L = 0.0
-            if abs(self.v_c) - V_b - u > 0.0:
+            if abs(self.v_c) - self.V_b - u > 0.0:
                 self.mode, self.s = COND, (1 if self.v_c > 0.0 else -1)
             else:
                 self.mode = BLOCK
+
+    def _piece_filter(self, t: float, span: float, gate: bool, v_out: float) -> float:
+        """Sub-steps of at most h_max over span [s] from t with a fixed gate; stops at an event.
+
+        Advances self.time (to t + span, or to the located event); returns the link charge.
+        The sub-steps are the compiled :func:`filter_substeps`; an event inside the last one
+        is located and taken by :meth:`_filter_event`.
+        """
+        u = 0.0 if gate else v_out + self.V_d
+        R = self.R_L + (self.R_on if gate else 0.0)
+        self._start_mode(u)
         mode, s = self.mode, self.s
-        lim = self.over_current_limit
-        R_f, L_f2, C_f2, L2 = self.R_f, 2.0 * self.L_f, 2.0 * self.C_f, 2.0 * self.L
-        vp, w, ph = self.v_peak, self.omega, self.line_phase
-        sin = math.sin
-        h_max = self.h_max
-        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
-        q = 0.0
-        e_grid = e_line = e_ind = e_sq = 0.0
-        t_end = t + span
-        eps = 1e-9 * span
-        h_c = -1.0
-        event = None
-        while True:
-            h = t_end - t
-            if h > h_max:
-                h = h_max if h - h_max > eps else h
-            if h != h_c:                       # coefficients of this sub-step length
-                h_c = h
-                al = L_f2 / h
-                g1 = 1.0 / (al + R_f)
-                be = C_f2 / h
-                ga = L2 / h
-                g3 = 1.0 / (ga + R)
-                k_c = 1.0 / (be + g1 + g3)
-                k_b = 1.0 / (be + g1)
-            vg = vp * sin(w * (t + 0.5 * h) + ph)
-            A1 = vg + al * i_f0
-            if mode == COND:
-                A3 = ga * i_L0 - V_b - u
-                b = (be * v_c0 + A1 * g1 - s * A3 * g3) * k_c
-                a = (A1 - b) * g1
-                c = (A3 + s * b) * g3
-                i_L1 = 2.0 * c - i_L0
-                v_c1 = 2.0 * b - v_c0
-                if i_L1 < 0.0 or (s * v_c1 < 0.0 < s * v_c0) or (
-                        gate and 0.0 < lim < i_L1 and i_L0 < lim):
-                    event = True
-            elif mode == BLOCK:
-                b = (be * v_c0 + A1 * g1) * k_b
-                a = (A1 - b) * g1
-                c = 0.0
-                v_c1 = 2.0 * b - v_c0
-                i_L1 = 0.0
-                if abs(v_c1) > V_b + u:
-                    event = True
-            else:  # OVERLAP
-                a = A1 * g1
-                b = 0.0
-                c = (ga * i_L0 - V_b - u) * g3
-                i_L1 = 2.0 * c - i_L0
-                v_c1 = 0.0
-                if i_L1 <= abs(2.0 * a - i_f0) or (gate and 0.0 < lim < i_L1 and i_L0 < lim):
-                    event = True
-            if event:
-                break
-            # Ledger (midpoint rule: closes exactly) and state.
-            e_grid += h * vg * a
-            e_line += h * a * a
-            if mode != BLOCK:
-                e_ind += h * c
-                e_sq += h * c * c
-                if not gate:
-                    q += h * c
-            i_f0, v_c0, i_L0 = 2.0 * a - i_f0, v_c1, i_L1
-            t += h
-            if t_end - t <= eps:
-                t = t_end
-                break
-        self.i_f, self.v_c, self.i_L = i_f0, v_c0, i_L0
+        (t, self.i_f, self.v_c, self.i_L, h, event, q, e_grid, e_line, e_ind, e_sq) = filter_substeps(
+            mode, s, gate, self.over_current_limit, self.V_b, u, R, self.R_f, 2.0 * self.L_f,
+            2.0 * self.C_f, 2.0 * self.L, self.v_peak, self.omega, self.line_phase, self.h_max, t, span,
+            self.i_f, self.v_c, self.i_L)
         self.time = t
         self._book(e_grid, e_line, e_ind, e_sq, q, gate, v_out)
         if event:
@@ -622,27 +750,27 @@ class FrontEnd:
         oc = gate and lim > 0.0 and i_L0 < lim
         if mode == COND:
             if i_L1 < 0.0:
-                cands.append(('zero', 2))
+                cands.append(('zero', EV_ZERO))
             if s * v_c1 < 0.0 < s * v_c0:
-                cands.append(('overlap', 1))
+                cands.append(('overlap', EV_OVERLAP))
             if oc and i_L1 > lim:
-                cands.append(('over_current', 3))
+                cands.append(('over_current', EV_OVER_CURRENT))
         elif mode == OVERLAP:
             if i_L1 - i_f1 <= 0.0:
-                cands.append(('overlap_end+', 4))
+                cands.append(('overlap_end+', EV_OVERLAP_END_POS))
             if i_L1 + i_f1 <= 0.0:
-                cands.append(('overlap_end-', 5))
+                cands.append(('overlap_end-', EV_OVERLAP_END_NEG))
             if oc and i_L1 > lim:
-                cands.append(('over_current', 3))
+                cands.append(('over_current', EV_OVER_CURRENT))
         else:
             thr = self.V_b + u
             if v_c1 - thr > 0.0:
-                cands.append(('start+', 6))
+                cands.append(('start+', EV_START_POS))
             if -v_c1 - thr > 0.0:
-                cands.append(('start-', 7))
+                cands.append(('start-', EV_START_NEG))
         best, event = h, None
         for name, kind in cands:
-            th = self._locate(self._quantity(t, mode, s, R, u, kind, lim), h)
+            th = self._locate(kind, t, h, mode, s, R, u)
             if th <= best:
                 best, event = th, name
         h = best
@@ -670,56 +798,6 @@ class FrontEnd:
         elif event == 'over_current':
             self._trip_over_current()
         return q
-
-    def _quantity(self, t, mode, s, R, u, kind, lim):
-        """Event quantity after a piece of length x (> 0 before the event)."""
-        i_f0, v_c0, i_L0 = self.i_f, self.v_c, self.i_L
-        thr = self.V_b + u
-
-        def f(x: float) -> float:
-            a, b, c, _ = self._mid(t, x, mode, s, R, u)
-            if kind == 2:
-                return 2.0 * c - i_L0
-            if kind == 1:
-                return s * (2.0 * b - v_c0)
-            if kind == 3:
-                return lim - (2.0 * c - i_L0)
-            if kind == 4:
-                return (2.0 * c - i_L0) - (2.0 * a - i_f0)
-            if kind == 5:
-                return (2.0 * c - i_L0) + (2.0 * a - i_f0)
-            if kind == 6:
-                return thr - (2.0 * b - v_c0)
-            return thr + (2.0 * b - v_c0)
-        return f
-
-    @staticmethod
-    def _locate(f, h: float) -> float:
-        """Smallest x in (0, h] with f(x) <= 0, given f(0+) > 0 >= f(h) (Illinois)."""
-        lo, hi = 0.0, h
-        f_lo = f(h * 1e-9)
-        if f_lo <= 0.0:
-            return h * 1e-9
-        f_hi = f(h)
-        side = 0
-        for _ in range(60):
-            x = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-            if not lo < x < hi:
-                x = 0.5 * (lo + hi)
-            fx = f(x)
-            if fx <= 0.0:
-                hi, f_hi = x, fx
-                if side == -1:
-                    f_lo *= 0.5
-                side = -1
-            else:
-                lo, f_lo = x, fx
-                if side == 1:
-                    f_hi *= 0.5
-                side = 1
-            if hi - lo <= 1e-12 * h or f_hi == 0.0:
-                break
-        return hi
 
     def _trip_over_current(self) -> None:
         self.over_current = True

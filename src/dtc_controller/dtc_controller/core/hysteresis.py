@@ -10,6 +10,21 @@ error crosses zero.
 """
 from __future__ import annotations
 
+from drive_common.compiled import interpreted, njit
+
+
+@njit
+def two_level(state: int, band: float, error: float) -> int:
+    """Eqs. (1.19)-(1.20): +1 once error > +H, -1 once error < -H, else the held state."""
+    if error > band:
+        return 1
+    if error < -band:
+        return -1
+    return state
+
+
+_two_level = interpreted(two_level)   # the classes' per-call path (no dispatch cost)
+
 
 class TwoLevelHysteresis:
     """Output +1 / -1 with half-width band H (>= 0). ``state`` is the last output."""
@@ -22,10 +37,7 @@ class TwoLevelHysteresis:
 
     def update(self, error: float) -> int:
         """New output for error = reference - actual."""
-        if error > self.band:
-            self.state = 1
-        elif error < -self.band:
-            self.state = -1
+        self.state = _two_level(self.state, self.band, error)
         return self.state
 
     def reset(self, initial: int = 1) -> None:

@@ -7,6 +7,32 @@ integrator itself.
 """
 from __future__ import annotations
 
+from drive_common.compiled import interpreted, njit
+
+
+@njit
+def speed_pi_update(kp: float, ki: float, every_n: int, sample_period: float, lim: float,
+                    integral: float, output: float, count: int, speed_reference: float, speed: float):
+    """One call of the PI (module doc; runs on every N-th call): (integral, output, count)."""
+    if count == 0:
+        err = speed_reference - speed
+        dt = every_n * sample_period
+        p_term = kp * err
+        candidate = integral + ki * err * dt
+        unsat = p_term + candidate
+        # conditional integration: do not integrate further into saturation
+        if not ((unsat > lim and err > 0.0) or (unsat < -lim and err < 0.0)):
+            integral = max(-lim, min(lim, candidate))
+        out = p_term + integral
+        output = lim if out > lim else -lim if out < -lim else out
+    count += 1
+    if count >= every_n:
+        count = 0
+    return integral, output, count
+
+
+_speed_pi_update = interpreted(speed_pi_update)   # SpeedPI's per-call path (no dispatch cost)
+
 
 class SpeedPI:
     """PI speed controller; kp [N m s/rad], ki [N m/rad], period = every_n * sample_period [s]."""
@@ -36,19 +62,7 @@ class SpeedPI:
 
     def update(self, speed_reference: float, speed: float) -> float:
         """Call every sample; runs the PI on every N-th call (the first call runs); returns T* [N m]."""
-        if self._count == 0:
-            err = speed_reference - speed
-            lim = self.torque_limit
-            dt = self.every_n * self.sample_period
-            p_term = self.kp * err
-            candidate = self.integral + self.ki * err * dt
-            unsat = p_term + candidate
-            # conditional integration: do not integrate further into saturation
-            if not ((unsat > lim and err > 0.0) or (unsat < -lim and err < 0.0)):
-                self.integral = max(-lim, min(lim, candidate))
-            out = p_term + self.integral
-            self.output = lim if out > lim else -lim if out < -lim else out
-        self._count += 1
-        if self._count >= self.every_n:
-            self._count = 0
+        self.integral, self.output, self._count = _speed_pi_update(
+            self.kp, self.ki, self.every_n, self.sample_period, self.torque_limit, self.integral,
+            self.output, self._count, speed_reference, speed)
         return self.output

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import interpreted, njit
+
 from .flux_estimator import VoltageModelFluxEstimator
 
 PureIntegrator = VoltageModelFluxEstimator
@@ -53,6 +55,34 @@ class _LeakyBase(VoltageModelFluxEstimator):
         self._leak = 1.0 - math.exp(-self.cutoff * self.sample_period)
 
 
+INTEGRATORS = ('pure', 'low_pass', 'hu_wu')
+"""Integrator kinds; :func:`integrator_step` takes the position in this tuple."""
+
+
+@njit
+def integrator_step(kind: int, r: float, ts: float, leak: float, limit: float, pa: float, pb: float,
+                    i_prev_alpha: float, i_prev_beta: float, v_alpha_prev: float, v_beta_prev: float,
+                    i_alpha: float, i_beta: float):
+    """New (psi_alpha, psi_beta) [Wb] of a primed voltage-model integrator (module doc), kind 0 pure,
+    1 low-pass, 2 Hu-Wu (leak = 1 - exp(-w_c T_s), limit [Wb])."""
+    pa_new = pa + (v_alpha_prev - r * 0.5 * (i_prev_alpha + i_alpha)) * ts
+    pb_new = pb + (v_beta_prev - r * 0.5 * (i_prev_beta + i_beta)) * ts
+    if kind == 1:
+        pa_new -= leak * pa
+        pb_new -= leak * pb
+    elif kind == 2:
+        m2 = pa * pa + pb * pb
+        if m2 > limit * limit:
+            # y - z = y (1 - L/|y|): leak only the part beyond the limiter circle.
+            g = leak * (1.0 - limit / math.sqrt(m2))
+            pa_new -= g * pa
+            pb_new -= g * pb
+    return pa_new, pb_new
+
+
+_integrator_step = interpreted(integrator_step)   # the classes' per-call path (no dispatch cost)
+
+
 class LowPassIntegrator(_LeakyBase):
     """psi(k) = psi(k-1) + T_s x - (1 - e^{-w_c T_s}) psi(k-1) (001 sec. IV, w_c = 5 rad/s)."""
 
@@ -61,10 +91,9 @@ class LowPassIntegrator(_LeakyBase):
     def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
         """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
         if self._primed:
-            r, ts, lk = self.resistance, self.sample_period, self._leak
-            pa, pb = self.psi_alpha, self.psi_beta
-            self.psi_alpha = pa + (v_alpha_prev - r * 0.5 * (self._i_alpha + i_alpha)) * ts - lk * pa
-            self.psi_beta = pb + (v_beta_prev - r * 0.5 * (self._i_beta + i_beta)) * ts - lk * pb
+            self.psi_alpha, self.psi_beta = _integrator_step(
+                1, self.resistance, self.sample_period, self._leak, 0.0, self.psi_alpha, self.psi_beta,
+                self._i_alpha, self._i_beta, v_alpha_prev, v_beta_prev, i_alpha, i_beta)
         self._primed = True
         self._i_alpha = i_alpha
         self._i_beta = i_beta
@@ -84,25 +113,16 @@ class HuWuIntegrator(_LeakyBase):
     def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
         """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
         if self._primed:
-            r, ts = self.resistance, self.sample_period
-            pa, pb = self.psi_alpha, self.psi_beta
-            pa_new = pa + (v_alpha_prev - r * 0.5 * (self._i_alpha + i_alpha)) * ts
-            pb_new = pb + (v_beta_prev - r * 0.5 * (self._i_beta + i_beta)) * ts
-            m2 = pa * pa + pb * pb
-            lim = self.limit
-            if m2 > lim * lim:
-                # y - z = y (1 - L/|y|): leak only the part beyond the limiter circle.
-                g = self._leak * (1.0 - lim / math.sqrt(m2))
-                pa_new -= g * pa
-                pb_new -= g * pb
-            self.psi_alpha = pa_new
-            self.psi_beta = pb_new
+            self.psi_alpha, self.psi_beta = _integrator_step(
+                2, self.resistance, self.sample_period, self._leak, self.limit, self.psi_alpha,
+                self.psi_beta, self._i_alpha, self._i_beta, v_alpha_prev, v_beta_prev, i_alpha, i_beta)
         self._primed = True
         self._i_alpha = i_alpha
         self._i_beta = i_beta
         return self.psi_alpha, self.psi_beta
 
 
+@njit
 def compensate_low_pass(psi_alpha: float, psi_beta: float, omega_e: float, cutoff: float,
                         min_speed: float = 1e-3) -> tuple[float, float]:
     """Undo the LPF's gain/phase error for a sinusoidal flux at w_e [rad/s]: psi = y (1 - j w_c / w_e).
@@ -146,6 +166,7 @@ class CurrentModelFlux:
         return math.hypot(self.psi_alpha, self.psi_beta)
 
 
+@njit
 def rotor_angle(psi_alpha: float, psi_beta: float, i_alpha: float, i_beta: float, inductance: float) -> float:
     """000 eq. (5.38): electrical rotor angle [rad, 0..2 pi) from stator flux [Wb], current [A], L_s [H]."""
     return math.atan2(psi_beta - inductance * i_beta, psi_alpha - inductance * i_alpha) % TWO_PI

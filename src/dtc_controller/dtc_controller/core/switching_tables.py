@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
+
 from .vectors import HIGH, LOW, OPEN, VoltageVector
 
 SECTOR_WIDTH = math.pi / 3.0
@@ -41,6 +43,7 @@ def sector_center(sector: int) -> float:
     return (sector - 1) * SECTOR_WIDTH
 
 
+@njit
 def sector_of_angle(theta: float) -> int:
     """Sector 1..6 containing angle theta [rad] (sector 1 = [-30, 30) deg)."""
     return int(((theta + 0.5 * SECTOR_WIDTH) % (2.0 * math.pi)) // SECTOR_WIDTH) % 6 + 1

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
 from drive_common.signals import clarke
 
 from .switching_tables import derive_flux_table, sector_of_angle, select_vector
@@ -120,6 +121,7 @@ def four_sector_center(sector: int) -> float:
     return (sector - 0.5) * QUARTER
 
 
+@njit
 def four_sector_of_angle(theta: float) -> int:
     """Sector 1..4 (I..IV) of a flux angle [rad]; sector I = [0, 90) deg."""
     return int((theta % TWO_PI) // QUARTER) % 4 + 1
@@ -163,12 +165,3 @@ def printed_000_typos() -> list[str]:
                            f'circuit V{derived[0]}({derived[1]})')
     return out
 
-
-def format_table(table: dict, sectors, code=lambda v: v.code(6)) -> str:
-    """Compact text of a {(sector, phi, tau): vector} table, one line per (phi, tau)."""
-    lines = []
-    for phi in (1, -1):
-        for tau in (1, -1):
-            cells = ' '.join(f'{table[(s, phi, tau)].name}({code(table[(s, phi, tau)])})' for s in sectors)
-            lines.append(f'phi={phi:+d} tau={tau:+d}: {cells}')
-    return '\n'.join(lines)

@@ -24,11 +24,13 @@ with these formulas (pinned by tests). Values change at runtime (attributes).
 """
 from __future__ import annotations
 
+from drive_common.compiled import interpreted, njit
 from drive_common.signals import INV_SQRT3
 
 SCHEMES = ('none', 'simple', 'proposed')
 
 
+@njit
 def forward_drop(upper_on: bool, current: float, v_ce: float, v_d: float) -> float:
     """001 Table III: forward voltage drop v_f [V] of one leg (positive = terminal below the ideal)."""
     if current > 0.0:
@@ -44,8 +46,24 @@ def leg_terminal_voltage(upper_on: bool, current: float, v_dc: float, v_ce: floa
     return (v_dc if upper_on else 0.0) - forward_drop(upper_on, current, v_ce, v_d) - r_on * current
 
 
-def _sign(x: float) -> float:
-    return 1.0 if x > 0.0 else -1.0 if x < 0.0 else 0.0
+@njit
+def leg_drop(simple: bool, upper_on: bool, current: float, v_ce: float, v_d: float, v_f: float,
+             r_on: float) -> float:
+    """Drop [V] the scheme assumes on one switched leg: Table V's v_f sign(i) (simple), or Table III's
+    v_f plus R_on i (proposed)."""
+    if simple:
+        return v_f * (1.0 if current > 0.0 else -1.0 if current < 0.0 else 0.0)
+    return forward_drop(upper_on, current, v_ce, v_d) + r_on * current
+
+
+@njit
+def drop_correction(d_a: float, d_b: float, d_c: float) -> tuple[float, float]:
+    """(dv_alpha, dv_beta) [V]: Clarke of the negated leg drops d_x [V] (add to the ideal voltage)."""
+    return (d_b + d_c - 2.0 * d_a) / 3.0, (d_c - d_b) * INV_SQRT3
+
+
+_leg_drop = interpreted(leg_drop)                 # the class's per-call path (no dispatch cost)
+_drop_correction = interpreted(drop_correction)
 
 
 class VoltageDropCompensation:
@@ -76,20 +94,17 @@ class VoltageDropCompensation:
         scheme = self.scheme
         if scheme == 'none':
             return tuple(out)
+        simple = scheme == 'simple'
         for x in self._legs:
-            i = currents[x]
-            if scheme == 'simple':
-                out[x] = self.v_f * _sign(i)
-            else:
-                out[x] = forward_drop(switch_on[2 * x], i, self.v_ce, self.v_d) + self.r_on * i
+            out[x] = _leg_drop(simple, bool(switch_on[2 * x]), currents[x], self.v_ce, self.v_d, self.v_f,
+                               self.r_on)
         return tuple(out)
 
     def correction(self, switch_on: tuple, currents: tuple) -> tuple[float, float]:
         """(dv_alpha, dv_beta) [V] = Clarke of the negated leg drops; add to the ideal voltage."""
         if self.scheme == 'none':
             return 0.0, 0.0
-        d_a, d_b, d_c = self.leg_drops(switch_on, currents)
-        return (d_b + d_c - 2.0 * d_a) / 3.0, (d_c - d_b) * INV_SQRT3
+        return _drop_correction(*self.leg_drops(switch_on, currents))
 
 
 def table_v(v_f: float) -> dict:

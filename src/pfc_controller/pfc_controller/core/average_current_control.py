@@ -58,10 +58,13 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+import numpy as np
+
+from drive_common.compiled import njit
 from drive_common.samples import DutySample, PfcSample
 
-from pfc_controller.core.feedforward import LinePeriodAverage, feedforward_c
-from pfc_controller.core.pi import PiController
+from pfc_controller.core.feedforward import LinePeriodAverage, average_update, feedforward_c
+from pfc_controller.core.pi import pi_update
 from pfc_controller.parameters import PFC_SCHEMA
 
 
@@ -84,17 +87,116 @@ class PfcStatusSample:
     over_voltage: bool
 
 
+# Parameter vector of the compiled step (float64; flags 0/1), filled by PfcCore.reconfigure.
+(P_KM, P_INV_VMAX, P_INV_VBASE, P_IBASE, P_INV_IBASE, P_RAMP_STEP, P_VREF, P_OC_LIMIT, P_OV_LIMIT,
+ P_ENABLE, P_DUTY_FF, P_SCALE, P_DUTY_MAX, P_VKP, P_VKI, P_VMAX_OUT, P_CKP, P_CKI, P_AVG_FRAC,
+ P_SIZE) = range(20)
+# Loop state (float64; flags 0/1): voltage PI, current PI, ramped reference (NaN: restart), B.
+(S_VI, S_VU, S_VSAT, S_CI, S_CU, S_CSAT, S_REF, S_B, S_WAS_ENABLED, S_SIZE) = range(10)
+# Outputs of one step, in PfcStatusSample's order from 'enabled' on, then the duty's enable.
+(O_ENABLED, O_VREF, O_A, O_B, O_C, O_IREF, O_CLOOP, O_DUTY, O_VSAT, O_CSAT, O_OC, O_OV,
+ O_SWITCH, O_SIZE) = range(14)
+
+
+@njit
+def _ramp_reference(prm, st, v_o: float) -> float:
+    """Soft start: the reference moves from the measured v_o to V_o* at the ramp rate."""
+    target = prm[P_VREF]
+    step = prm[P_RAMP_STEP]
+    ref = st[S_REF]
+    if ref != ref:  # NaN: (re)start the soft start from the measured voltage
+        ref = min(v_o, target) if step > 0.0 else target
+    if step <= 0.0:
+        ref = target
+    elif ref < target:
+        ref = min(ref + step, target)
+    elif ref > target:
+        ref = max(ref - step, target)
+    st[S_REF] = ref
+    return ref
+
+
+@njit
+def _disabled_or_tripped(prm, st, out, enabled: bool, v_ref: float) -> None:
+    """Duty 0: loops reset on disable (eq. 3.1 not evaluated), current PI reset on a trip."""
+    out[O_ENABLED] = 1.0 if enabled else 0.0
+    out[O_SWITCH] = out[O_ENABLED]
+    out[O_VREF] = v_ref
+    out[O_CLOOP] = 0.0
+    out[O_DUTY] = 0.0
+    out[O_CSAT] = 0.0
+    if enabled:
+        st[S_CI] = 0.0
+        st[S_CU] = 0.0
+        st[S_CSAT] = 0.0
+        out[O_B] = st[S_B]
+        out[O_IREF] = prm[P_KM] * out[O_A] * st[S_B] * out[O_C] * prm[P_IBASE]
+        out[O_VSAT] = st[S_VSAT]
+        return
+    if st[S_WAS_ENABLED] != 0.0:
+        st[S_VI] = st[S_VU] = st[S_VSAT] = 0.0
+        st[S_CI] = st[S_CU] = st[S_CSAT] = 0.0
+        st[S_B] = 0.0
+    st[S_WAS_ENABLED] = 0.0
+    st[S_REF] = math.nan
+    out[O_B] = 0.0
+    out[O_IREF] = 0.0
+    out[O_VSAT] = 0.0
+
+
+@njit
+def pfc_step(prm, st, buf, avg, n_avg: int, v_in: float, v_o: float, i_l: float, out) -> None:
+    """One control sample (module doc: eqs. 3.1-3.6, the two PIs, protection) into out[O_*]."""
+    a = max(v_in, 0.0) * prm[P_INV_VMAX]                                   # A, eq. (3.2) base V_max
+    c = feedforward_c(average_update(buf, avg, n_avg, prm[P_AVG_FRAC], a), prm[P_KM])  # C (3.2)-(3.5)
+    out[O_A] = a
+    out[O_C] = c
+    out[O_OC] = 1.0 if i_l > prm[P_OC_LIMIT] else 0.0
+    out[O_OV] = 1.0 if v_o > prm[P_OV_LIMIT] else 0.0
+    if prm[P_ENABLE] == 0.0:
+        _disabled_or_tripped(prm, st, out, False, prm[P_VREF])
+        return
+    st[S_WAS_ENABLED] = 1.0
+    v_ref = _ramp_reference(prm, st, v_o)
+    if out[O_OC] != 0.0 or out[O_OV] != 0.0:
+        _disabled_or_tripped(prm, st, out, True, v_ref)
+        return
+    b, st[S_VI], st[S_VU], vsat = pi_update(prm[P_VKP], prm[P_VKI], 0.0, prm[P_VMAX_OUT], st[S_VI],
+                                            (v_ref - v_o) * prm[P_INV_VBASE])  # B, voltage PI G_v
+    st[S_VSAT] = 1.0 if vsat else 0.0
+    st[S_B] = b
+    i_ref_pu = prm[P_KM] * a * b * c                                       # eq. (3.1)
+    d_ff = (1.0 - v_in / v_o) if (prm[P_DUTY_FF] != 0.0 and v_o > v_in > 0.0) else 0.0
+    scale = prm[P_SCALE]
+    d_max = prm[P_DUTY_MAX]
+    u, st[S_CI], st[S_CU], csat = pi_update(prm[P_CKP], prm[P_CKI], (0.0 - d_ff) / scale,
+                                            (d_max - d_ff) / scale, st[S_CI],
+                                            i_ref_pu - i_l * prm[P_INV_IBASE])  # current PI G_i
+    st[S_CSAT] = 1.0 if csat else 0.0
+    out[O_ENABLED] = out[O_SWITCH] = 1.0
+    out[O_VREF] = v_ref
+    out[O_B] = b
+    out[O_IREF] = i_ref_pu * prm[P_IBASE]
+    out[O_CLOOP] = d_ff + scale * st[S_CU]
+    out[O_DUTY] = min(max(d_ff + scale * u, 0.0), d_max)
+    out[O_VSAT] = st[S_VSAT]
+    out[O_CSAT] = st[S_CSAT]
+    out[O_OC] = out[O_OV] = 0.0
+
+
 class PfcCore:
-    """Average current control PFC (eqs. 3.1-3.6); ``update`` once per sample."""
+    """Average current control PFC (eqs. 3.1-3.6); ``update`` once per sample.
+
+    The per-sample arithmetic is the compiled :func:`pfc_step` on float64 arrays held here.
+    """
 
     def __init__(self, params: Mapping[str, Any] | None = None) -> None:
         self._p: dict[str, Any] = {}
         self._average: LinePeriodAverage | None = None
-        self._voltage_pi = PiController(0.0, 0.0, 0.0, 1.0)
-        self._current_pi = PiController(0.0, 0.0, -1.0, 1.0)
-        self._reference = math.nan       # V, ramped reference; NaN = start from measurement
-        self._b = 0.0
-        self._was_enabled = False
+        self._prm = np.zeros(P_SIZE)
+        self._st = np.zeros(S_SIZE)
+        self._st[S_REF] = math.nan       # V, ramped reference; NaN = start from measurement
+        self._out = np.zeros(O_SIZE)
         self.reconfigure(PFC_SCHEMA.resolve(dict(params or {})))
 
     @property
@@ -104,7 +206,7 @@ class PfcCore:
     @property
     def km(self) -> float:
         """Eq. (3.6): K_m = V_max / V_min."""
-        return self._km
+        return float(self._prm[P_KM])
 
     def check(self, params: Mapping[str, Any]) -> dict[str, Any]:
         """The validated snapshot of a parameter change; ParameterError / ValueError to refuse it.
@@ -126,84 +228,37 @@ class PfcCore:
         if self._line_period_changed(p):
             self._average = LinePeriodAverage(p['line_frequency'], p['sample_period'])
         self._p = p
-        self._km = p['input_voltage_max'] / p['input_voltage_min']
-        self._inv_vmax = 1.0 / p['input_voltage_max']
-        self._inv_vbase = 1.0 / p['output_voltage_base']
-        self._ibase = p['current_base']
-        self._inv_ibase = 1.0 / p['current_base']
-        self._ramp_step = p['voltage_reference_ramp_rate'] * p['sample_period']
-        vpi, cpi = self._voltage_pi, self._current_pi
-        vpi.kp, vpi.ki, vpi.out_min, vpi.out_max = (
-            p['voltage_kp'], p['voltage_ki'], 0.0, p['voltage_loop_output_max'])
-        vpi.integral = min(vpi.integral, vpi.out_max)
-        cpi.kp, cpi.ki = p['current_kp'], p['current_ki']
+        prm = self._prm
+        prm[P_KM] = p['input_voltage_max'] / p['input_voltage_min']
+        prm[P_INV_VMAX] = 1.0 / p['input_voltage_max']
+        prm[P_INV_VBASE] = 1.0 / p['output_voltage_base']
+        prm[P_IBASE] = p['current_base']
+        prm[P_INV_IBASE] = 1.0 / p['current_base']
+        prm[P_RAMP_STEP] = p['voltage_reference_ramp_rate'] * p['sample_period']
+        prm[P_VREF] = p['voltage_reference']
+        prm[P_OC_LIMIT] = p['over_current_limit']
+        prm[P_OV_LIMIT] = p['over_voltage_limit']
+        prm[P_ENABLE] = 1.0 if p['enable'] else 0.0
+        prm[P_DUTY_FF] = 1.0 if p['duty_feedforward'] else 0.0
+        prm[P_SCALE] = p['current_loop_output_scale']
+        prm[P_DUTY_MAX] = p['duty_max']
+        prm[P_VKP], prm[P_VKI], prm[P_VMAX_OUT] = p['voltage_kp'], p['voltage_ki'], p['voltage_loop_output_max']
+        prm[P_CKP], prm[P_CKI] = p['current_kp'], p['current_ki']
+        prm[P_AVG_FRAC] = self._average.frac
+        self._st[S_VI] = min(self._st[S_VI], prm[P_VMAX_OUT])
 
     def reset(self) -> None:
         """Back to the power-up state (loops cleared, feed-forward history dropped)."""
-        self._voltage_pi.reset()
-        self._current_pi.reset()
+        self._st[:] = 0.0
+        self._st[S_REF] = math.nan
         self._average.reset()
-        self._reference = math.nan
-        self._b = 0.0
-        self._was_enabled = False
-
-    def _ramp_reference(self, v_o: float) -> float:
-        target = self._p['voltage_reference']
-        ref = self._reference
-        if ref != ref:  # NaN: (re)start the soft start from the measured voltage
-            ref = min(v_o, target) if self._ramp_step > 0.0 else target
-        if self._ramp_step <= 0.0:
-            ref = target
-        elif ref < target:
-            ref = min(ref + self._ramp_step, target)
-        elif ref > target:
-            ref = max(ref - self._ramp_step, target)
-        self._reference = ref
-        return ref
 
     def update(self, sample: PfcSample) -> tuple[DutySample, PfcStatusSample]:
         """One control sample: measurement at t_k -> duty for [t_k, t_k + T_s) and status."""
-        p = self._p
-        v_in = sample.rectified_voltage
-        v_o = sample.output_voltage
-        i_l = sample.inductor_current
-        a = max(v_in, 0.0) * self._inv_vmax                     # A, eq. (3.2) base V_max
-        c = feedforward_c(self._average.update(a), self._km)     # C, eqs. (3.2)-(3.5)
-        over_current = i_l > p['over_current_limit']
-        over_voltage = v_o > p['over_voltage_limit']
-        vpi, cpi = self._voltage_pi, self._current_pi
-
-        if not p['enable']:
-            if self._was_enabled:
-                vpi.reset()
-                cpi.reset()
-                self._b = 0.0
-            self._was_enabled = False
-            self._reference = math.nan
-            return (DutySample(sample.step, 0.0, False),
-                    PfcStatusSample(sample.step, False, p['voltage_reference'], a, 0.0, c, 0.0,
-                                    0.0, 0.0, False, False, over_current, over_voltage))
-        self._was_enabled = True
-        v_ref = self._ramp_reference(v_o)
-
-        if over_current or over_voltage:
-            cpi.reset()
-            cpi.saturated = False
-            i_ref = self._km * a * self._b * c * self._ibase
-            return (DutySample(sample.step, 0.0, True),
-                    PfcStatusSample(sample.step, True, v_ref, a, self._b, c, i_ref, 0.0, 0.0,
-                                    vpi.saturated, False, over_current, over_voltage))
-
-        b = vpi.update((v_ref - v_o) * self._inv_vbase)           # B, voltage PI G_v
-        self._b = b
-        i_ref_pu = self._km * a * b * c                           # eq. (3.1)
-        d_ff = (1.0 - v_in / v_o) if (p['duty_feedforward'] and v_o > v_in > 0.0) else 0.0
-        scale = p['current_loop_output_scale']
-        d_max = p['duty_max']
-        u = cpi.update(i_ref_pu - i_l * self._inv_ibase,          # current PI G_i
-                       (0.0 - d_ff) / scale, (d_max - d_ff) / scale)
-        duty = min(max(d_ff + scale * u, 0.0), d_max)
-        return (DutySample(sample.step, duty, True),
-                PfcStatusSample(sample.step, True, v_ref, a, b, c, i_ref_pu * self._ibase,
-                                d_ff + scale * cpi.output_unlimited, duty,
-                                vpi.saturated, cpi.saturated, False, False))
+        avg = self._average
+        pfc_step(self._prm, self._st, avg.buffer, avg.state, avg.n, float(sample.rectified_voltage),
+                 float(sample.output_voltage), float(sample.inductor_current), self._out)
+        (enabled, v_ref, a, b, c, i_ref, c_loop, duty, vsat, csat, oc, ov, switch) = self._out.tolist()
+        return (DutySample(sample.step, duty, switch != 0.0),
+                PfcStatusSample(sample.step, enabled != 0.0, v_ref, a, b, c, i_ref, c_loop, duty,
+                                vsat != 0.0, csat != 0.0, oc != 0.0, ov != 0.0))

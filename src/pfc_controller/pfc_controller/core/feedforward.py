@@ -16,12 +16,41 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from drive_common.compiled import libm_pow, njit
+
+
+# Running state of a line-period average (float64 array): ring index, samples seen, window sum.
+AVG_INDEX, AVG_COUNT, AVG_SUM = 0, 1, 2
+
+
+@njit
+def average_update(buf, st, n: int, frac: float, value: float) -> float:
+    """Add value to the ring buf (n + 1 slots, state st); return the mean over the last line period."""
+    size = n + 1
+    i = int(st[AVG_INDEX])
+    count = int(st[AVG_COUNT])
+    # The slot being overwritten held the sample n+1 back; the one n back leaves the sum.
+    leaving = buf[(i + 1) % size] if count >= n else 0.0
+    buf[i] = value
+    st[AVG_SUM] += value - leaving
+    st[AVG_INDEX] = (i + 1) % size
+    count += 1
+    st[AVG_COUNT] = count
+    if count <= n:
+        return st[AVG_SUM] / count
+    older = buf[(i + 1) % size]  # now the sample n+1 back
+    return (st[AVG_SUM] + frac * older) / (n + frac)
 
 
 class LinePeriodAverage:
-    """Running mean of a sampled signal over one line period (O(1) per sample)."""
+    """Running mean of a sampled signal over one line period (O(1) per sample).
 
-    __slots__ = ('_buffer', '_n', '_frac', '_index', '_count', '_sum')
+    State in float64 arrays (``buffer``, ``state``) that compiled kernels update in place.
+    """
+
+    __slots__ = ('buffer', 'state', '_n', '_frac')
 
     def __init__(self, line_frequency: float, sample_period: float) -> None:
         if line_frequency <= 0.0 or sample_period <= 0.0:
@@ -33,10 +62,18 @@ class LinePeriodAverage:
         frac = window - n
         self._n = n
         self._frac = frac if frac > 1e-9 else 0.0
-        self._buffer = [0.0] * (n + 1)  # ring: the last n samples plus the one before (floats)
-        self._index = 0
-        self._count = 0
-        self._sum = 0.0   # sum of the last n samples
+        self.buffer = np.zeros(n + 1)  # ring: the last n samples plus the one before
+        self.state = np.zeros(3)
+
+    @property
+    def n(self) -> int:
+        """Whole samples in the window."""
+        return self._n
+
+    @property
+    def frac(self) -> float:
+        """Weight of the sample n + 1 back (fractional part of T / T_s)."""
+        return self._frac
 
     @property
     def window(self) -> float:
@@ -44,31 +81,18 @@ class LinePeriodAverage:
         return self._n + self._frac
 
     def reset(self) -> None:
-        self._buffer = [0.0] * (self._n + 1)
-        self._index = 0
-        self._count = 0
-        self._sum = 0.0
+        self.buffer[:] = 0.0
+        self.state[:] = 0.0
 
     def update(self, value: float) -> float:
         """Add one sample; return the average over the last line period."""
-        buf = self._buffer
-        size = self._n + 1
-        i = self._index
-        # The slot being overwritten held the sample n+1 back; the one n back leaves the sum.
-        leaving = buf[(i + 1) % size] if self._count >= self._n else 0.0
-        buf[i] = value
-        self._sum += value - leaving
-        self._index = (i + 1) % size
-        self._count += 1
-        if self._count <= self._n:
-            return self._sum / self._count
-        older = buf[(i + 1) % size]  # now the sample n+1 back
-        return (self._sum + self._frac * older) / (self._n + self._frac)
+        return float(average_update(self.buffer, self.state, self._n, self._frac, float(value)))
 
 
+@njit
 def feedforward_c(vdc_pu: float, km: float) -> float:
     """Eq. (3.5): C = V_inv(pu)^2 = 4 / (pi * V_dc(pu) * K_m)^2, V_dc(pu) clamped to the design range."""
     lo = 2.0 / (math.pi * km)
     hi = 2.0 / math.pi
     v = min(max(vdc_pu, lo), hi)
-    return 4.0 / (math.pi * v * km) ** 2
+    return 4.0 / libm_pow(math.pi * v * km, 2.0)   # CPython's float ** 2 (libm pow)

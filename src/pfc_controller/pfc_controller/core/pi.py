@@ -16,6 +16,34 @@ call (the current loop's limits move with the duty feed-forward).
 """
 from __future__ import annotations
 
+from drive_common.compiled import interpreted, njit
+
+
+@njit
+def pi_update(kp: float, ki: float, lo: float, hi: float, integral: float, error: float):
+    """One sample of the limited series PI (module doc): (output, integral, unlimited, saturated)."""
+    if lo > hi:  # degenerate window (e.g. feed-forward beyond the duty range)
+        lo = hi
+    proportional = kp * error
+    candidate = integral + ki * proportional
+    unlimited = proportional + candidate
+    if unlimited > hi and error > 0.0:      # winding up: integrate only up to the limit
+        candidate = max(integral, min(candidate, hi - proportional))
+    elif unlimited < lo and error < 0.0:    # winding down
+        candidate = min(integral, max(candidate, lo - proportional))
+    integral = min(max(candidate, lo), hi)
+    unlimited = proportional + integral
+    # Flag = anti-windup active: output on a limit and the error pushing beyond it.
+    if unlimited >= hi:
+        return hi, integral, unlimited, unlimited > hi or error > 0.0
+    if unlimited <= lo:
+        return lo, integral, unlimited, unlimited < lo or error < 0.0
+    return unlimited, integral, unlimited, False
+
+
+_pi_update = interpreted(pi_update)   # PiController's per-call path (no dispatch cost)
+
+
 
 class PiController:
     """Per-unit PI executed once per sample period (gains dimensionless)."""
@@ -44,24 +72,6 @@ class PiController:
         """One sample: return the limited output for error (per unit)."""
         lo = self.out_min if out_min is None else out_min
         hi = self.out_max if out_max is None else out_max
-        if lo > hi:  # degenerate window (e.g. feed-forward beyond the duty range)
-            lo = hi
-        proportional = self.kp * error
-        candidate = self.integral + self.ki * proportional
-        unlimited = proportional + candidate
-        if unlimited > hi and error > 0.0:      # winding up: integrate only up to the limit
-            candidate = max(self.integral, min(candidate, hi - proportional))
-        elif unlimited < lo and error < 0.0:    # winding down
-            candidate = min(self.integral, max(candidate, lo - proportional))
-        self.integral = min(max(candidate, lo), hi)
-        unlimited = proportional + self.integral
-        self.output_unlimited = unlimited
-        # Flag = anti-windup active: output on a limit and the error pushing beyond it.
-        if unlimited >= hi:
-            self.saturated = unlimited > hi or error > 0.0
-            return hi
-        if unlimited <= lo:
-            self.saturated = unlimited < lo or error < 0.0
-            return lo
-        self.saturated = False
-        return unlimited
+        out, self.integral, self.output_unlimited, self.saturated = _pi_update(
+            self.kp, self.ki, lo, hi, self.integral, error)
+        return out

@@ -22,10 +22,8 @@
 """
 from __future__ import annotations
 
-import math
-
 from ..hysteresis import TwoLevelHysteresis
-from ..status import NAN, DtcStatusSample
+from . import three_phase_kernel as K
 from .three_phase_pmsm import ThreePhaseBase
 
 
@@ -38,6 +36,7 @@ class ThreePhaseDtifcMode(ThreePhaseBase):
     default_integrator = 'hu_wu'
     default_position = 'sensorless'
     table_required = True
+    dq_torque = True
 
     def __init__(self, params, backemf) -> None:
         super().__init__(params, backemf)
@@ -47,28 +46,4 @@ class ThreePhaseDtifcMode(ThreePhaseBase):
         super().configure(params)
         self.id_reference = float(params['dtifc.d_current_reference'])
         self.id_hyst.band = float(params['dtifc.d_current_band'])
-
-    def step(self, s):
-        """One sample: DriveSample -> (switch tuple, DtcStatusSample)."""
-        i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid = self.measure(s)
-        psi_al, psi_be = self.estimate_flux(i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid)
-        theta, w_e = self.angle_and_speed(psi_al, psi_be, i_al, i_be, theta_enc, s.mechanical_speed)
-        c, sn = math.cos(theta), math.sin(theta)
-        i_d = i_al * c + i_be * sn
-        i_q = -i_al * sn + i_be * c
-        k_d, k_q = self.dq.k_dq(theta)
-        torque = 1.5 * self.pole_pairs * (k_d * i_d + k_q * i_q)          # eq. (5.32)
-        speed_m = w_e / self.pole_pairs if self.sensorless else s.mechanical_speed
-        t_ref, speed_ref = self.torque_reference_now(speed_m)
-        rot = self.rotation
-        tau = self.torque_hyst.update(rot * (t_ref - torque))
-        phi = self.id_hyst.update(self.id_reference - i_d)
-        sector = self.sector_of(math.atan2(psi_be, psi_al))
-        vec = self.table_now[(sector, phi, tau)]
-        sw = vec.switch_on
-        self.remember(sw, v_dc, v_mid, i_a, i_b, i_c)
-        status = DtcStatusSample(
-            s.step, self.name, rot, speed_ref, s.mechanical_speed, t_ref, torque, NAN, NAN,
-            psi_al, psi_be, math.sqrt(psi_al * psi_al + psi_be * psi_be), NAN, self.id_reference, i_d, i_q,
-            theta, w_e if self.sensorless else NAN, sector, tau, phi, phi, vec.index, sw)
-        return sw, status
+        self._prm[K.P_ID_REF], self._prm[K.P_PHI_BAND] = self.id_reference, self.id_hyst.band

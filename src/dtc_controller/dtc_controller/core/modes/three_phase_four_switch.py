@@ -26,6 +26,7 @@ class ThreePhaseFourSwitchMode(ThreePhasePmsmMode):
     midpoint_phase = MIDPOINT_PHASE
     default_integrator = 'low_pass'
     default_position = 'encoder'
+    sectors = 4
 
     def make_table(self, rotation: int) -> dict:
         return four_switch_table(rotation, MIDPOINT_PHASE)

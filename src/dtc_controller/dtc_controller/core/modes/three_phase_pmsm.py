@@ -3,7 +3,7 @@
 :class:`ThreePhaseBase` holds what the three three-phase modes share, per sample k:
 phase currents (one missing sensor reconstructed) -> alpha/beta (amplitude-invariant
 Clarke); applied voltage of sample k-1 from its switch state, the measured DC link
-and midpoint (:func:`vectors.voltage_coefficients`, cached per switch state) plus the
+and midpoint (:func:`vectors.voltage_coefficients` of each vector, tabulated once) plus the
 inverter voltage-drop correction (:mod:`voltage_drop_compensation`); stator flux by
 a voltage model (pure 000 eqs. 1.22-1.23, low-pass 001, Hu-Wu 000 Fig. 5.3) or the
 current model (001 eqs. 8-9); rotor angle from the encoder or eq. (5.38); electrical
@@ -20,15 +20,15 @@ from __future__ import annotations
 
 import math
 
-from drive_common.signals import TWO_PI
+import numpy as np
 
 from ..backemf_table import BackEmfTable
 from ..line_to_line import DqBackEmf
 from ..status import NAN, DtcStatusSample
-from ..stator_flux_estimators import CurrentModelFlux, compensate_low_pass, make_voltage_model
+from ..stator_flux_estimators import INTEGRATORS, CurrentModelFlux, make_voltage_model
 from ..three_phase_tables import six_switch_sector, six_switch_table
-from ..vectors import leg_states, voltage_coefficients
-from ..voltage_drop_compensation import VoltageDropCompensation
+from ..voltage_drop_compensation import SCHEMES, VoltageDropCompensation
+from . import three_phase_kernel as K
 from .regulation import DtcMode
 
 DEFAULT_CUTOFF = {'low_pass': 5.0, 'hu_wu': 20.0, 'pure': 0.0}
@@ -41,6 +41,9 @@ class ThreePhaseBase(DtcMode):
     default_integrator = 'pure'
     default_position = 'encoder'
     table_required = False
+    sectors = 6
+    dq_torque = False
+    """Torque by 000 eq. (5.32) from k_d, k_q (DTIFC) instead of 001 eq. (10), with i_d hysteresis."""
     needs_table_hint = 'needs a back-EMF table (backemf_table_path) or three_phase.pm_flux > 0'
 
     @classmethod
@@ -78,11 +81,28 @@ class ThreePhaseBase(DtcMode):
 
         # ---- inverter voltage model
         self.compensation = VoltageDropCompensation(self.midpoint_phase)
-        self._coeffs: dict = {}
 
         self.tables = {r: self.make_table(r) for r in (1, -1)}
-        self._prev_theta = 0.0
         self.omega_e = 0.0
+        # the compiled kernel's arrays (three_phase_kernel)
+        (self.vectors, self._tab, self._coef, self._legs, self._upper,
+         self._select_tables) = K.mode_arrays(self.tables, self.midpoint_phase, self.dq)
+        self._st = np.zeros(K.S_SIZE)
+        self._st[[K.S_TAU, K.S_PHI]] = 1.0    # comparators start at +1
+        self._out = np.zeros(K.O_SIZE)
+        prm = self._prm = np.zeros(K.P_SIZE)
+        prm[K.P_L], prm[K.P_POLES], prm[K.P_R], prm[K.P_TS] = (self.inductance, self.pole_pairs,
+                                                                 self.resistance, self.sample_period)
+        prm[K.P_PSI_M], prm[K.P_ROTOR_TABLE] = psi_m, self.dq is not None
+        if self.dq is not None:
+            prm[K.P_SCALE], prm[K.P_POINTS] = backemf._scale, backemf.points
+        prm[K.P_CURRENT_MODEL], prm[K.P_INTEGRATOR] = self.current_model, INTEGRATORS.index(self.integrator)
+        prm[K.P_CUTOFF], prm[K.P_LIMIT] = cutoff, limit
+        prm[K.P_LEAK] = getattr(self.flux, '_leak', 0.0)
+        prm[K.P_SENSORLESS], prm[K.P_INITIAL_ANGLE] = self.sensorless, self.initial_angle
+        prm[K.P_INIT_ROTOR], prm[K.P_SPEED_GAIN] = self.init_from_rotor, self._speed_gain
+        prm[K.P_FOUR_SECTORS], prm[K.P_DTIFC] = self.sectors == 4, self.dq_torque
+        prm[K.P_MIDPOINT] = -1 if self.midpoint_phase is None else self.midpoint_phase
 
     # -------------------------------------------------------------- configuration
     def make_table(self, rotation: int) -> dict:
@@ -100,72 +120,44 @@ class ThreePhaseBase(DtcMode):
         self.compensation.configure(params['voltage_drop.compensation'], params['voltage_drop.v_ce'],
                                     params['voltage_drop.v_d'], params['voltage_drop.v_f'],
                                     params['voltage_drop.r_on'])
+        prm, pi, comp = self._prm, self.speed_pi, self.compensation
+        prm[K.P_FLUX_REF_TABLE], prm[K.P_LPF_COMP] = self.flux_ref_from_table, self.lpf_compensation
+        prm[K.P_SCHEME] = SCHEMES.index(comp.scheme)
+        prm[K.P_V_CE], prm[K.P_V_D], prm[K.P_V_F], prm[K.P_R_ON] = comp.v_ce, comp.v_d, comp.v_f, comp.r_on
+        prm[K.P_FLUX_REF], prm[K.P_ROTATION] = self.flux_reference, self.rotation
+        prm[K.P_TORQUE_REF], prm[K.P_SPEED_LOOP] = self.torque_reference, self.speed_loop
+        prm[K.P_SPEED_REF], prm[K.P_TORQUE_BAND] = self.speed_reference, self.torque_hyst.band
+        prm[K.P_PHI_BAND] = self.flux_hyst.band
+        prm[K.P_KP], prm[K.P_KI], prm[K.P_EVERY_N], prm[K.P_TORQUE_LIMIT] = (
+            pi.kp, pi.ki, pi.every_n, pi.torque_limit)
+        lim = pi.torque_limit
+        self._st[K.S_PI_INTEGRAL] = max(-lim, min(lim, float(self._st[K.S_PI_INTEGRAL])))
+        self._select_now = self._select_tables[self.rotation]
 
-    # -------------------------------------------------------------- helpers
+    # -------------------------------------------------------------- per sample
     def _sine_rotor_flux(self, theta: float) -> tuple[float, float]:
         """001 eqs. (8)-(9) rotor part: psi_m (cos theta, sin theta) [Wb]."""
         return self.psi_m * math.cos(theta), self.psi_m * math.sin(theta)
 
-    def _coefficients(self, switch_on: tuple) -> tuple:
-        c = self._coeffs.get(switch_on)
-        if c is None:
-            a_dc, a_mid, b_dc, b_mid, _ = voltage_coefficients(leg_states(switch_on, self.midpoint_phase))
-            c = self._coeffs[switch_on] = (a_dc, a_mid, b_dc, b_mid)
-        return c
-
-    def applied_voltage(self, switch_on: tuple, v_dc: float, v_mid: float, currents: tuple) -> tuple[float, float]:
-        """alpha/beta voltage [V] over a sample: ideal vector from the circuit + drop correction."""
-        a_dc, a_mid, b_dc, b_mid = self._coefficients(switch_on)
-        v_al = a_dc * v_dc + a_mid * v_mid
-        v_be = b_dc * v_dc + b_mid * v_mid
-        if self.compensation.scheme != 'none':
-            d_al, d_be = self.compensation.correction(switch_on, currents)
-            v_al += d_al
-            v_be += d_be
-        return v_al, v_be
-
-    def estimate_flux(self, i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid) -> tuple[float, float]:
-        """Stator flux (psi_alpha, psi_beta) [Wb] at sample k (module doc)."""
-        flux = self.flux
-        if self.current_model:
-            return flux.update(theta_enc, i_al, i_be)
-        if not self._started:
-            theta0 = self.initial_angle if self.sensorless else theta_enc
-            if self.init_from_rotor:
-                r_al, r_be = self.rotor_flux_fn(theta0)
-                p_al, p_be = r_al + self.inductance * i_al, r_be + self.inductance * i_be
-                w0 = 0.0 if self.sensorless else self.pole_pairs * self._speed_m
-                if self.integrator == 'low_pass' and self.lpf_compensation and abs(w0) > 0.5 * self.cutoff:
-                    # start the LPF on its periodic solution y = psi / (1 - j w_c/w_e): no slow transient
-                    r = self.cutoff / w0
-                    p_al, p_be = (p_al - r * p_be) / (1.0 + r * r), (p_be + r * p_al) / (1.0 + r * r)
-                flux.reset(p_al, p_be)
-            else:
-                flux.reset(0.0, 0.0)
-            flux.update(0.0, 0.0, i_al, i_be)
-            self._prev_theta = theta0
-            return flux.psi_alpha, flux.psi_beta
-        pi = self._prev_i
-        v_al, v_be = self.applied_voltage(self._prev_switch, self._prev_vdc, self._prev_vmid,
-                                          (0.5 * (pi[0] + i_a), 0.5 * (pi[1] + i_b), 0.5 * (pi[2] + i_c)))
-        return flux.update(v_al, v_be, i_al, i_be)
-
-    def angle_and_speed(self, psi_al, psi_be, i_al, i_be, theta_enc, speed_m) -> tuple[float, float]:
-        """(rotor angle [rad], electrical speed [rad/s]): encoder, or eq. (5.38) + filtered derivative."""
-        if not self.sensorless:
-            self.omega_e = self.pole_pairs * speed_m
-            return theta_enc, self.omega_e
-        L = self.inductance
-        theta = math.atan2(psi_be - L * i_be, psi_al - L * i_al) % TWO_PI
-        if self._started:
-            d = theta - self._prev_theta
-            if d > math.pi:
-                d -= TWO_PI
-            elif d < -math.pi:
-                d += TWO_PI
-            self.omega_e += self._speed_gain * (d / self.sample_period - self.omega_e)
-        self._prev_theta = theta
-        return theta, self.omega_e
+    def step(self, s):
+        """One sample: DriveSample -> (switch tuple, DtcStatusSample), by the compiled
+        :func:`three_phase_kernel.three_phase_step` (the pipeline of the module doc)."""
+        i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid = self.measure(s)
+        K.three_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._upper,
+                           self._select_now, i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid,
+                           s.mechanical_speed, self._out)
+        (vector, t_ref, speed_ref, torque, psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta,
+         w_e, sector, tau, phi, d_state) = self._out.tolist()
+        vec = self.vectors[int(vector)]
+        sw = vec.switch_on
+        self._started = True
+        self._prev_switch = sw
+        self.omega_e = float(self._st[K.S_OMEGA_E])
+        status = DtcStatusSample(
+            s.step, self.name, self.rotation, speed_ref, s.mechanical_speed, t_ref, torque, NAN, NAN,
+            psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta, w_e, int(sector), int(tau),
+            int(phi), int(d_state), vec.index, sw)
+        return sw, status
 
 
 class ThreePhasePmsmMode(ThreePhaseBase):
@@ -176,34 +168,3 @@ class ThreePhasePmsmMode(ThreePhaseBase):
     midpoint_phase = None
     default_integrator = 'pure'
     default_position = 'encoder'
-
-    def step(self, s):
-        """One sample: DriveSample -> (switch tuple, DtcStatusSample)."""
-        i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid = self.measure(s)
-        psi_al, psi_be = self.estimate_flux(i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid)
-        theta, w_e = self.angle_and_speed(psi_al, psi_be, i_al, i_be, theta_enc, s.mechanical_speed)
-        if self.lpf_compensation and self.integrator == 'low_pass' and not self.current_model:
-            psi_al, psi_be = compensate_low_pass(psi_al, psi_be, w_e, self.cutoff, 0.5 * self.cutoff)
-        psi_mag = math.sqrt(psi_al * psi_al + psi_be * psi_be)
-        # 001 eq. (10)
-        torque = 1.5 * self.pole_pairs * (psi_al * i_be - psi_be * i_al)
-        speed_m = w_e / self.pole_pairs if self.sensorless else s.mechanical_speed
-        t_ref, speed_ref = self.torque_reference_now(speed_m)
-        if self.flux_ref_from_table:
-            r_al, r_be = self.rotor_flux_fn(theta)
-            flux_ref = math.sqrt(r_al * r_al + r_be * r_be)
-        else:
-            flux_ref = self.flux_reference
-        rot = self.rotation
-        tau = self.torque_hyst.update(rot * (t_ref - torque))
-        phi = self.flux_hyst.update(flux_ref - psi_mag)
-        sector = self.sector_of(math.atan2(psi_be, psi_al))
-        vec = self.table_now[(sector, phi, tau)]
-        sw = vec.switch_on
-        self.remember(sw, v_dc, v_mid, i_a, i_b, i_c)
-        c, sn = math.cos(theta), math.sin(theta)
-        status = DtcStatusSample(
-            s.step, self.name, rot, speed_ref, s.mechanical_speed, t_ref, torque, NAN, NAN,
-            psi_al, psi_be, psi_mag, flux_ref, NAN, i_al * c + i_be * sn, -i_al * sn + i_be * c,
-            theta, w_e if self.sensorless else NAN, sector, tau, phi, 0, vec.index, sw)
-        return sw, status

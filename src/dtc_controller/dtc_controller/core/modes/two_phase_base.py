@@ -4,26 +4,24 @@ Per sample k: phase currents (one missing sensor reconstructed), alpha/beta
 currents, rotor angle from the encoder, applied voltage of sample k-1 from
 its switch state (:class:`InverterVoltageModel`), voltage-model flux
 (eqs. 1.22-1.23), torque (eq. 2.16/4.1), torque reference (parameter or
-speed PI), sector, hysteresis, table lookup. Scalar Python only.
+speed PI), sector, hysteresis, table lookup: the compiled
+:func:`two_phase_kernel.two_phase_step` on arrays built here.
 """
 from __future__ import annotations
 
-import math
-
-from drive_common.signals import TWO_PI
+import numpy as np
 
 from ..backemf_table import BackEmfTable
 from ..flux_estimator import InverterVoltageModel, VoltageModelFluxEstimator
 from ..status import NAN, DtcStatusSample
-from ..switching_tables import SECTOR_WIDTH, derive_flux_table
+from ..switching_tables import derive_flux_table
 from ..torque_estimator import TorqueEstimator
+from . import two_phase_kernel as K
 from .regulation import DtcMode
-
-_HALF = 0.5 * SECTOR_WIDTH
 
 
 class TwoPhaseModeBase(DtcMode):
-    """Common state and pipeline; subclasses set name, topology, vectors and override _select."""
+    """Common state and pipeline; subclasses set name, topology, vectors and the split-phase tables."""
 
     def __init__(self, params: dict, backemf: BackEmfTable | None) -> None:
         super().__init__(params, backemf)
@@ -37,73 +35,66 @@ class TwoPhaseModeBase(DtcMode):
         self.vectors = self.make_vectors()
         # tables for both rotations: {rotation: {(sector, phi, tau): vector}}
         self.tables = {r: derive_flux_table(self.vectors, r) for r in (1, -1)}
+        # the compiled kernel's arrays (two_phase_kernel)
+        self._tab = K.table_array(backemf)
+        self._coef = K.coefficient_table()
+        self._legs = K.leg_codes(self.vectors)
+        self._select_tables = {r: K.selection_table(t, self.vectors) for r, t in self.tables.items()}
+        self._split_select = {r: K.selection_table(t, self.vectors) for r, t in self.split_phase_tables().items()}
+        self._st = np.zeros(K.S_SIZE)
+        self._st[[K.S_TAU, K.S_PHI, K.S_TAU_A, K.S_TAU_B]] = 1.0    # comparators start at +1
+        self._out = np.zeros(K.O_SIZE)
+        prm = self._prm = np.zeros(K.P_SIZE)
+        prm[K.P_R], prm[K.P_TS] = self.flux.resistance, self.flux.sample_period
+        prm[K.P_L], prm[K.P_POLES], prm[K.P_TORQUE_C] = self.inductance, self.pole_pairs, self.torque_est._c
+        prm[K.P_SCALE], prm[K.P_POINTS] = backemf._scale, backemf.points
+        prm[K.P_DIODE], prm[K.P_THRESHOLD] = self.vmodel.diode, self.vmodel.threshold
+        prm[K.P_OPEN_EMF], prm[K.P_FLUX_SECTOR] = self.open_emf, self.flux_sector
+        prm[K.P_INIT_TABLE], prm[K.P_SAMPLE_PERIOD] = self.init_from_table, self.speed_pi.sample_period
 
     # -------------------------------------------------------------- configuration
     def make_vectors(self):
         raise NotImplementedError
+
+    def split_phase_tables(self) -> dict:
+        """{rotation: {(sector, tau_a, tau_b): vector}} of sectors with split-phase control (none here)."""
+        return {1: {}, -1: {}}
+
+    def split_band(self, params: dict) -> float:
+        """Half-width of the split-phase comparators [N m] (unused without split sectors)."""
+        return 0.0
 
     def configure(self, params: dict) -> None:
         """References, bands, gains, rotation, flux-control switch (act from the next sample)."""
         super().configure(params)
         self.flux_control = bool(params['flux_control.enabled'])
         self.flux_ref_from_table = params['flux_control.reference_source'] == 'backemf_table'
+        prm, pi = self._prm, self.speed_pi
+        prm[K.P_FLUX_CONTROL], prm[K.P_FLUX_REF_TABLE] = self.flux_control, self.flux_ref_from_table
+        prm[K.P_FLUX_REF], prm[K.P_ROTATION] = self.flux_reference, self.rotation
+        prm[K.P_TORQUE_REF], prm[K.P_SPEED_LOOP] = self.torque_reference, self.speed_loop
+        prm[K.P_SPEED_REF], prm[K.P_TORQUE_BAND] = self.speed_reference, self.torque_hyst.band
+        prm[K.P_FLUX_BAND], prm[K.P_SPLIT_BAND] = self.flux_hyst.band, self.split_band(params)
+        prm[K.P_KP], prm[K.P_KI], prm[K.P_EVERY_N], prm[K.P_TORQUE_LIMIT] = (
+            pi.kp, pi.ki, pi.every_n, pi.torque_limit)
+        lim = pi.torque_limit
+        self._st[K.S_PI_INTEGRAL] = max(-lim, min(lim, float(self._st[K.S_PI_INTEGRAL])))
+        self._select_now = self._select_tables[self.rotation]
+        self._split_now = self._split_select[self.rotation]
 
     # -------------------------------------------------------------- per sample
-    def _select(self, sector: int, phi: int, tau: int, theta: float, i_a: float, i_b: float,
-                t_ref: float):
-        """Return (vector, phase_a_torque, phase_b_torque); subclasses add special sectors."""
-        return self.table_now[(sector, phi, tau)], NAN, NAN
-
     def step(self, s):
         i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid = self.measure(s)
-        tab = self.table
-
-        # ---- stator flux, eqs. (1.22)-(1.23)
-        flux = self.flux
-        if not self._started:
-            if self.init_from_table:
-                pr_al, pr_be = tab.rotor_flux(theta)
-                flux.reset(pr_al + self.inductance * i_al, pr_be + self.inductance * i_be)
-            flux.update(0.0, 0.0, i_al, i_be)
-        else:
-            emf = None
-            if self.open_emf:
-                w = self.pole_pairs * s.mechanical_speed
-                k_a, k_b, k_c = tab.k_abc(theta)
-                emf = (w * k_a, w * k_b, w * k_c)
-            v_al, v_be = self.vmodel.voltage(self._prev_switch, self._prev_vdc, self._prev_vmid,
-                                             self._prev_i, emf)
-            flux.update(v_al, v_be, i_al, i_be)
-        psi_al, psi_be = flux.psi_alpha, flux.psi_beta
-        psi_mag = math.sqrt(psi_al * psi_al + psi_be * psi_be)
-
-        # ---- torque, eq. (2.16)/(4.1)
-        torque = self.torque_est.torque(theta, i_al, i_be)
-
-        # ---- torque reference
-        t_ref, speed_ref = self.torque_reference_now(s.mechanical_speed)
-
-        # ---- sector
-        ang = math.atan2(psi_be, psi_al) if self.flux_sector else theta
-        sector = int(((ang + _HALF) % TWO_PI) // SECTOR_WIDTH) % 6 + 1
-
-        # ---- hysteresis
-        rot = self.rotation
-        tau = self.torque_hyst.update(rot * (t_ref - torque))
-        if self.flux_control:
-            flux_ref = tab.rotor_flux_magnitude(theta) if self.flux_ref_from_table else self.flux_reference
-            phi = self.flux_hyst.update(flux_ref - psi_mag)
-        else:
-            flux_ref = NAN
-            phi = 0
-        vec, t_a, t_b = self._select(sector, phi, tau, theta, i_a, i_b, t_ref)
+        speed_m = s.mechanical_speed
+        K.two_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._select_now,
+                         self._split_now, i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m,
+                         self._out)
+        (vector, t_ref, speed_ref, torque, t_a, t_b, psi_al, psi_be, psi_mag, flux_ref, i_d, i_q,
+         sector, tau, phi) = self._out.tolist()
+        vec = self.vectors[int(vector)]
         sw = vec.switch_on
-        self.remember(sw, v_dc, v_mid, i_a, i_b, i_c)
-
-        c = math.cos(theta)
-        sn = math.sin(theta)
         status = DtcStatusSample(
-            s.step, self.name, rot, speed_ref, s.mechanical_speed, t_ref, torque, t_a, t_b,
-            psi_al, psi_be, psi_mag, flux_ref, NAN, i_al * c + i_be * sn, -i_al * sn + i_be * c,
-            theta, NAN, sector, tau, phi, 0, vec.index, sw)
+            s.step, self.name, self.rotation, speed_ref, speed_m, t_ref, torque, t_a, t_b,
+            psi_al, psi_be, psi_mag, flux_ref, NAN, i_d, i_q, theta, NAN, int(sector), int(tau),
+            int(phi), 0, vec.index, sw)
         return sw, status

@@ -39,31 +39,22 @@ class TwoPhaseFourSwitchMode(TwoPhaseModeBase):
         super().__init__(params, backemf)
         self.hyst_a = TwoLevelHysteresis(0.0)
         self.hyst_b = TwoLevelHysteresis(0.0)
-        self.split_sectors = split_phase_sectors(self.tables[1], MIDPOINT_PHASE)
-        self.split_tables = {r: derive_split_phase_table(self.vectors, MIDPOINT_PHASE, self.split_sectors, r)
-                             for r in (1, -1)}
-        self._split_set = frozenset(self.split_sectors)
 
     def make_vectors(self):
         return four_switch_vectors(MIDPOINT_PHASE)
 
+    def split_phase_tables(self) -> dict:
+        """Table V for both rotations in sectors II and V (module doc)."""
+        self.split_sectors = split_phase_sectors(self.tables[1], MIDPOINT_PHASE)
+        self.split_tables = {r: derive_split_phase_table(self.vectors, MIDPOINT_PHASE, self.split_sectors, r)
+                             for r in (1, -1)}
+        return self.split_tables
+
+    def split_band(self, params: dict) -> float:
+        """torque_band / split_band_divisor [N m] (1000 in the seed)."""
+        return float(params['torque_band']) / float(params['four_switch.split_band_divisor'])
+
     def configure(self, params) -> None:
         super().configure(params)
-        band = float(params['torque_band']) / float(params['four_switch.split_band_divisor'])
-        self.hyst_a.band = band
-        self.hyst_b.band = band
+        self.hyst_a.band = self.hyst_b.band = self.split_band(params)
         self.split_now = self.split_tables[self.rotation]
-
-    def _select(self, sector, phi, tau, theta, i_a, i_b, t_ref):
-        if sector not in self._split_set:
-            return self.table_now[(sector, phi, tau)], float('nan'), float('nan')
-        p = self.pole_pairs
-        k_half = 0.5 * (self.table.k_phase(0, theta) - self.table.k_phase(1, theta))
-        k_a, k_b = k_half, -k_half          # zero sequence chosen so T_ea + T_eb = T_e at i_c = 0
-        t_a = p * k_a * i_a
-        t_b = p * k_b * i_b
-        half = 0.5 * t_ref
-        rot = self.rotation
-        tau_a = self.hyst_a.update(rot * (half - t_a))
-        tau_b = self.hyst_b.update(rot * (half - t_b))
-        return self.split_now[(sector, tau_a, tau_b)], t_a, t_b

@@ -1,0 +1,118 @@
+#!/usr/bin/env python3
+"""Compiled kernels (drive_common.compiled, numba) against the same code interpreted.
+
+Run: ``source scripts/env.sh && python benchmarks/bench_compiled.py [--duration 0.05]``.
+Each figure is measured in a subprocess twice, compiled (warm cache) and with
+``NUMBA_DISABLE_JIT=1``, and printed with its goal:
+
+* DtcCore.update per sample, two-phase six-switch (bench_dtc_core's samples): goal <= 15 us;
+  the same for the three-phase modes (dtifc, pmsm, four-switch with the proposed drop
+  compensation), goal <= 15 us each;
+* PfcCore.update per sample (bench_pfc_core's line cycle): goal <= 12.5 us (80 kHz real time);
+* FrontEnd alone ('fe only' of bench_front_end, EMI filter on): goal >= 1x real time;
+* headless ``two_phase_six_switch_torque_step`` (plant + DtcCore at 33.3 us),
+  ``fstp_voltage_model_proposed_compensation``, ``three_phase_dtifc_sensorless`` and
+  ``pfc_no_load_fig_3_5`` (plant with grid, bridge and boost + DTC + PFC cores): goal >= 1x
+  real time (the plant's motor/inverter loop is not compiled yet);
+* cold start (empty cache: import, compile, first sample): goal <= 30 s; warm start
+  (cached machine code): goal <= 3 s.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+THREE_PHASE = (('three_phase_dtifc', {}), ('three_phase_pmsm', {}),
+               ('three_phase_four_switch', {'voltage_drop.compensation': 'proposed'}))
+
+
+def _real_time(name: str, duration: float) -> float:
+    """Sim seconds per wall second of a shipped scenario run headless for duration [s]."""
+    from drive_bringup.headless import run_headless
+    from drive_bringup.scenario import load_scenario
+    from drive_common.uris import resolve_path
+    scenario = load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml'))
+    duration = min(duration, scenario.duration)
+    run_headless(scenario.shortened(min(duration, 0.002)))     # compile / load outside the timing
+    t0 = time.perf_counter()
+    run_headless(scenario.shortened(duration))
+    return duration / (time.perf_counter() - t0)
+
+
+def child_figures(duration: float) -> dict:
+    """The figures of this process's JIT setting (module doc)."""
+    import bench_dtc_core
+    import bench_front_end
+    import bench_pfc_core
+    bench_front_end.print = lambda *a, **k: None      # its bench() prints a line per case
+    fe_rate = bench_front_end.bench('fe only', duration, 2, 25.4, 100.0, 80.0, False, duty=0.55)
+    return {'dtc_us': bench_dtc_core.bench('two_phase_six_switch', 20000, {}),
+            **{f'dtc_{mode}_us': bench_dtc_core.bench(mode, 20000, extra) for mode, extra in THREE_PHASE},
+            'pfc_us': bench_pfc_core.bench(20000, {}),
+            'fe_real_time': fe_rate * bench_front_end.TICK,
+            'dtc_real_time': _real_time('two_phase_six_switch_torque_step', duration),
+            'fstp_real_time': _real_time('fstp_voltage_model_proposed_compensation', duration),
+            'dtifc_real_time': _real_time('three_phase_dtifc_sensorless', duration),
+            'pfc_real_time': _real_time('pfc_no_load_fig_3_5', duration)}
+
+
+def child_startup() -> dict:
+    """Seconds from start-up to the first sample of each compiled core (DTC, PFC, front end)."""
+    t0 = time.perf_counter()
+    import bench_dtc_core
+    import bench_front_end
+    import bench_pfc_core
+    bench_front_end.print = lambda *a, **k: None
+    bench_dtc_core.bench('two_phase_six_switch', 1, {})
+    for mode, extra in THREE_PHASE:
+        bench_dtc_core.bench(mode, 1, extra)
+    bench_pfc_core.bench(1, {})
+    bench_front_end.bench('fe only', 1e-4, 1, 25.4, 100.0, 80.0, False, duty=0.55)
+    return {'startup': time.perf_counter() - t0}
+
+
+def run_child(what: str, env_extra: dict, *args: str) -> dict:
+    env = dict(os.environ, **env_extra)
+    out = subprocess.run([sys.executable, __file__, '--child', what, *args], env=env, check=True,
+                         capture_output=True, text=True, cwd=HERE)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument('--duration', type=float, default=0.05, help='sim time of the timed runs [s]')
+    ap.add_argument('--child', help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        print(json.dumps(child_figures(args.duration) if args.child == 'figures' else child_startup()))
+        return
+    with tempfile.TemporaryDirectory() as cache:
+        cold = run_child('startup', {'NUMBA_CACHE_DIR': cache, 'NUMBA_DISABLE_JIT': '0'})['startup']
+        warm = run_child('startup', {'NUMBA_CACHE_DIR': cache, 'NUMBA_DISABLE_JIT': '0'})['startup']
+    fig = {mode: run_child('figures', {'NUMBA_DISABLE_JIT': flag}, '--duration', str(args.duration))
+           for mode, flag in (('compiled', '0'), ('interpreted', '1'))}
+    c, i = fig['compiled'], fig['interpreted']
+    rows = [('DtcCore.update, two-phase six-switch [us/sample]', 'dtc_us', '<= 15'),
+            *((f'DtcCore.update, {mode} [us/sample]', f'dtc_{mode}_us', '<= 15') for mode, _ in THREE_PHASE),
+            ('PfcCore.update [us/sample]', 'pfc_us', '<= 12.5'),
+            ('FrontEnd alone, filter on [x real time]', 'fe_real_time', '>= 1'),
+            ('headless two_phase_six_switch_torque_step [x real time]', 'dtc_real_time', '>= 1'),
+            ('headless fstp_voltage_model_proposed_compensation [x real time]', 'fstp_real_time', '>= 1'),
+            ('headless three_phase_dtifc_sensorless [x real time]', 'dtifc_real_time', '>= 1'),
+            ('headless pfc_no_load_fig_3_5 [x real time]', 'pfc_real_time', '>= 1')]
+    print(f"{'figure':66s} {'compiled':>10s} {'interpreted':>12s} {'goal':>8s}")
+    for label, key, goal in rows:
+        print(f'{label:66s} {c[key]:10.3f} {i[key]:12.3f} {goal:>8s}')
+    print(f"{'cold start, empty cache: import + compile + 1 sample [s]':66s} {cold:10.2f} {'':12s} {'<= 30':>8s}")
+    print(f"{'warm start, cached [s]':66s} {warm:10.2f} {'':12s} {'<= 3':>8s}")
+
+
+if __name__ == '__main__':
+    main()
