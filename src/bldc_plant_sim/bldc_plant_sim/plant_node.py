@@ -580,6 +580,8 @@ class PlantNode(Node):
             self._startup_pending.discard(which)
         else:
             msg = self._await(inbox, k, None if which in self._silent else deadline)
+            if msg is None and self._halted():
+                return None           # the run ends (Ctrl-C, shutdown): no command is missing
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
                   if msg is None else channel.invalid(msg))
         if reason is not None:

@@ -22,7 +22,7 @@ RESET_PROTECTION_SERVICE = 'plant/reset_protection'
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 
-LOCKSTEP_DEPTH = 64
+LOCKSTEP_DEPTH = 2000
 STREAM_DEPTH = 10000
 BLOCK_DEPTH = 1000
 LIVE_DEPTH = 100
@@ -36,8 +36,11 @@ LOCKSTEP_QOS = QoSProfile(
 """QoS of the measurement/command handshake: nothing lost, nothing stale replayed.
 
 At most one message per controller is outstanding in the handshake; the
-depth only lets a slower reader (the recorder) lag a little without losing
-a sample.
+depth only lets a slower reader (the recorder, when a scenario records the
+lockstep topics) lag without losing a sample: a reliable KEEP_LAST writer
+drops its oldest unacknowledged sample when its history is full, and a
+recorder starved of CPU for a few hundred samples lost the start of a run
+with a depth of 64.
 """
 
 LOCKSTEP_READER_QOS = QoSProfile(

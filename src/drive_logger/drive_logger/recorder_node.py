@@ -20,7 +20,7 @@ Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
 - ``all_topics`` (bool, false): also subscribe to every topic that appears later.
 - ``output`` (string): bag directory to create; default ``bags/<YYYYmmdd-HHMMSS>``.
 - ``compression`` ('lz4' | 'zstd' | 'none'), ``chunk_size`` (bytes).
-- ``qos_depth`` (int, 1000): KEEP_LAST depth of the RELIABLE subscriptions
+- ``qos_depth`` (int, 10000): KEEP_LAST depth of the RELIABLE subscriptions
   (0 = KEEP_ALL); reliable unless a known publisher offers only best effort.
 - ``drain_timeout`` (s, 2.0): at stop, keep taking queued messages until the
   topics are quiet for 0.1 s or this time has passed.
@@ -125,7 +125,7 @@ RECORDER_SCHEMA = schema([
     _spec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
     _spec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
     _spec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
-    _spec('qos_depth', 1000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
+    _spec('qos_depth', 10000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
     _spec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
           's', 0.0, 60.0),
     _spec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
