@@ -74,6 +74,7 @@ from bldc_plant_sim.faults_reporting import FaultReporter, RunEnd, run_end
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
 from drive_common import topics
 from drive_common.conversions import ReusedMessage, sec_nanosec, time_msg
+from drive_common.domain_guard import wait_for_stable_graph
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict, readers_matched)
 from drive_common.lockstep_wire import LockstepWire
@@ -272,6 +273,7 @@ class PlantNode(Node):
                             callback_group=ReentrantCallbackGroup())
         self._state_sent_step = -1   # step of the last plant/state sent (never twice)
         self._autorun_timer = None
+        self._graph_settled = False          # discovery waited for before the first run
         if self.parameters['run_until'] > 0.0:
             # Give discovery a moment, so subscribers started before the plant
             # (recorders, monitors) are in the graph when sample 0 goes out.
@@ -446,7 +448,11 @@ class PlantNode(Node):
             report.report('the controllers to start: missing ' + ', '.join(missing))
             self._receiver.poll(0.01)
         # Every other subscriber already in the graph (a recorder, a monitor) must be
-        # matched too before sample 0 goes out, or it would miss the first samples.
+        # matched too before sample 0 goes out, or it would miss the first samples; before
+        # the first run, discovery of readers started earlier is done once the graph settled.
+        if not self._graph_settled:
+            wait_for_stable_graph(self)
+            self._graph_settled = True
         outputs = [self._drive_pub, self._pfc_pub, self._state_pub, self._block_pub]
         if not wait_until(lambda: readers_matched(self, outputs) or self._halted(),
                           max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
