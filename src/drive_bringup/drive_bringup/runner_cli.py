@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
@@ -45,7 +44,8 @@ def print_summary(summary: dict, out: Path) -> None:
     print(f'\n{summary["scenario"]} ({summary["seed_reference"]}): '
           f'{summary["sim_time"]:.4f} s sim in {summary["wall_time"]:.1f} s wall, '
           f'{summary["samples_per_second"]:.0f} samples/s')
-    print(f'  bag     {summary["bag"]}\n  report  {out / "report.json"}\n  figures {out / "figures"}')
+    data = summary['bag'] or f'none (headless: {out / "trajectory.npz"})'
+    print(f'  bag     {data}\n  report  {out / "report.json"}\n  figures {out / "figures"}')
     for name, value in summary['metrics'].items():
         print(f'  {name:45s} {value:.6g}' if isinstance(value, float) else f'  {name:45s} {value}')
     for row in summary['checks']:
@@ -123,15 +123,7 @@ def main(argv=None) -> int:
         print(f'[run_scenario] error: {exc}', file=sys.stderr)
         return 2
     if args.headless:
-        from drive_bringup.headless import run_headless
-        started = time.monotonic()
-        result = run_headless(scenario)
-        out.mkdir(parents=True, exist_ok=True)
-        path = result.save(out / 'trajectory.npz')
-        wall = time.monotonic() - started
-        print(f'[{scenario.name}] headless: {scenario.duration} s sim in {wall:.1f} s wall; '
-              f'trajectory -> {path}')
-        return _judge(scenario, result.trajectory.end_state, result.trajectory.fault_kinds)
+        return _run_headless(scenario, out)
     from drive_bringup.report import write_report
     from drive_bringup.runner import GraphRunner, main_guard
 
@@ -152,6 +144,20 @@ def main(argv=None) -> int:
         return _judge(scenario, result.end_state, result.fault_kinds)
 
     return main_guard(run)
+
+
+def _run_headless(scenario, out: Path) -> int:
+    """The scenario's cores in this process: trajectory.npz, then the report a graph run writes."""
+    from drive_bringup.headless import run_headless
+    from drive_bringup.report import write_report
+    result = run_headless(scenario)
+    out.mkdir(parents=True, exist_ok=True)
+    arrays = result.arrays()
+    np_path = out / 'trajectory.npz'
+    result.save(np_path)
+    print(f'[{scenario.name}] headless: trajectory -> {np_path}')
+    print_summary(write_report(scenario, result, out, arrays=arrays), out)
+    return _judge(scenario, result.end_state, result.fault_kinds)
 
 
 def _judge(scenario, end_state: str, fault_kinds) -> int:
