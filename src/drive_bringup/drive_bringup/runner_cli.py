@@ -17,8 +17,9 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import Callable
 
-from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
+from drive_bringup.scenario import Scenario, ScenarioError, find_scenario, load_scenario, scenario_dir
 from drive_common.namespaces import normalized
 from drive_common.parameter_files import ParameterFileError, read_params_file
 
@@ -75,7 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--params-file', type=Path,
                         help='ROS 2 parameter file (node: {ros__parameters: ...} or /**:) over the '
                         "scenario's node parameters")
-    parser.add_argument('--duration', type=float, help='run only the first DURATION s of the scenario')
+    parser.add_argument('--duration', type=float,
+                        help='run only the first DURATION s of the scenario (with --live: any DURATION s, '
+                             'longer too, the last setpoints holding)')
     parser.add_argument('--live', action='store_true',
                         help='also start drive_logger live_view: watch the run in Foxglove at ws://localhost:8765')
     parser.add_argument('--namespace', default='', metavar='NAME',
@@ -84,17 +87,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def prepare_run(args) -> tuple:
-    """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite."""
+def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
+    """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite.
+
+    Every check (the arguments, ``check(scenario)``, the programs a graph
+    run starts) comes before the output
+    directory is touched: a refused run leaves no directory behind.
+    --duration shortens a run; with --live it may also lengthen it (the
+    last setpoints hold), to leave time to turn a knob in the viewer.
+    """
     scenario = load_scenario(find_scenario(args.scenario))
     if args.duration is not None:
-        scenario = scenario.shortened(args.duration)
+        live = getattr(args, 'live', False)
+        scenario = scenario.with_duration(args.duration) if live else scenario.shortened(args.duration)
     params_file = getattr(args, 'params_file', None)
     if params_file is not None:
         scenario = scenario.with_parameters(str(params_file), read_params_file(params_file))
     domain_id = getattr(args, 'domain_id', None)
     if domain_id is not None and not 0 <= domain_id <= 232:
         raise ScenarioError(f'--domain-id {domain_id}: must be in 0..232')
+    if check is not None:
+        check(scenario)
+    if not getattr(args, 'headless', False):     # (a controller core is imported by load_scenario)
+        from drive_bringup.runner import check_programs
+        check_programs(scenario, record=not getattr(args, 'no_record', False),
+                       live=getattr(args, 'live', False))
     return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
 
 
