@@ -181,6 +181,16 @@ def test_crashed_node_is_reported(tmp_path):
     assert 'dtc_controller exited' in result.stderr and 'missing_table.csv' in result.stderr
 
 
+def _flushed_messages(bag: Path, topic: str) -> int:
+    """Messages of topic in the bag's data files so far (the intact part of a bag being written)."""
+    from drive_logger.bag_reader import intact_messages
+    count = 0
+    for path in bag.glob('*.mcap'):
+        with open(path, 'rb') as stream:
+            count += sum(1 for _, channel, _ in intact_messages(stream, [], path.name) if channel.topic == topic)
+    return count
+
+
 def test_ctrl_c_stops_every_node(tmp_path):
     out = tmp_path / 'interrupted'
     marker = f'DTC_TEST_MARKER=ctrl_c_{os.getpid()}_{time.monotonic_ns()}'
@@ -196,7 +206,12 @@ def test_ctrl_c_stops_every_node(tmp_path):
             return (out / 'logs').exists() and len(list((out / 'logs').glob('*.log'))) >= 3
 
         wait_until(graph_started, 120.0, 0.2, 'the node processes')
-        time.sleep(4.0)   # the run is under way
+
+        def run_under_way() -> bool:     # plant state blocks reached the bag (flushed every 0.5 s)
+            assert process.poll() is None, 'the runner ended early'
+            return _flushed_messages(out / 'bag', '/plant/state_block') >= 10
+
+        wait_until(run_under_way, 120.0, 0.2, 'plant state blocks in the bag')
         process.send_signal(signal.SIGINT)
         _, stderr = process.communicate(timeout=120)
     finally:
