@@ -94,3 +94,11 @@ def test_node_help_lists_its_schema_parameters_with_units_and_defaults(executabl
         line = next((ln for ln in output.splitlines() if ln.startswith(f'  {spec.name} (')), None)
         assert line is not None, f'{spec.name} missing:\n{output}'
         assert f'default {spec.default!r}' in line and (not spec.unit or spec.unit in line), line
+
+
+def test_help_flag_counts_only_before_ros_args():
+    from drive_common.node_help import wants_help
+    assert wants_help(['plant', '--help']) and wants_help(['plant', '-h', '--ros-args', '-p', 'a:=1'])
+    assert not wants_help(['plant', '--ros-args', '-p', 'help:=1'])
+    assert not wants_help(['plant', '--ros-args', '-r', '__node:=x', '-h'])
+    assert not wants_help(['plant'])
