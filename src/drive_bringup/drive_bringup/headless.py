@@ -78,8 +78,9 @@ class HeadlessResult:
                     continue  # strings (mode name)
         return out
 
-    def save(self, path: Path) -> Path:
-        np.savez_compressed(path, **self.arrays())
+    def save(self, path: Path, arrays: dict[str, np.ndarray] | None = None) -> Path:
+        """The arrays (default: :meth:`arrays`) as a compressed .npz at path."""
+        np.savez_compressed(path, **(self.arrays() if arrays is None else arrays))
         return path
 
 

@@ -194,7 +194,6 @@ class GraphRunner:
         return future.result()
 
     def run(self) -> RunResult:
-        self.out_dir.mkdir(parents=True, exist_ok=True)
         bag_dir = self.out_dir / 'bag'
         sc = self.scenario
         context = rclpy.Context()
@@ -205,6 +204,7 @@ class GraphRunner:
             if self.domain_id is None:
                 # A shared domain: refuse before starting anything if a drive graph runs there.
                 refuse_if_busy(node, 'run_scenario')
+            self.out_dir.mkdir(parents=True, exist_ok=True)     # after every refusal: none leaves a directory
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
                             {'output': str(bag_dir), 'topics': [

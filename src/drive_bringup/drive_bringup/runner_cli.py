@@ -171,7 +171,7 @@ def _run_headless(scenario, out: Path) -> int:
     out.mkdir(parents=True, exist_ok=True)
     arrays = result.arrays()
     np_path = out / 'trajectory.npz'
-    result.save(np_path)
+    result.save(np_path, arrays)
     print(f'[{scenario.name}] headless: trajectory -> {np_path}')
     print_summary(write_report(scenario, result, out, arrays=arrays), out)
     return _judge(scenario, result.end_state, result.fault_kinds)
