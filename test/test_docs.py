@@ -49,12 +49,13 @@ def test_site_builds_without_warnings(built_site):
 def test_reference_holds_every_parameter_and_field(built_site):
     """Generated, so it cannot drift: every schema name and every message field is on its page."""
     from bldc_plant_sim.parameters import PLANT_SCHEMA
+    from drive_logger.live_view import LIVE_VIEW_SCHEMA
     from drive_logger.recorder_node import RECORDER_SCHEMA
     from drive_logger.replay_node import REPLAY_SCHEMA
     from dtc_controller.parameters import DTC_SCHEMA
     from pfc_controller.parameters import PFC_SCHEMA
     nodes = (built_site / 'reference/nodes.html').read_text()
-    for schema in (PLANT_SCHEMA, DTC_SCHEMA, PFC_SCHEMA, RECORDER_SCHEMA, REPLAY_SCHEMA):
+    for schema in (PLANT_SCHEMA, DTC_SCHEMA, PFC_SCHEMA, RECORDER_SCHEMA, REPLAY_SCHEMA, LIVE_VIEW_SCHEMA):
         for name in schema.names():
             assert f'<code class="docutils literal notranslate"><span class="pre">{name}</span>' in nodes, name
     assert 'port' in nodes and 'plant/run' in nodes and 'dtc_msgs/action/Run' in nodes

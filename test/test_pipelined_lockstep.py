@@ -106,11 +106,11 @@ def _client(ros_session):
     """(node, Run action client, plant/state list) once the plant serves and publishes."""
     node = ros_session.node('pipelined_test_client')
     states = []
-    node.create_subscription(PlantState, topics.PLANT_STATE, states.append, topics.STREAM_QOS)
+    subscription = node.create_subscription(PlantState, topics.PLANT_STATE, states.append, topics.STREAM_QOS)
     action = ActionClient(node, Run, topics.RUN_ACTION)
     wait_until(action.server_is_ready, 30.0, what='plant/run action server')
-    wait_until(lambda: node.count_publishers(topics.PLANT_STATE) >= 1, 30.0,
-               what='plant/state publisher')
+    wait_until(lambda: subscription.get_publisher_count() >= 1, 30.0,
+               what='plant/state subscription matched')
     return node, action, states
 
 
@@ -137,8 +137,7 @@ def test_cancelled_goals_drain_the_pipeline_and_the_next_goal_continues(start_no
     start_node('dtc_controller', 'dtc_controller',
                parameters=dict(scenario.overrides['dtc_controller']))
     start_node('bldc_plant_sim', 'plant', parameters=dict(scenario.overrides['plant']))
-    _, action, states = _client(ros_session)
-    time.sleep(0.5)   # let the state subscription match before sample 0
+    _, action, states = _client(ros_session)     # matched: sample 0 reaches states
     cancelled_at = []
     for _ in range(3):
         start = states[-1].step if states else 0

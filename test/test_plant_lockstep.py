@@ -52,15 +52,15 @@ class PlantClient:
         probe = BlockSamples(self.node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
         self.states, self.blocks = probe.first, probe.blocks
         self.live: list = []
-        self.node.create_subscription(PlantState, topics.PLANT_STATE, self.live.append,
-                                      topics.STREAM_QOS)
+        live = self.node.create_subscription(PlantState, topics.PLANT_STATE, self.live.append,
+                                             topics.STREAM_QOS)
         self.action = ActionClient(self.node, Run, topics.RUN_ACTION)
         self.params = AsyncParameterClient(self.node, '/plant')
         wait_until(lambda: self.action.server_is_ready(), 30.0, what='plant/run action server')
         assert self.params.wait_for_services(timeout_sec=30.0)
-        wait_until(lambda: self.node.count_publishers(topics.PLANT_STATE_BLOCK) >= 1, 30.0,
-                   what='plant/state_block publisher')
-        time.sleep(0.5)  # let the state subscription match before the run starts
+        # the state subscriptions matched the plant's publishers before the run starts
+        wait_until(lambda: probe.subscription.get_publisher_count() >= 1 and live.get_publisher_count() >= 1,
+                   30.0, what='plant/state_block and plant/state matched')
 
     def start(self, target: float, relative: bool = False):
         """Send a Run goal (a reply lost right after discovery is recovered); its handle, accepted."""
@@ -150,7 +150,7 @@ def test_run_action_stops_exactly_and_holds(start_node, ros_session):
     client = PlantClient(ros_session)
     first = client.run(0.0031)
     assert first.success and first.final_step == 124          # 0.0031 / 25 us
-    time.sleep(0.3)
+    wait_until(lambda: client.states and client.states[-1].step == 124, 10.0, what='state at the first hold')
     second = client.run(0.001, relative=True)
     assert second.success and second.final_step == 164
     wait_until(lambda: client.states[-1].step == 164, 10.0, what='state at the target')

@@ -89,6 +89,57 @@ def test_ros_graph_and_headless_loop_give_the_same_trajectory(recorded_run):
         assert np.array_equal(ros[name], headless[f'plant/state.{name}']), name
 
 
+def test_headless_run_prints_and_writes_the_report_a_graph_run_does(recorded_run, tmp_path):
+    graph_out, graph = recorded_run
+    out = tmp_path / 'headless'
+    result = run_cli(SCENARIO, '--headless', '--duration', str(DURATION), '--out', str(out))
+    assert result.returncode == 0, result.stdout + result.stderr
+    graph_report = json.loads((graph_out / 'report.json').read_text())
+    report = json.loads((out / 'report.json').read_text())
+    assert report['bag'] is None and (out / 'trajectory.npz').stat().st_size > 0
+    assert report['sim_time'] == pytest.approx(graph_report['sim_time'])
+    assert sorted(report['figures']) == sorted(graph_report['figures'])
+    assert (out / 'figures' / 'torque.png').stat().st_size > 10_000
+    assert report['metrics'] == graph_report['metrics']    # the same trajectory, bit for bit
+    assert ([(r['label'], r['pass']) for r in report['checks']]
+            == [(r['label'], r['pass']) for r in graph_report['checks']])
+    for printed in (graph.stdout, result.stdout):   # the same summary lines (print_summary)
+        assert 'report  ' in printed and 'figures ' in printed
+        for row in report['checks']:
+            assert f'] {row["label"]}: ' in printed, row['label']
+    assert f'none (headless: {out / "trajectory.npz"})' in result.stdout
+
+
+def test_a_program_that_is_not_built_is_refused_before_the_output_directory(tmp_path):
+    scenario = tmp_path / 'unbuilt.yaml'
+    shipped = find_scenario('example_hysteresis_current_control').read_text()
+    for old, new, expected in (('package: drive_examples', 'package: no_such_pkg', "no package 'no_such_pkg'"),
+                               ('executable: hysteresis_current_controller', 'executable: no_such_exe',
+                                "no executable 'no_such_exe'")):
+        assert old in shipped
+        scenario.write_text(shipped.replace(old, new))
+        out = tmp_path / 'out'
+        result = run_cli(str(scenario), '--isolate', '--out', str(out), timeout=120)
+        lines = [line for line in (result.stdout + result.stderr).splitlines() if line.strip()]
+        assert result.returncode == 2, lines
+        assert len(lines) == 1 and 'nodes.controller' in lines[0] and expected in lines[0], lines
+        assert not out.exists()
+
+
+def test_duration_lengthens_a_live_run_and_only_shortens_others(tmp_path):
+    from drive_bringup.runner_cli import build_parser, prepare_run
+    from drive_bringup.scenario import ScenarioError
+    out = tmp_path / 'o'
+    live = build_parser().parse_args([SCENARIO, '--live', '--duration', '3.0', '--out', str(out)])
+    scenario, _ = prepare_run(live)
+    assert scenario.duration == 3.0 and load_scenario(find_scenario(SCENARIO)).duration < 3.0
+    assert [e.time for e in scenario.events] == [e.time for e in load_scenario(find_scenario(SCENARIO)).events]
+    graph = build_parser().parse_args([SCENARIO, '--duration', '3.0', '--out', str(out)])
+    with pytest.raises(ScenarioError, match='outside'):
+        prepare_run(graph)
+    assert not out.exists()
+
+
 def _without_parameter_events(bag: Path, out: Path) -> bytes:
     """The bag's data file rewritten canonically without /parameter_events."""
     from drive_logger.bag_reader import BagReader
@@ -130,6 +181,16 @@ def test_crashed_node_is_reported(tmp_path):
     assert 'dtc_controller exited' in result.stderr and 'missing_table.csv' in result.stderr
 
 
+def _flushed_messages(bag: Path, topic: str) -> int:
+    """Messages of topic in the bag's data files so far (the intact part of a bag being written)."""
+    from drive_logger.bag_reader import intact_messages
+    count = 0
+    for path in bag.glob('*.mcap'):
+        with open(path, 'rb') as stream:
+            count += sum(1 for _, channel, _ in intact_messages(stream, [], path.name) if channel.topic == topic)
+    return count
+
+
 def test_ctrl_c_stops_every_node(tmp_path):
     out = tmp_path / 'interrupted'
     marker = f'DTC_TEST_MARKER=ctrl_c_{os.getpid()}_{time.monotonic_ns()}'
@@ -145,7 +206,12 @@ def test_ctrl_c_stops_every_node(tmp_path):
             return (out / 'logs').exists() and len(list((out / 'logs').glob('*.log'))) >= 3
 
         wait_until(graph_started, 120.0, 0.2, 'the node processes')
-        time.sleep(4.0)   # the run is under way
+
+        def run_under_way() -> bool:     # plant state blocks reached the bag (flushed every 0.5 s)
+            assert process.poll() is None, 'the runner ended early'
+            return _flushed_messages(out / 'bag', '/plant/state_block') >= 10
+
+        wait_until(run_under_way, 120.0, 0.2, 'plant state blocks in the bag')
         process.send_signal(signal.SIGINT)
         _, stderr = process.communicate(timeout=120)
     finally:

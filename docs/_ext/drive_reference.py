@@ -17,7 +17,6 @@ the node packages).
 """
 from __future__ import annotations
 
-import ast
 import sys
 from pathlib import Path
 
@@ -77,41 +76,10 @@ def schema_table(schema) -> str:
     return PARAMETER_HEADER + '\n'.join(rows) + '\n'
 
 
-def declared_parameters_table(path: Path, class_name: str) -> str:
-    """Table of the ``self.declare_parameter(name, default, descriptor)`` calls in a node class.
-
-    For nodes without a ParameterSchema (the live view): read from the source's
-    syntax tree, so the table follows the code. All such parameters are read-only
-    when the descriptor says so (``ro`` or ``read_only=True``).
-    """
-    tree = ast.parse(path.read_text())
-    rows = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ClassDef) and node.name == class_name:
-            for call in ast.walk(node):
-                if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute)
-                        and call.func.attr == 'declare_parameter'):
-                    continue
-                name = ast.literal_eval(call.args[0])
-                source = ast.unparse(call.args[1])
-                default = (_live_view_defaults() if source == 'list(DEFAULT_TOPICS)'
-                           else ast.literal_eval(call.args[1]))
-                descriptor = ast.unparse(call.args[2]) if len(call.args) > 2 else ''
-                text = ''
-                for kw in getattr(call.args[2], 'keywords', []) if len(call.args) > 2 else []:
-                    if kw.arg == 'description':
-                        text = ast.literal_eval(kw.value)
-                when = 'read-only' if ('read_only=True' in descriptor or descriptor == 'ro') else 'runtime'
-                rows.append(f'| `{name}` | {_type_name(default)} | {_cell(_code(default))} | — | — | {when} | '
-                            f'{_cell(text)} |')
-    if not rows:
-        raise RuntimeError(f'{path}: no declare_parameter calls in class {class_name}')
-    return PARAMETER_HEADER + '\n'.join(rows) + '\n'
-
-
 def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
     """Per node: published and subscribed topics, services and actions (names from drive_common.topics)."""
     from drive_common import topics as t
+    from drive_logger.live_view import DEFAULT_TOPICS
     return {
         'plant': {
             'publishes': [(t.DRIVE_MEASUREMENT, 'dtc_msgs/msg/DriveMeasurement'),
@@ -150,7 +118,7 @@ def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
                           (t.CLOCK, 'rosgraph_msgs/msg/Clock')],
         },
         'live_view': {
-            'subscribes': [(name, 'as published') for name in _live_view_defaults()],
+            'subscribes': [(name, 'as published') for name in DEFAULT_TOPICS],
         },
         'hysteresis_current_controller': {
             'publishes': [(t.GATE_COMMAND, 'dtc_msgs/msg/GateCommand'),
@@ -159,15 +127,6 @@ def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
             'subscribes': [(t.DRIVE_MEASUREMENT, 'dtc_msgs/msg/DriveMeasurement')],
         },
     }
-
-
-def _live_view_defaults() -> list[str]:
-    tree = ast.parse((ROOT / 'src/drive_logger/drive_logger/live_view.py').read_text())
-    from drive_common import topics as t
-    for node in tree.body:
-        if isinstance(node, ast.Assign) and getattr(node.targets[0], 'id', '') == 'DEFAULT_TOPICS':
-            return [getattr(t, elt.attr) for elt in node.value.elts]
-    raise RuntimeError('live_view.py: DEFAULT_TOPICS not found')
 
 
 def _interface_table(interfaces: dict[str, list[tuple[str, str]]]) -> str:
@@ -188,7 +147,7 @@ def node_pages() -> dict[str, tuple[str, str, str]]:
     from drive_logger.replay_node import REPLAY_SCHEMA
     from dtc_controller.parameters import DTC_SCHEMA
     from pfc_controller.parameters import PFC_SCHEMA
-    live = declared_parameters_table(ROOT / 'src/drive_logger/drive_logger/live_view.py', 'LiveViewNode')
+    from drive_logger.live_view import LIVE_VIEW_SCHEMA
     nodes = {
         'plant': ('bldc_plant_sim', 'plant', schema_table(PLANT_SCHEMA), 'bldc_plant_sim.parameters.PLANT_SCHEMA'),
         'dtc_controller': ('dtc_controller', 'dtc_controller', schema_table(DTC_SCHEMA),
@@ -198,7 +157,8 @@ def node_pages() -> dict[str, tuple[str, str, str]]:
         'recorder': ('drive_logger', 'recorder', schema_table(RECORDER_SCHEMA),
                      'drive_logger.recorder_node.RECORDER_SCHEMA'),
         'replay': ('drive_logger', 'replay', schema_table(REPLAY_SCHEMA), 'drive_logger.replay_node.REPLAY_SCHEMA'),
-        'live_view': ('drive_logger', 'live_view', live, 'drive_logger.live_view.LiveViewNode'),
+        'live_view': ('drive_logger', 'live_view', schema_table(LIVE_VIEW_SCHEMA),
+                      'drive_logger.live_view.LIVE_VIEW_SCHEMA'),
         'hysteresis_current_controller': ('drive_examples', 'hysteresis_current_controller',
                                           schema_table(EXAMPLE_SCHEMA),
                                           'drive_examples.hysteresis_current_controller.SCHEMA'),

@@ -29,6 +29,15 @@ def flatten_columns(columns: dict[str, dict[str, np.ndarray]]) -> Arrays:
             for topic, cols in columns.items() for name, values in cols.items()}
 
 
+def columns_of(arrays: Arrays) -> dict[str, dict[str, np.ndarray]]:
+    """Flat arrays -> {'/topic': {field: array}} ('time' -> 't'): the inverse of :func:`flatten_columns`."""
+    columns: dict[str, dict[str, np.ndarray]] = {}
+    for key, values in arrays.items():
+        topic, _, name = key.rpartition('.')
+        columns.setdefault(f'/{topic}', {})['t' if name == 'time' else name] = values
+    return columns
+
+
 def window(t, t_start: float | None = None, t_end: float | None = None) -> np.ndarray:
     """Boolean mask of the samples with t_start <= t <= t_end (None: open end)."""
     t = np.asarray(t, dtype=float)

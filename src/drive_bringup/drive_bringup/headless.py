@@ -9,6 +9,7 @@ system test shows it gives the same trajectory as the ROS graph.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -38,16 +39,37 @@ def build_controllers(scenario: Scenario):
 
 @dataclass
 class HeadlessResult:
+    """A headless run; final_time, final_step, wall_time and samples_per_second as a graph run's RunResult."""
+
     scenario: Scenario
     trajectory: Trajectory
+    final_time: float = 0.0      # s sim
+    final_step: int = 0          # plant base ticks
+    wall_time: float = 0.0       # s
+    bag = None                   # nothing recorded: the arrays are the run's data
+
+    @property
+    def samples_per_second(self) -> float:
+        return self.final_step / self.wall_time if self.wall_time > 0 else 0.0
+
+    @property
+    def end_state(self) -> str:
+        return self.trajectory.end_state
+
+    @property
+    def fault_kinds(self) -> tuple:
+        return self.trajectory.fault_kinds
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """Plant ground truth as 'plant/state.<field>' and DTC/PFC status as 'dtc/status.<field>'."""
+        """Plant ground truth as 'plant/state.<field>' and DTC/PFC status as 'dtc/status.<field>'
+        (each status with the 'time' of the sample it answered, as its header stamp in a bag)."""
         out = {f'plant/state.{k}': v for k, v in self.trajectory.as_arrays().items()}
+        times = self.trajectory.times
         for which, seq in (('dtc', self.trajectory.dtc_status), ('pfc', self.trajectory.pfc_status)):
             statuses = [s for s in seq if s is not None]
             if not statuses:
                 continue
+            out[f'{which}/status.time'] = np.array([t for t, s in zip(times, seq) if s is not None], dtype=float)
             for f in fields(statuses[0]):
                 try:
                     out[f'{which}/status.{f.name}'] = np.array([getattr(s, f.name) for s in statuses],
@@ -56,8 +78,9 @@ class HeadlessResult:
                     continue  # strings (mode name)
         return out
 
-    def save(self, path: Path) -> Path:
-        np.savez_compressed(path, **self.arrays())
+    def save(self, path: Path, arrays: dict[str, np.ndarray] | None = None) -> Path:
+        """The arrays (default: :meth:`arrays`) as a compressed .npz at path."""
+        np.savez_compressed(path, **(self.arrays() if arrays is None else arrays))
         return path
 
 
@@ -66,6 +89,7 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
 
     on_tick: optional callable(cosim) before each tick (a study's per-point deadline raises from it).
     """
+    started = time.monotonic()
     snapshots = {k: dict(v) for k, v in scenario.node_parameters.items()}
     plant_params = dict(snapshots['plant'])
     plant_params['pfc_enabled'] = 'pfc_controller' in snapshots
@@ -84,4 +108,5 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
         snapshots[event.node] = schema.validate_changes(snapshots[event.node], event.parameters)
         cores[event.node].reconfigure(snapshots[event.node])
     cosim.run(steps=plant.step_of(scenario.duration) - plant.step)
-    return HeadlessResult(scenario, cosim.trajectory)
+    return HeadlessResult(scenario, cosim.trajectory, final_time=plant.time, final_step=plant.step,
+                          wall_time=time.monotonic() - started)

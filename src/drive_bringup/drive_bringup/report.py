@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from drive_analysis import registry
-from drive_analysis.arrays import flatten_columns
+from drive_analysis.arrays import columns_of, flatten_columns
 from drive_bringup.scenario import Scenario
 
 __all__ = ['evaluate_metrics', 'check_rows', 'write_report', 'fault_verdict', 'FAULT_EXIT']
@@ -56,15 +56,21 @@ def check_rows(scenario: Scenario, values: dict[str, Any]) -> list[dict[str, Any
     return rows
 
 
-def write_report(scenario: Scenario, result, out_dir: Path, columns=None) -> dict[str, Any]:
-    """Analyse a recorded run: report.json, figures/*.png; returns the summary."""
+def write_report(scenario: Scenario, result, out_dir: Path, columns=None,
+                 arrays: dict[str, np.ndarray] | None = None) -> dict[str, Any]:
+    """Analyse a run: report.json, figures/*.png; returns the summary.
+
+    The run's data: columns ({topic: {field: array}}), else the flat arrays of
+    a headless run (:meth:`drive_bringup.headless.HeadlessResult.arrays`),
+    else the columns of ``result.bag``.
+    """
     from drive_analysis.bag_columns import load_columns
     from drive_analysis.figures import draw_all
     from drive_analysis.summary import json_safe, summarize
 
     out_dir = Path(out_dir)
     if columns is None:
-        columns = load_columns(str(result.bag))
+        columns = columns_of(arrays) if arrays is not None else load_columns(str(result.bag))
     values = evaluate_metrics(scenario, flatten_columns(columns))
     rows = check_rows(scenario, values)
     figures = draw_all(columns, out_dir / 'figures')

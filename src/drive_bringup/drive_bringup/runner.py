@@ -39,6 +39,33 @@ NODE_PROGRAMS = {
     'dtc_controller': ('dtc_controller', 'dtc_controller'),
     'pfc_controller': ('pfc_controller', 'pfc_controller'),
 }
+
+
+def scenario_programs(sc: Scenario) -> list[tuple[str, str, str, str | None]]:
+    """(key, package, executable, node name or None) of each node of the scenario, in start order."""
+    out = []
+    for key in sc.nodes:
+        own = sc.controller if key == 'controller' else None
+        package, executable = (own.package, own.executable) if own else NODE_PROGRAMS[key]
+        out.append((key, package, executable, own.node_name if own else None))
+    return out
+
+
+def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> None:
+    """ScenarioError naming the first program of the run that is not built (before anything starts)."""
+    from drive_bringup.scenario import ScenarioError
+    from drive_common.processes import executable_path
+    wanted = [(key, package, executable) for key, package, executable, _ in scenario_programs(sc)]
+    wanted += [('recorder', 'drive_logger', 'recorder')] if record else []
+    wanted += [('live_view', 'drive_logger', 'live_view')] if live else []
+    for key, package, executable in wanted:
+        try:
+            executable_path(package, executable)
+        except FileNotFoundError as exc:
+            where = f'nodes.{key}' if key in sc.nodes else key
+            raise ScenarioError(f'{sc.path}: {where}: cannot run {package} {executable}: {exc}') from None
+
+
 # Every sample in blocks, no subscriber on a per-sample lockstep publish
 # (docs/architecture.md "Telemetry: blocks and live topics").
 DEFAULT_RECORD_TOPICS = [topics.PLANT_STATE_BLOCK, topics.DTC_STATUS_BLOCK, topics.CLOCK,
@@ -167,7 +194,6 @@ class GraphRunner:
         return future.result()
 
     def run(self) -> RunResult:
-        self.out_dir.mkdir(parents=True, exist_ok=True)
         bag_dir = self.out_dir / 'bag'
         sc = self.scenario
         context = rclpy.Context()
@@ -178,6 +204,7 @@ class GraphRunner:
             if self.domain_id is None:
                 # A shared domain: refuse before starting anything if a drive graph runs there.
                 refuse_if_busy(node, 'run_scenario')
+            self.out_dir.mkdir(parents=True, exist_ok=True)     # after every refusal: none leaves a directory
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',
                             {'output': str(bag_dir), 'topics': [
@@ -191,12 +218,10 @@ class GraphRunner:
             plant_params = dict(sc.overrides['plant'])
             plant_params['run_until'] = 0.0
             plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
-            for key in sc.nodes:
-                own = sc.controller if key == 'controller' else None
-                package, executable = (own.package, own.executable) if own else NODE_PROGRAMS[key]
+            for key, package, executable, node_name in scenario_programs(sc):
                 self._start(key, package, executable,
                             plant_params if key == 'plant' else dict(sc.overrides[key]),
-                            node_name=own.node_name if own else None)
+                            node_name=node_name)
             executor = SingleThreadedExecutor(context=context)
             executor.add_node(node)
             return self._drive(node, executor, bag_dir)

@@ -16,10 +16,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
+from typing import Callable
 
-from drive_bringup.scenario import ScenarioError, find_scenario, load_scenario, scenario_dir
+from drive_bringup.scenario import Scenario, ScenarioError, find_scenario, load_scenario, scenario_dir
 from drive_common.namespaces import normalized
 from drive_common.parameter_files import ParameterFileError, read_params_file
 
@@ -45,7 +45,8 @@ def print_summary(summary: dict, out: Path) -> None:
     print(f'\n{summary["scenario"]} ({summary["seed_reference"]}): '
           f'{summary["sim_time"]:.4f} s sim in {summary["wall_time"]:.1f} s wall, '
           f'{summary["samples_per_second"]:.0f} samples/s')
-    print(f'  bag     {summary["bag"]}\n  report  {out / "report.json"}\n  figures {out / "figures"}')
+    data = summary['bag'] or f'none (headless: {out / "trajectory.npz"})'
+    print(f'  bag     {data}\n  report  {out / "report.json"}\n  figures {out / "figures"}')
     for name, value in summary['metrics'].items():
         print(f'  {name:45s} {value:.6g}' if isinstance(value, float) else f'  {name:45s} {value}')
     for row in summary['checks']:
@@ -75,7 +76,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--params-file', type=Path,
                         help='ROS 2 parameter file (node: {ros__parameters: ...} or /**:) over the '
                         "scenario's node parameters")
-    parser.add_argument('--duration', type=float, help='run only the first DURATION s of the scenario')
+    parser.add_argument('--duration', type=float,
+                        help='run only the first DURATION s of the scenario (with --live: any DURATION s, '
+                             'longer too, the last setpoints holding)')
     parser.add_argument('--live', action='store_true',
                         help='also start drive_logger live_view: watch the run in Foxglove at ws://localhost:8765')
     parser.add_argument('--namespace', default='', metavar='NAME',
@@ -84,17 +87,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def prepare_run(args) -> tuple:
-    """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite."""
+def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
+    """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite.
+
+    Every check (the arguments, ``check(scenario)``, the programs a graph
+    run starts) comes before the output
+    directory is touched: a refused run leaves no directory behind.
+    --duration shortens a run; with --live it may also lengthen it (the
+    last setpoints hold), to leave time to turn a knob in the viewer.
+    """
     scenario = load_scenario(find_scenario(args.scenario))
     if args.duration is not None:
-        scenario = scenario.shortened(args.duration)
+        live = getattr(args, 'live', False)
+        scenario = scenario.with_duration(args.duration) if live else scenario.shortened(args.duration)
     params_file = getattr(args, 'params_file', None)
     if params_file is not None:
         scenario = scenario.with_parameters(str(params_file), read_params_file(params_file))
     domain_id = getattr(args, 'domain_id', None)
     if domain_id is not None and not 0 <= domain_id <= 232:
         raise ScenarioError(f'--domain-id {domain_id}: must be in 0..232')
+    if check is not None:
+        check(scenario)
+    if not getattr(args, 'headless', False):     # (a controller core is imported by load_scenario)
+        from drive_bringup.runner import check_programs
+        check_programs(scenario, record=not getattr(args, 'no_record', False),
+                       live=getattr(args, 'live', False))
     return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
 
 
@@ -123,15 +140,7 @@ def main(argv=None) -> int:
         print(f'[run_scenario] error: {exc}', file=sys.stderr)
         return 2
     if args.headless:
-        from drive_bringup.headless import run_headless
-        started = time.monotonic()
-        result = run_headless(scenario)
-        out.mkdir(parents=True, exist_ok=True)
-        path = result.save(out / 'trajectory.npz')
-        wall = time.monotonic() - started
-        print(f'[{scenario.name}] headless: {scenario.duration} s sim in {wall:.1f} s wall; '
-              f'trajectory -> {path}')
-        return _judge(scenario, result.trajectory.end_state, result.trajectory.fault_kinds)
+        return _run_headless(scenario, out)
     from drive_bringup.report import write_report
     from drive_bringup.runner import GraphRunner, main_guard
 
@@ -152,6 +161,20 @@ def main(argv=None) -> int:
         return _judge(scenario, result.end_state, result.fault_kinds)
 
     return main_guard(run)
+
+
+def _run_headless(scenario, out: Path) -> int:
+    """The scenario's cores in this process: trajectory.npz, then the report a graph run writes."""
+    from drive_bringup.headless import run_headless
+    from drive_bringup.report import write_report
+    result = run_headless(scenario)
+    out.mkdir(parents=True, exist_ok=True)
+    arrays = result.arrays()
+    np_path = out / 'trajectory.npz'
+    result.save(np_path, arrays)
+    print(f'[{scenario.name}] headless: trajectory -> {np_path}')
+    print_summary(write_report(scenario, result, out, arrays=arrays), out)
+    return _judge(scenario, result.end_state, result.fault_kinds)
 
 
 def _judge(scenario, end_state: str, fault_kinds) -> int:

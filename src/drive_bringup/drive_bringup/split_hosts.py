@@ -143,11 +143,13 @@ def main(argv=None) -> int:
     if reason:
         print(f'split_hosts: cannot make virtual hosts: {reason}', file=sys.stderr)
         return 2
-    try:
-        scenario, out = prepare_run(args)
+    def check_cut(scenario) -> None:
         if args.cut_controller_at is not None and not 0 <= args.cut_controller_at < scenario.duration:
             raise ScenarioError(f'--cut-controller-at {args.cut_controller_at} is outside '
                                 f'[0, {scenario.duration}) s of {scenario.name}')
+
+    try:
+        scenario, out = prepare_run(args, check=check_cut)
     except ScenarioError as exc:
         print(f'error: {exc}', file=sys.stderr)
         return 2

@@ -148,4 +148,5 @@ def run_controller(core_class: type, node_name: str, args=None, *, status: bool 
     the node cannot start, e.g. a rejected parameter).
     """
     from drive_common.node_main import run_node
-    return run_node(lambda: controller_node(core_class, node_name, status=status), args)
+    return run_node(lambda: controller_node(core_class, node_name, status=status), args,
+                    about=core_class)

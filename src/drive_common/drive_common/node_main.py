@@ -23,6 +23,7 @@ import sys
 import threading
 from typing import Callable
 
+from drive_common.node_help import print_node_help, wants_help
 from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
 
@@ -50,7 +51,7 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
 
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
              work: Callable[[object, threading.Event], None] | None = None,
-             errors: tuple[type[BaseException], ...] = ()) -> int:
+             errors: tuple[type[BaseException], ...] = (), about: object | None = None) -> int:
     """Run the node built by ``factory`` until SIGINT/SIGTERM (or ``work`` returns).
 
     args: command line (``--ros-args`` with ``-p``, ``-r``, ``--params-file``).
@@ -59,7 +60,12 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     work: ``work(node, stop)`` runs in the main thread while the executor
         serves the node; ``stop`` is set by SIGINT/SIGTERM.
     errors: further exception types that mean "cannot start" (exit 2).
+    about: what ``-h``/``--help`` describes (default: factory, see
+        :func:`drive_common.node_help.print_node_help`); help starts nothing.
     """
+    argv = sys.argv if args is None else args
+    if wants_help(argv):
+        return print_node_help(about if about is not None else factory)
     import rclpy
     from rclpy.exceptions import ParameterException
     from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
@@ -68,7 +74,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     from rclpy.signals import SignalHandlerOptions
 
     try:
-        for path in params_files_in(sys.argv if args is None else args):
+        for path in params_files_in(argv):
             read_params_file(path)
     except ParameterFileError as exc:
         return fail(exc)

@@ -85,7 +85,8 @@ def executable_path(package: str, executable: str) -> Path:
         prefix = get_package_prefix(package)
     except PackageNotFoundError as exc:
         raise FileNotFoundError(
-            f'package {package!r} not found on AMENT_PREFIX_PATH (did you source scripts/env.sh?)') from exc
+            f'no package {package!r} on AMENT_PREFIX_PATH: misspelt, or not built in the sourced '
+            'workspace') from exc
     path = Path(prefix) / 'lib' / package / executable
     if not path.exists():
         raise FileNotFoundError(f'no executable {executable!r} in {path.parent}')

@@ -52,28 +52,26 @@ Bad parameters end the node with exit code 2 and a one-line reason.
 """
 from __future__ import annotations
 
-import signal
 import sys
 import threading
 
 import foxglove
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
-from rclpy.exceptions import ParameterException
-from rclpy.executors import SingleThreadedExecutor
+from rcl_interfaces.msg import ParameterEvent
 from rclpy.node import Node
 from rclpy.parameter import Parameter as RosParameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from foxglove import Parameter as FoxgloveParameter, ParameterType, StatusLevel
 from foxglove.websocket import Capability
 from rosgraph_msgs.msg import Clock
 
 from drive_common import topics as t
 from drive_common.lockstep_io import DirectReceiver
-from drive_common.node_main import spin_in_background
+from drive_common.node_main import run_node
+from drive_common.parameters import ParameterError, ParameterSpec, schema
+from drive_common.ros_parameters import SchemaParameters
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
@@ -84,6 +82,36 @@ DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by
 
 class LiveViewConfigError(RuntimeError):
     """Bad live_view configuration (nothing served)."""
+
+
+def _positive(*names: str):
+    def check(values) -> None:
+        for name in names:
+            if not values[name] > 0.0:
+                raise ParameterError(f'{name}: {values[name]} s must be > 0')
+    return check
+
+
+def _ro(name, default, description, unit='', **limits) -> ParameterSpec:
+    return ParameterSpec(name, default, description, unit, read_only=True, **limits)
+
+
+LIVE_VIEW_SCHEMA = schema([
+    _ro('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
+    _ro('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
+    _ro('topic_periods', ['/diagnostics=0'], 'per-topic name=seconds overrides of decimation_period'),
+    _ro('time_period', 0.001, 'server-time broadcasts from /clock, at most one per this much sim time', 's'),
+    _ro('host', '127.0.0.1', 'address the WebSocket server listens on'),
+    _ro('port', 8765, 'WebSocket port (0 = any free port; the log says which)', min_value=0, max_value=65535),
+    _ro('qos_depth', 1, 'depth of the best-effort subscriptions to the served topics', min_value=1),
+    _ro('queue_depth', 256, 'frames between the receive and the send thread', min_value=1),
+    _ro('message_backlog_size', 1024, "the SDK's outbox per client", min_value=1),
+    _ro('parameter_timeout', 5.0, 'per ROS parameter service call', 's'),
+    _ro('diagnostics_period', 1.0, 'period of /diagnostics (wall time)', 's'),
+    _ro('batch_period', 0.005, 'rest after a wake-up that took messages (wall time)', 's',
+        min_value=0.0, max_value=0.1),
+], _positive('parameter_timeout', 'diagnostics_period'))
+"""The live view's parameters (all read-only, set at start); see the module docstring."""
 
 
 def _plain(value):
@@ -107,34 +135,7 @@ class LiveViewNode(Node):
 
     def __init__(self, **kwargs) -> None:
         super().__init__('live_view', **kwargs)
-        ro = ParameterDescriptor(read_only=True)
-        self.declare_parameter('topics', list(DEFAULT_TOPICS),
-                               ParameterDescriptor(read_only=True, description='name or name:pkg/msg/Type'))
-        self.declare_parameter('decimation_period', 0.0, ParameterDescriptor(read_only=True, description='s of sim time'))
-        self.declare_parameter('topic_periods', ['/diagnostics=0'],
-                               ParameterDescriptor(read_only=True, description='name=seconds overrides'))
-        self.declare_parameter('time_period', 0.001, ParameterDescriptor(read_only=True, description='s of sim time'))
-        self.declare_parameter('host', '127.0.0.1', ro)
-        self.declare_parameter('port', 8765, ro)
-        self.declare_parameter('qos_depth', 1, ro)
-        self.declare_parameter('queue_depth', 256, ro)
-        self.declare_parameter('message_backlog_size', 1024, ro)
-        self.declare_parameter('parameter_timeout', 5.0, ParameterDescriptor(read_only=True, description='s'))
-        self.declare_parameter('diagnostics_period', 1.0, ParameterDescriptor(read_only=True, description='s wall'))
-        self.declare_parameter('batch_period', 0.005, ParameterDescriptor(read_only=True, description='s wall'))
-        p = {name: self.get_parameter(name).value for name in (
-            'topics', 'decimation_period', 'topic_periods', 'time_period', 'host', 'port', 'qos_depth',
-            'queue_depth', 'message_backlog_size', 'parameter_timeout', 'diagnostics_period', 'batch_period')}
-        for key in ('qos_depth', 'queue_depth', 'message_backlog_size'):
-            if int(p[key]) < 1:
-                raise LiveViewConfigError(f'parameter {key} = {p[key]} must be >= 1')
-        for key in ('parameter_timeout', 'diagnostics_period'):
-            if not float(p[key]) > 0.0:
-                raise LiveViewConfigError(f'parameter {key} = {p[key]} s must be > 0')
-        if not 0.0 <= float(p['batch_period']) <= 0.1:
-            raise LiveViewConfigError(f'parameter batch_period = {p["batch_period"]} s must be in [0, 0.1]')
-        if not 0 <= int(p['port']) <= 65535:
-            raise LiveViewConfigError(f'parameter port = {p["port"]} must be in [0, 65535]')
+        p = self.parameters = SchemaParameters(self, LIVE_VIEW_SCHEMA)
         self.parameter_timeout = float(p['parameter_timeout'])
         self.batch_period = float(p['batch_period'])
         try:
@@ -407,42 +408,26 @@ class LiveViewNode(Node):
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(self.sim_time_ns, 1_000_000_000)
         self._diag_pub.publish(msg)
 
-    def close(self) -> None:
+    def stop(self) -> None:
+        """End serving (run_node calls it once the threads are joined)."""
         self.outbox.close()
         self.server.stop()
         self._io.destroy_node()
 
 
-def main(args=None) -> int:
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    try:
-        node = LiveViewNode()
-    except (LiveViewConfigError, ParameterException) as exc:
-        print(f'[live_view] error: {exc}', file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        return 2
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
+def serve(node: LiveViewNode, stop: threading.Event) -> None:
+    """The receive and send threads of a running live view, until stop is set."""
     threads = [threading.Thread(target=node.receive_loop, args=(stop,), daemon=True),
                threading.Thread(target=node.send_loop, args=(stop,), daemon=True)]
     for thread in threads:
         thread.start()
+    stop.wait()
+    for thread in threads:
+        thread.join(timeout=2.0)
 
-    spin_in_background(executor)
-    try:
-        while not stop.wait(0.2):
-            pass
-    finally:
-        for thread in threads:
-            thread.join(timeout=2.0)
-        node.close()
-        executor.shutdown(timeout_sec=1.0)
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+
+def main(args=None) -> int:
+    return run_node(LiveViewNode, args, work=serve, errors=(LiveViewConfigError,))
 
 
 if __name__ == '__main__':

@@ -8,6 +8,7 @@ import time
 import pytest
 import yaml
 
+from drive_common.waiting import wait_until
 from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
 from drive_logger.readiness import wait_for_recorder
 from dtc_msgs.msg import DriveMeasurement, GateCommand
@@ -37,6 +38,13 @@ def _assert_fields(published, decoded):
 
 def _start_recorder(start_node, output, topics=TOPICS, **extra):
     return start_node('drive_logger', 'recorder', parameters={'output': str(output), 'topics': topics, **extra})
+
+
+def _all_received(*publishers, timeout: float = 30.0) -> None:
+    """Wait until every matched reader (the recorder's) acknowledged all that publishers sent (reliable QoS)."""
+    from rclpy.duration import Duration
+    for pub in publishers:
+        assert pub.wait_for_all_acked(Duration(seconds=timeout)), f'{pub.topic_name}: not all acknowledged'
 
 
 def _stop(process, sig=signal.SIGINT, timeout=15.0) -> int:
@@ -71,7 +79,7 @@ def test_recorded_bag_reads_back_field_exact(ros_session, start_node, tmp_path, 
         published['/drive/gate_command'].append(gate)
         if k % 50 == 0:
             time.sleep(0.002)  # lockstep-like pacing; the recorder must keep up, nothing dropped
-    time.sleep(0.5)
+    _all_received(meas_pub, gate_pub)
     assert _stop(recorder) == 0, recorder.output()
 
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
@@ -124,7 +132,6 @@ def test_messages_from_other_publishers_are_recorded_in_canonical_cdr(ros_sessio
     from rosbags.highlevel import AnyReader
 
     from drive_common.cdr_padding import serialize_zero_padded
-    from drive_common.waiting import wait_until
     from drive_logger.bag_reader import BagReader
 
     bag = tmp_path / 'bag'
@@ -145,7 +152,7 @@ def test_messages_from_other_publishers_are_recorded_in_canonical_cdr(ros_sessio
     for event, status in zip(events, diagnostics):
         event_pub.publish(event)
         diagnostics_pub.publish(status)
-    time.sleep(0.5)
+    _all_received(event_pub, diagnostics_pub)
     assert _stop(recorder) == 0, recorder.output()
 
     recorded = {}
@@ -164,21 +171,22 @@ def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_no
     bag = tmp_path / 'bag'
     recorder, pub = _record_measurements(ros_session, start_node, bag)
     stop_publishing = threading.Event()
+    published = [0]
 
     def publish():
-        k = 0
         while not stop_publishing.is_set():
-            pub.publish(measurement_factory(k))
-            k += 1
+            pub.publish(measurement_factory(published[0]))
+            published[0] += 1
             time.sleep(0.0005)
 
     thread = threading.Thread(target=publish)
     thread.start()
     try:
-        time.sleep(1.5)
+        wait_until(lambda: published[0] >= 1000, 60.0, what='the run under way')
+        at_signal = published[0]
         os.killpg(recorder.pid, signal.SIGINT)   # mid-run: the publisher keeps going
+        wait_until(lambda: published[0] >= at_signal + 200, 60.0, what='publishing after the signal')
     finally:
-        time.sleep(0.3)
         stop_publishing.set()
         thread.join()
     assert recorder.process.wait(timeout=15) == 0, recorder.output()
@@ -195,7 +203,7 @@ def test_sigterm_finalizes_too(ros_session, start_node, tmp_path, measurement_fa
     recorder, pub = _record_measurements(ros_session, start_node, bag)
     for k in range(100):
         pub.publish(measurement_factory(k))
-    time.sleep(0.5)
+    _all_received(pub)
     assert _stop(recorder, signal.SIGTERM) == 0
     from drive_logger.bag_reader import BagReader
     # sim-time log times (the default): each message at its header stamp, sample k at k * 25 us

@@ -5,6 +5,7 @@ import threading
 import time
 
 import pytest
+from rclpy.duration import Duration
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 
@@ -85,12 +86,17 @@ def _record_lockstep_run(ros_session, start_node, bag, measurement_factory):
         wait_for_recorder(node, [DRIVE_MEASUREMENT, GATE_COMMAND], timeout=20.0)
         wait_until(lambda: pub.get_subscription_count() >= 2 and node.count_publishers(GATE_COMMAND) >= 1, 20.0,
                    what='responder matched')
-        time.sleep(1.0)   # the responder's publisher and the recorder match out of our sight
+        # the responder's publisher matched the recorder and us (out of our sight: it logs it)
+        wait_until(lambda: 'gate_command matched 2 subscription(s)' in responder.output(), 20.0,
+                   what='responder gate_command matched')
         for k in range(STEPS):
             pub.publish(measurement_factory(k))
             with arrived:
                 assert arrived.wait_for(lambda: k in replies, timeout=30.0), f'no reply for step {k}'
-        time.sleep(0.3)
+        # everything reached the recorder: our measurements and the responder's replies acknowledged
+        assert pub.wait_for_all_acked(Duration(seconds=30.0))
+        wait_until(lambda: f'gate_command acknowledged through step {STEPS - 1}' in responder.output(), 30.0,
+                   what='the replies acknowledged')
     finally:
         recorder.stop()    # first: the responder stays up to deliver what is still in flight
         responder.stop()

@@ -4,14 +4,23 @@ Answers every drive/measurement with a GateCommand of the same step whose
 switches depend on the measurement (hall code and current signs) and on an
 internal counter (state), like a controller. ``corrupt_step`` (>= 0) flips SW1
 at that step, to prove the comparison catches a difference.
+
+What a test cannot see from outside, it logs: ``gate_command matched N
+subscription(s)`` whenever its publisher's match count changes, and
+``gate_command acknowledged through step K`` once every matched reader
+acknowledged the replies up to step K (reliable QoS), so a test waits on
+those conditions instead of sleeping.
 """
 import sys
 
+from rclpy.duration import Duration
 from rclpy.node import Node
 
 from drive_common.node_main import run_node
 from drive_common.topics import DRIVE_MEASUREMENT, GATE_COMMAND, LOCKSTEP_QOS
 from dtc_msgs.msg import DriveMeasurement, GateCommand
+
+REPORT_PERIOD = 0.02   # s wall: how often the match count and acknowledgements are checked
 
 
 class Responder(Node):
@@ -21,6 +30,20 @@ class Responder(Node):
         self.count = 0
         self.pub = self.create_publisher(GateCommand, GATE_COMMAND, LOCKSTEP_QOS)
         self.create_subscription(DriveMeasurement, DRIVE_MEASUREMENT, self.on_measurement, LOCKSTEP_QOS)
+        self.matched = 0
+        self.last_step = self.acked_step = -1
+        self.create_timer(REPORT_PERIOD, self.report)
+
+    def report(self) -> None:
+        """Log a change of the publisher's match count, and the last step every reader acknowledged."""
+        matched = self.pub.get_subscription_count()
+        if matched != self.matched:
+            self.matched = matched
+            self.get_logger().info(f'gate_command matched {matched} subscription(s)')
+        last = self.last_step
+        if last > self.acked_step and self.pub.wait_for_all_acked(Duration(seconds=0)):
+            self.acked_step = last
+            self.get_logger().info(f'gate_command acknowledged through step {last}')
 
     def on_measurement(self, msg):
         self.count += 1
@@ -31,6 +54,7 @@ class Responder(Node):
         out = GateCommand(step=msg.step, topology=GateCommand.TOPOLOGY_SIX_SWITCH, switch_on=bits)
         out.header.stamp = msg.header.stamp
         self.pub.publish(out)
+        self.last_step = msg.step
 
 
 def main(args=None) -> int:
