@@ -22,7 +22,6 @@ from bldc_plant_sim.core.faults import FaultKind
 from bldc_plant_sim.core.lockstep import ControllerKind
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.faults_reporting import run_end
-from bldc_plant_sim.peer_watch import WaitReporter
 from drive_common import topics
 from drive_common.conversions import sec_nanosec
 from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver
@@ -36,6 +35,7 @@ COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
 FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 FAULTED_GLANCE = 5e-4           # s of wall time a controller that fell silent is waited for per
                                 # due sample: one that answers again resumes; a dead one slows little
+WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 
 
 class StartupFailed(Exception):
@@ -61,7 +61,7 @@ def _invalid_duty(msg, core: PlantCore) -> str | None:
 class ChannelSpec:
     """The ROS side of one controller kind: topics, message and sample types, conversions."""
 
-    controller: str                             # who answers, for log lines
+    node: str                                   # the controller node that answers
     measurement_topic: str
     measurement_type: type
     measurement_sample: type
@@ -72,20 +72,41 @@ class ChannelSpec:
     command_of: Callable[[Any], tuple]          # message -> LockstepSchedule command
     invalid: Callable[[Any, PlantCore], str | None]   # why a command cannot be applied, or None
 
+    @property
+    def controller(self) -> str:
+        """Who answers, for log lines: node (measurement topic -> command topic)."""
+        return f'{self.node} ({self.measurement_topic} -> {self.command_topic})'
+
 
 CHANNELS = {
     ControllerKind.GATE: ChannelSpec(
-        'dtc_controller (drive/measurement -> drive/gate_command)',
+        'dtc_controller',
         topics.DRIVE_MEASUREMENT, DriveMeasurement, DriveSample,
         topics.GATE_COMMAND, GateCommand, GateSample, PlantCore.drive_sample,
         lambda msg: tuple(bool(s) for s in msg.switch_on), _wrong_topology),
     ControllerKind.DUTY: ChannelSpec(
-        'pfc_controller (pfc/measurement -> pfc/duty_command)',
+        'pfc_controller',
         topics.PFC_MEASUREMENT, PfcMeasurement, PfcSample,
         topics.DUTY_COMMAND, DutyCommand, DutySample, PlantCore.pfc_sample,
         lambda msg: (float(msg.duty), bool(msg.enable)), _invalid_duty),
 }
 """Per controller kind, everything the plant node needs to know of its lockstep topics."""
+
+
+class WaitReporter:
+    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s."""
+
+    def __init__(self, logger, timeout: float) -> None:
+        self._logger, self._timeout = logger, timeout
+        self._start = time.monotonic()
+        self._next = self._start + WAIT_LOG_FIRST
+
+    def report(self, what: str) -> None:
+        now = time.monotonic()
+        if now >= self._next:
+            self._next = now + WAIT_LOG_PERIOD
+            self._logger.info(f'waiting {now - self._start:.0f} s of startup_timeout = '
+                              f'{self._timeout:g} s for {what}')
 
 
 class _Inbox:

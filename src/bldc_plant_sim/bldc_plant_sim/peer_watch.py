@@ -14,31 +14,14 @@ import time
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from bldc_plant_sim.core.lockstep import ControllerKind
-from drive_common import topics
+from bldc_plant_sim.lockstep_loop import CHANNELS, WaitReporter
 from drive_common.lockstep_io import GraphConflict, graph_conflict, readers_matched
 from drive_common.waiting import wait_until
 
-WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
-LOCKSTEP_TOPICS = (topics.DRIVE_MEASUREMENT, topics.PFC_MEASUREMENT, topics.GATE_COMMAND,
-                   topics.DUTY_COMMAND)   # one publisher each, or two graphs are mixed
-COMMAND_TOPICS = {ControllerKind.GATE: topics.GATE_COMMAND, ControllerKind.DUTY: topics.DUTY_COMMAND}
-
-
-class WaitReporter:
-    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s."""
-
-    def __init__(self, logger, timeout: float) -> None:
-        self._logger, self._timeout = logger, timeout
-        self._start = time.monotonic()
-        self._next = self._start + WAIT_LOG_FIRST
-
-    def report(self, what: str) -> None:
-        now = time.monotonic()
-        if now >= self._next:
-            self._next = now + WAIT_LOG_PERIOD
-            self._logger.info(f'waiting {now - self._start:.0f} s of startup_timeout = '
-                              f'{self._timeout:g} s for {what}')
+LOCKSTEP_TOPICS = (tuple(spec.measurement_topic for spec in CHANNELS.values())
+                   + tuple(spec.command_topic for spec in CHANNELS.values()))
+"""One publisher each, or two graphs are mixed."""
 
 
 def _unknown_node(name: str, namespace: str) -> bool:
@@ -62,7 +45,7 @@ class PeerWatch:
         if channel is not None and channel.inbox.binding.bound:
             self._last_sources[which] = channel.inbox.binding.peer_name
             return channel.inbox.binding.peer_name
-        infos = self.get_publishers_info_by_topic(COMMAND_TOPICS[ControllerKind(which)])
+        infos = self.get_publishers_info_by_topic(CHANNELS[ControllerKind(which)].command_topic)
         # An endpoint whose node is no longer known (it is leaving) carries placeholder
         # names (_NODE_NAME_UNKNOWN_): never shown; the last real name seen is kept.
         names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name) for i in infos
