@@ -32,7 +32,16 @@ from drive_common.conversions import time_msg
 
 REPEAT_PERIOD = 0.1      # s of sim time between two shown reports of one fault kind
 DIAGNOSTIC_NAME = 'plant: faults'
+LOCKSTEP_DIAGNOSTIC_NAME = 'plant: lockstep'   # start-up, resumed commands, intruders
 HARDWARE_ID = 'bldc_plant_sim'
+
+
+def diagnostic_array(name: str, level: bytes, message: str, values: dict[str, str],
+                     sim_time: float) -> DiagnosticArray:
+    """One plant DiagnosticStatus (hardware_id bldc_plant_sim) stamped at sim_time (s)."""
+    status = DiagnosticStatus(level=level, name=name, message=message, hardware_id=HARDWARE_ID,
+                              values=[KeyValue(key=k, value=v) for k, v in values.items()])
+    return DiagnosticArray(header=Header(stamp=time_msg(sim_time)), status=[status])
 
 
 @dataclass(frozen=True)
@@ -129,7 +138,4 @@ class FaultReporter:
         values = {'sim_time': f'{event.time:.9f}', 'step': str(event.step), 'kind': kind,
                   'node': node or self._self_name}
         values.update({k: str(v) for k, v in event.values.items()})
-        status = DiagnosticStatus(level=level, name=DIAGNOSTIC_NAME, message=message,
-                                  hardware_id=HARDWARE_ID,
-                                  values=[KeyValue(key=k, value=v) for k, v in values.items()])
-        self._publish(DiagnosticArray(header=Header(stamp=time_msg(event.time)), status=[status]))
+        self._publish(diagnostic_array(DIAGNOSTIC_NAME, level, message, values, event.time))

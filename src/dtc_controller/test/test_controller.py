@@ -230,6 +230,24 @@ def test_check_validates_a_change_without_rebuilding_or_rereading_the_table(tmp_
     assert len(loads) == 1 and core.params == params
 
 
+def test_a_table_read_by_check_is_the_one_the_reconfigure_builds_with(tmp_path, monkeypatch):
+    from dtc_controller.core.backemf_table import BackEmfTable
+    first, second = tmp_path / 'first.csv', tmp_path / 'second.csv'
+    make_table('trapezoid').write(first)
+    make_table('trapezoid').write(second)
+    core = DtcCore({'backemf_table_path': str(first)})
+    loads = []
+    original = BackEmfTable.load
+    monkeypatch.setattr(BackEmfTable, 'load', classmethod(lambda cls, *a, **k: loads.append(a) or original(*a, **k)))
+    change = {'backemf_table_path': str(second)}
+    core.check(change)                                # a node validates the change ...
+    assert [a[0] for a in loads] == [str(second)]
+    core.reconfigure(change)                          # ... then applies it at the next sample
+    core.update(sample())
+    assert core.params['backemf_table_path'] == str(second) and core.backemf is not None
+    assert len(loads) == 1                            # read once, by check
+
+
 def test_modes_are_built_then_configured_and_reconfigured_in_place(trap_table):
     from dtc_controller.core.modes import MODE_CLASSES, mode_class
     params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})

@@ -95,3 +95,18 @@ def test_check_validates_a_change_without_applying_it():
     with pytest.raises(ParameterError):
         core.check({'voltage_kp': -1.0})
     assert core.params == before
+
+
+def test_check_validates_the_line_period_without_building_the_average(monkeypatch):
+    import pfc_controller.core.average_current_control as acc
+    core = PfcCore()
+    built = []
+    original = acc.LinePeriodAverage
+    monkeypatch.setattr(acc, 'LinePeriodAverage', lambda *a: built.append(a) or original(*a))
+    checked = core.check({'line_frequency': 50.0})
+    assert checked['line_frequency'] == 50.0 and built == []
+    with pytest.raises((ParameterError, ValueError)):
+        core.check({'line_frequency': 50.0, 'sample_period': 0.015})   # not below the line period
+    assert built == []
+    core.reconfigure({'line_frequency': 50.0})
+    assert built == [(50.0, core.params['sample_period'])]          # built once, when applied

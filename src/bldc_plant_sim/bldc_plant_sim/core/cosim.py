@@ -51,11 +51,6 @@ class Trajectory:
             out[f.name] = self.array(f.name)
         return out
 
-    def status_array(self, name: str, which: str = 'dtc') -> np.ndarray:
-        """Array of a status field over the samples where that controller answered."""
-        src = self.dtc_status if which == 'dtc' else self.pfc_status
-        return np.array([getattr(s, name) for s in src if s is not None], dtype=float)
-
 
 class CoSimulation:
     """Steps a PlantCore with controller cores under the lockstep semantics.

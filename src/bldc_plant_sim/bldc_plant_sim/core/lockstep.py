@@ -12,8 +12,37 @@ after it, and applied from the controller's next due sample, as latched.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 
 from drive_common.samples import ALL_OFF
+
+
+class ControllerKind(StrEnum):
+    """A lockstep controller: what it commands, its period and how its command is applied.
+
+    The one place that knows the kinds on the ROS-agnostic side (the plant node's
+    bldc_plant_sim.lockstep_loop.CHANNELS adds topics and message types). A StrEnum:
+    ``ControllerKind('gate')`` and ``ControllerKind.GATE == 'gate'`` hold.
+    """
+
+    GATE = 'gate'    # dtc_controller: switch_on (bool[6])
+    DUTY = 'duty'    # pfc_controller: (duty, enable)
+
+    @property
+    def initial(self) -> tuple:
+        """The command held before any: all switches off, or duty 0 disabled."""
+        return ALL_OFF if self is ControllerKind.GATE else (0.0, False)
+
+    def ticks(self, schedule: 'LockstepSchedule') -> int:
+        """The controller's period in base ticks (0: not in the run)."""
+        return schedule.dtc_ticks if self is ControllerKind.GATE else schedule.pfc_ticks
+
+    def apply(self, plant, command: tuple) -> None:
+        """plant.apply_gates(switch_on) or plant.apply_duty(duty, enable)."""
+        if self is ControllerKind.GATE:
+            plant.apply_gates(command)
+        else:
+            plant.apply_duty(*command)
 
 
 def ticks_of(period: float, base_tick: float, what: str) -> int:
@@ -41,8 +70,8 @@ class LockstepSchedule:
     state_ticks: int
     computation_delay: bool
     clock_ticks: int = 0          # /clock every this many ticks (0 = with every state)
-    _held_gates: tuple = field(default=ALL_OFF, repr=False)
-    _held_duty: tuple = field(default=(0.0, False), repr=False)
+    _held: dict = field(default_factory=lambda: {kind: kind.initial for kind in ControllerKind},
+                        repr=False)
 
     @classmethod
     def from_params(cls, params: dict, base_tick: float) -> 'LockstepSchedule':
@@ -58,44 +87,39 @@ class LockstepSchedule:
     def updated(self, params: dict, base_tick: float) -> 'LockstepSchedule':
         """A schedule for new parameters that keeps the commands held so far."""
         new = self.from_params(params, base_tick)
-        return replace(new, _held_gates=self._held_gates, _held_duty=self._held_duty)
+        return replace(new, _held=dict(self._held))
+
+    def is_due(self, kind: ControllerKind, step: int) -> bool:
+        """The controller of this kind is due at tick step."""
+        ticks = ControllerKind(kind).ticks(self)
+        return ticks > 0 and step % ticks == 0
 
     def due(self, step: int) -> tuple[bool, bool]:
         """(DTC due, PFC due) at tick step."""
-        return (self.dtc_ticks > 0 and step % self.dtc_ticks == 0,
-                self.pfc_ticks > 0 and step % self.pfc_ticks == 0)
+        return self.is_due(ControllerKind.GATE, step), self.is_due(ControllerKind.DUTY, step)
 
     def latch_gates(self, plant, switch_on: tuple) -> None:
-        if self.computation_delay:
-            switch_on, self._held_gates = self._held_gates, switch_on
-        plant.apply_gates(switch_on)
+        self.latch(plant, ControllerKind.GATE, switch_on)
 
     def latch_duty(self, plant, duty: float, enable: bool) -> None:
-        if self.computation_delay:
-            (duty, enable), self._held_duty = self._held_duty, (duty, enable)
-        plant.apply_duty(duty, enable)
+        self.latch(plant, ControllerKind.DUTY, (duty, enable))
 
-    def latch(self, plant, which: str, command: tuple) -> None:
-        """latch_gates (which = 'gate', command = switch_on) or latch_duty ('duty', (duty, enable))."""
-        if which == 'gate':
-            self.latch_gates(plant, command)
-        else:
-            self.latch_duty(plant, *command)
+    def latch(self, plant, which: ControllerKind, command: tuple) -> None:
+        """Apply a controller's command (with computation_delay: the one held, holding this one)."""
+        kind = ControllerKind(which)
+        if self.computation_delay:
+            command, self._held[kind] = self._held[kind], command
+        kind.apply(plant, command)
 
     # Pipelined lockstep (computation_delay): the command of due sample k arrives
     # while the plant integrates the ticks after k. At the next due sample the
     # plant holds it first and then applies what is held; latch() does the same
     # two steps in the other order, so both give the same applied sequence.
-    def hold(self, which: str, command: tuple) -> None:
+    def hold(self, which: ControllerKind, command: tuple) -> None:
         """Keep the command of the previous due sample, received late (it acts from now on)."""
-        if which == 'gate':
-            self._held_gates = command
-        else:
-            self._held_duty = command
+        self._held[ControllerKind(which)] = command
 
-    def apply_held(self, plant, which: str) -> None:
+    def apply_held(self, plant, which: ControllerKind) -> None:
         """Apply the held command (the initial one, all off / duty 0, before any command)."""
-        if which == 'gate':
-            plant.apply_gates(self._held_gates)
-        else:
-            plant.apply_duty(*self._held_duty)
+        kind = ControllerKind(which)
+        kind.apply(plant, self._held[kind])

@@ -321,9 +321,6 @@ class PlantCore:
         if was_safe and not self.in_safe_state:
             self.faults.note(self.time, self.step, 'safe state left: switches follow the commands again')
 
-    def safe_state_reason(self) -> int:
-        return self._safe
-
     def reset_protection(self) -> tuple[bool, str]:
         """Reset the latched peak-current trip (refused while the current is above the level)
         and the latched boost protections (they re-trip at once if the cause persists)."""

@@ -28,13 +28,20 @@ class DtcCore:
         self.params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), dict(params))
         self._backemf = backemf
         self._pending: dict | None = None
+        self._checked: tuple[tuple, BackEmfTable] | None = None   # the table check last loaded
         self._build()
 
     def _table_for(self, p: dict) -> BackEmfTable | None:
         """The back-EMF table snapshot p needs: the loaded one unless its file or motor changed."""
         if self._backemf is not None and not self._table_changed(p):
             return self._backemf
-        return BackEmfTable.load(p['backemf_table_path'], p['motor.pole_pairs']) if p['backemf_table_path'] else None
+        if not p['backemf_table_path']:
+            return None
+        key = (p['backemf_table_path'], p['motor.pole_pairs'])
+        if self._checked is None or self._checked[0] != key:
+            # Kept: the reconfigure that follows a check builds with this table, not a re-read.
+            self._checked = (key, BackEmfTable.load(*key))
+        return self._checked[1]
 
     def _table_changed(self, p: dict) -> bool:
         return any(p[n] != self.params[n] for n in ('backemf_table_path', 'motor.pole_pairs'))

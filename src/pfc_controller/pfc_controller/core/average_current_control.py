@@ -63,7 +63,8 @@ import numpy as np
 from drive_common.compiled import njit
 from drive_common.samples import DutySample, PfcSample
 
-from pfc_controller.core.feedforward import LinePeriodAverage, average_update, feedforward_c
+from pfc_controller.core.feedforward import (LinePeriodAverage, average_update, feedforward_c,
+                                             line_period_window)
 from pfc_controller.core.pi import pi_update
 from pfc_controller.parameters import PFC_SCHEMA
 
@@ -215,7 +216,7 @@ class PfcCore:
         """
         p = PFC_SCHEMA.validate_changes(self._p or PFC_SCHEMA.defaults(), dict(params))
         if self._line_period_changed(p):
-            LinePeriodAverage(p['line_frequency'], p['sample_period'])
+            line_period_window(p['line_frequency'], p['sample_period'])   # validates, builds nothing
         return p
 
     def _line_period_changed(self, p: Mapping[str, Any]) -> bool:

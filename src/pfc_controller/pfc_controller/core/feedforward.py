@@ -44,6 +44,18 @@ def average_update(buf, st, n: int, frac: float, value: float) -> float:
     return (st[AVG_SUM] + frac * older) / (n + frac)
 
 
+def line_period_window(line_frequency: float, sample_period: float) -> tuple[int, float]:
+    """(whole samples n, fractional weight) of one line period; ValueError if it cannot be averaged."""
+    if line_frequency <= 0.0 or sample_period <= 0.0:
+        raise ValueError('line_frequency and sample_period must be positive')
+    window = 1.0 / (line_frequency * sample_period)  # samples per line period
+    n = int(math.floor(window + 1e-9))
+    if n < 2:
+        raise ValueError('sample_period must be well below the line period')
+    frac = window - n
+    return n, (frac if frac > 1e-9 else 0.0)
+
+
 class LinePeriodAverage:
     """Running mean of a sampled signal over one line period (O(1) per sample).
 
@@ -53,16 +65,8 @@ class LinePeriodAverage:
     __slots__ = ('buffer', 'state', '_n', '_frac')
 
     def __init__(self, line_frequency: float, sample_period: float) -> None:
-        if line_frequency <= 0.0 or sample_period <= 0.0:
-            raise ValueError('line_frequency and sample_period must be positive')
-        window = 1.0 / (line_frequency * sample_period)  # samples per line period
-        n = int(math.floor(window + 1e-9))
-        if n < 2:
-            raise ValueError('sample_period must be well below the line period')
-        frac = window - n
-        self._n = n
-        self._frac = frac if frac > 1e-9 else 0.0
-        self.buffer = np.zeros(n + 1)  # ring: the last n samples plus the one before
+        self._n, self._frac = line_period_window(line_frequency, sample_period)
+        self.buffer = np.zeros(self._n + 1)  # ring: the last n samples plus the one before
         self.state = np.zeros(3)
 
     @property

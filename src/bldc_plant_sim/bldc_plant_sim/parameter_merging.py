@@ -1,0 +1,69 @@
+"""The plant node's parameters: motor-file merging and changes swapped in between ticks.
+
+docs/architecture.md "Executables, parameters and files": the declared parameters
+show the values in use (a motor file's included); a ``motor.file`` change brings
+the file's values with it, atomically; a change is checked against the core and
+applied at the next tick (:meth:`ParameterMerging._apply_pending`).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from rclpy.parameter import Parameter
+
+from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
+from drive_common.parameters import ParameterError
+
+
+class ParameterMerging:
+    """Mixin of :class:`~bldc_plant_sim.plant_node.PlantNode`: its parameter handling."""
+
+    def _merge_motor_file(self, params: dict[str, Any]) -> None:
+        """Show the values in use, then merge a later motor.file change's values with it."""
+        self._set_atomically({n: v for n, v in params.items() if v != self.parameters.values[n]})
+        self.add_pre_set_parameters_callback(self._with_motor_file_values)
+
+    def _set_atomically(self, values: dict[str, Any]) -> None:
+        """Set several declared parameters in one validation (cross-checks see them together)."""
+        if values:
+            result = self.set_parameters_atomically([Parameter(n, value=v) for n, v in values.items()])
+            if not result.successful:
+                raise ParameterError(result.reason)
+
+    def _with_motor_file_values(self, params: list[Parameter]) -> list[Parameter]:
+        """Pre-set hook: a change that brings motor-file values sets them first, atomically.
+
+        ``ros2 param set`` sends one parameter at a time and rclpy applies a list
+        one by one, so the file's values (whose lists must agree in length)
+        are set together here before the requested change itself.
+        """
+        changes = {p.name: p.value for p in params if p.name in PLANT_SCHEMA}
+        if not changes:
+            return params
+        current = self.parameters.values
+        try:
+            requested = PLANT_SCHEMA.validate_changes(current, changes,
+                                                           running=self._running)
+            used = effective_params(requested, current)
+            self._set_atomically({n: v for n, v in used.items()
+                                  if v != requested[n] and n not in changes})
+        except (ValueError, OSError):
+            pass                   # the set callback refuses the change, with the reason
+        return params
+
+    def _on_parameters(self, snapshot: dict[str, Any]) -> None:
+        """Check the new snapshot against the core; swap it in at the next tick."""
+        try:
+            self.core.check_params(snapshot)
+        except (ValueError, OSError) as exc:
+            raise ParameterError(str(exc)) from exc
+        with self._lock:
+            self._pending = snapshot
+
+    def _apply_pending(self) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is not None:
+            self.core.reconfigure(pending)
+            self.schedule = self.schedule.updated(pending, self.core.base_tick)
+            self._telemetry.retune(pending['telemetry.block_size'], pending['telemetry.live_period'])

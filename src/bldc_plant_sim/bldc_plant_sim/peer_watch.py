@@ -1,0 +1,121 @@
+"""Peer waiting and binding glue of the plant node: who answers, who intrudes, who is missing.
+
+docs/architecture.md "Time and lockstep": sim time starts only when every
+controller due in the run is matched (logged every few seconds, up to
+``startup_timeout``). Before any controller is bound a second graph in the
+domain makes the node exit 2; each command topic is then bound to the
+controller that answers first (:mod:`drive_common.peer_binding`) and any other
+publisher is ignored and reported once (WARN on /diagnostics).
+"""
+from __future__ import annotations
+
+import time
+
+from diagnostic_msgs.msg import DiagnosticStatus
+
+from bldc_plant_sim.core.lockstep import ControllerKind
+from bldc_plant_sim.lockstep_loop import CHANNELS, WaitReporter
+from drive_common.domain_guard import wait_for_stable_graph
+from drive_common.lockstep_io import GraphConflict, graph_conflict, readers_matched
+from drive_common.waiting import wait_until
+
+GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
+LOCKSTEP_TOPICS = (tuple(spec.measurement_topic for spec in CHANNELS.values())
+                   + tuple(spec.command_topic for spec in CHANNELS.values()))
+"""One publisher each, or two graphs are mixed."""
+
+
+def _unknown_node(name: str, namespace: str) -> bool:
+    """A graph endpoint of a node the graph no longer knows (rmw placeholder names)."""
+    return name.startswith('_NODE_NAME_UNKNOWN') or namespace.startswith('_NODE_NAMESPACE_UNKNOWN')
+
+
+class PeerWatch:
+    """Mixin of :class:`~bldc_plant_sim.plant_node.PlantNode`: peers awaited, bound, named."""
+
+    def _watch_graph(self) -> None:
+        """Check for a second graph in the domain every GRAPH_CHECK_PERIOD s."""
+        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+        self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph,
+                          callback_group=MutuallyExclusiveCallbackGroup())
+
+    def _sources(self, which: ControllerKind) -> str:
+        """The node(s) publishing this controller's commands, for a diagnostic (a node that
+        has left the graph, e.g. a crashed controller, named as the last one seen)."""
+        channel = getattr(self, '_channels', {}).get(which)   # (none: nothing bound yet)
+        if channel is not None and channel.inbox.binding.bound:
+            self._last_sources[which] = channel.inbox.binding.peer_name
+            return channel.inbox.binding.peer_name
+        infos = self.get_publishers_info_by_topic(CHANNELS[ControllerKind(which)].command_topic)
+        # An endpoint whose node is no longer known (it is leaving) carries placeholder
+        # names (_NODE_NAME_UNKNOWN_): never shown; the last real name seen is kept.
+        names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name) for i in infos
+                                  if not _unknown_node(i.node_name, i.node_namespace)}))
+        if names:
+            self._last_sources[which] = names
+            return names
+        last = self._last_sources.get(which) or ('unknown node' if infos else None)
+        if infos:
+            return f'{last} (leaving)'
+        return f'no publisher; last seen: {last}, gone' if last else 'no publisher'
+
+    def _graph_conflict(self) -> str | None:
+        """A second graph in the domain, or None; once a controller is bound, intruders are
+        ignored and reported instead (drive_common.peer_binding)."""
+        bindings = [channel.inbox.binding for channel in self._channels.values()]
+        if any(b.bound for b in bindings):
+            for binding in bindings:
+                binding.check()
+            return None
+        return graph_conflict(self, LOCKSTEP_TOPICS)
+
+    def _check_graph(self) -> None:
+        """A second graph in the domain: stop the run and refuse to go on (exit 2)."""
+        if self._refused:
+            return
+        reason = self._conflict or self._graph_conflict()
+        if reason:
+            self._conflict, self._refused = reason, True
+            raise GraphConflict(reason)      # once: run_node reports it and exits 2
+
+    def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
+        """Another publisher on a bound lockstep topic, once (WARN; drive_common.peer_binding)."""
+        self._diagnose(DiagnosticStatus.WARN, message, values)
+
+    def _wait_for_peers(self, deadline: float, report: WaitReporter) -> str | None:
+        """Wait until every required controller is matched; None or the reason it failed."""
+        needs = []
+        for channel in self._scheduled_channels():
+            spec = channel.spec
+            needs += [(channel.publisher.get_subscription_count,
+                       f'a subscriber of {spec.measurement_topic}'),
+                      (channel.subscription.get_publisher_count, f'a publisher of {spec.command_topic}')]
+        while True:
+            missing = [what for count, what in needs if count() < 1]
+            if not missing:
+                break
+            halted = self._halted()
+            if halted:
+                return halted
+            if time.monotonic() > deadline:
+                return (f'no controller matched within startup_timeout = '
+                        f'{self.parameters["startup_timeout"]:g} s: missing ' + ', '.join(missing))
+            report.report('the controllers to start: missing ' + ', '.join(missing))
+            self._receiver.poll(0.01)
+        # Every other subscriber already in the graph (a recorder, a monitor) must be
+        # matched too before sample 0 goes out, or it would miss the first samples; before
+        # the first run, discovery of readers started earlier is done once the graph settled.
+        if not getattr(self, '_graph_settled', False):
+            wait_for_stable_graph(self)
+            self._graph_settled = True
+        outputs = [c.publisher for c in self._channels.values()] + [self._state_pub, self._block_pub]
+        if not wait_until(lambda: readers_matched(self, outputs) or self._halted(),
+                          max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
+                          raise_timeout=False):
+            self.get_logger().warning('some subscribers were not matched before the run')
+        for channel in self._scheduled_channels():
+            self._sources(channel.kind)          # remembered, should a controller leave mid-run
+        conflict = self._graph_conflict()
+        if conflict:
+            self._conflict = conflict            # the check timer makes the node exit 2
+        return conflict
