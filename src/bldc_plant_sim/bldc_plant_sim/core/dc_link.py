@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .link_kernel import (DC_CL, DC_CU, DC_ES, DC_IM, DC_IP, DC_IS, DC_SIZE, DC_SRC, DC_V, DC_VL,
-                          DC_VU, link_draw, link_voltages)
+                          DC_VU, link_draw, link_stored_energy, link_voltages)
 
 MODES = ('ideal', 'split_capacitors', 'current_fed')
 
@@ -86,9 +86,7 @@ class DcLink:
 
     def stored_energy(self) -> float:
         """Capacitor energy [J] (0 for the ideal source)."""
-        if self.mode == 'ideal':
-            return 0.0
-        return 0.5 * (self.c_upper * self.v_upper ** 2 + self.c_lower * self.v_lower ** 2)
+        return link_stored_energy(self.x, self.mode_code)
 
     def segment_voltages(self, dt: float) -> tuple[float, float]:
         """(V_P, V_M) [V] predicted at the middle of the next segment of length dt [s]."""

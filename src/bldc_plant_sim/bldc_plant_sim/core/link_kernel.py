@@ -6,7 +6,7 @@ voltage prediction) and :mod:`.load` (implicit trapezoidal shaft update).
 """
 from __future__ import annotations
 
-from drive_common.compiled import njit
+from drive_common.compiled import libm_pow, njit
 
 # DcLink.x slots
 DC_VU, DC_VL, DC_ES, DC_IP, DC_IM, DC_IS, DC_SRC, DC_V, DC_CU, DC_CL = range(10)
@@ -71,3 +71,11 @@ def shaft_step(load, inertia, friction, w0, te, dt):
         w_avg = 0.5 * (w0 + w1)
         t_load = t_const + b_load * w_avg
     return w1, w_avg, t_load, friction * w_avg * w_avg * dt, t_load * w_avg * dt
+
+
+@njit
+def link_stored_energy(x, mode):
+    """Capacitor energy C_u v_u^2 / 2 + C_l v_l^2 / 2 [J] (0 for the ideal source)."""
+    if mode == IDEAL:
+        return 0.0
+    return 0.5 * (x[DC_CU] * libm_pow(x[DC_VU], 2.0) + x[DC_CL] * libm_pow(x[DC_VL], 2.0))

@@ -289,8 +289,11 @@ class PlantCore:
                                                              m.inertia, m.friction)
         prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
             self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
+        prm[K.PR_LM] = m.inductance
         self._prm = prm
         self._lut = np.array(shape.lut_k, dtype=np.float64)
+        self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
+        self._sv = np.zeros(K.SV_SIZE)
         self._all_off = np.array(inv.all_off(), np.int64)
         self._work_legs = np.zeros(3, np.int64)
         self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
@@ -409,8 +412,7 @@ class PlantCore:
 
     def stored_energy(self) -> float:
         """J: motor magnetic + capacitors + kinetic (+ front-end inductors and filter capacitors)."""
-        e = (self.motor.magnetic_energy(self.i) + self.dc.stored_energy()
-             + 0.5 * self.motor.inertia * self.omega * self.omega)
+        e = K.stored_energy(self.st, self.dc.x, self._prm)
         if self.fe is not None:
             e += self.fe.stored_energy()
         return e
@@ -420,45 +422,41 @@ class PlantCore:
         return self.fe.energy.grid if self.fe is not None else self.dc.energy_source
 
     def state(self) -> PlantStateSample:
-        """Ground truth at t_k."""
-        m = self.motor
-        p = m.pole_pairs
-        theta_e = p * self.theta_m
-        k = m.backemf.lookup(theta_e)
-        we = p * self.omega
-        e = (we * k[0], we * k[1], we * k[2])
-        i = tuple(self.i)
-        # terminal voltages with the legs applied at the end of [t_k - T_s, t_k)
-        cond, u, vn, _ = self.inverter.resolve(self._legs, i, e, self.dc.positive, self.dc.v_lower)
-        term = tuple(u[x] + e[x] if cond[x] else vn + e[x] for x in range(3))
-        en = self.energy
+        """Ground truth at t_k (numeric fields: plant_kernel.state_values; terminal voltages with
+        the legs applied at the end of [t_k - T_s, t_k))."""
+        sv = self._sv
+        K.state_values(self._leg_array(self._legs), self.st, self.dc.x, self._prm, self._lut,
+                       self._lut_psi, sv)
+        (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
+         friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv.tolist()
         fe = self.fe
         if fe is not None:
             grid_v, grid_i = fe.grid_voltage(self.time), fe.grid_current
             rect_v, ind_i = fe.rectified_voltage, fe.i_L
             boost_duty, boost_on = fe.applied_duty, fe.switch_enabled
             e_grid, e_src, e_fe = fe.energy.grid, 0.0, fe.energy.losses
+            stored += fe.stored_energy()
         else:
             grid_v = grid_i = rect_v = ind_i = NAN
             boost_duty, boost_on = 0.0, False
-            e_grid, e_src, e_fe = 0.0, self.dc.energy_source, 0.0
+            e_grid, e_fe = 0.0, 0.0
+        faults = self.faults
         return PlantStateSample(
-            step=self.step, phase_current=i, back_emf=e, flux_linkage=m.flux_linkages(theta_e, i),
-            terminal_voltage=term, neutral_voltage=vn,
-            electromagnetic_torque=p * (k[0] * i[0] + k[1] * i[1] + k[2] * i[2]),
-            load_torque=self._t_load, rotor_angle=theta_e % TWO_PI, mechanical_angle=self.theta_m,
-            mechanical_speed=self.omega, dc_link_voltage=self.dc.positive,
-            upper_capacitor_voltage=self.dc.v_upper, lower_capacitor_voltage=self.dc.v_lower,
+            step=self.step, phase_current=(i0, i1, i2), back_emf=(e0, e1, e2), flux_linkage=(f0, f1, f2),
+            terminal_voltage=(v0, v1, v2), neutral_voltage=vn, electromagnetic_torque=te,
+            load_torque=t_load, rotor_angle=rotor, mechanical_angle=theta_m,
+            mechanical_speed=omega, dc_link_voltage=vp,
+            upper_capacitor_voltage=vu, lower_capacitor_voltage=vl,
             grid_voltage=grid_v, grid_current=grid_i, rectified_voltage=rect_v,
             inductor_current=ind_i,
             applied_switch_on=self._applied, boost_duty=boost_duty, boost_switch_enabled=boost_on,
             protection=self.protection, safe_state=self.in_safe_state,
             energy_grid_input=e_grid, energy_dc_source=e_src,
-            energy_copper_loss=en.copper, energy_device_loss=en.device, energy_front_end_loss=e_fe,
-            energy_friction_loss=en.friction, energy_mechanical_output=en.mechanical,
-            energy_stored=self.stored_energy(),
-            fault_count=self.faults.total, fault_counts=tuple(self.faults.counts),
-            first_fault_kind=int(self.faults.first_kind), first_fault_time=self.faults.first_time)
+            energy_copper_loss=copper, energy_device_loss=device, energy_front_end_loss=e_fe,
+            energy_friction_loss=friction, energy_mechanical_output=mech,
+            energy_stored=stored,
+            fault_count=faults.total, fault_counts=tuple(faults.counts),
+            first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""

@@ -20,15 +20,21 @@ from drive_common.compiled import njit
 
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, resolve_legs
 from .link_kernel import CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_VL, DC_VU, IDEAL, link_draw, \
-    link_voltages, shaft_step
+    link_stored_energy, link_voltages, shaft_step
 
 # st slots
 ST_I, ST_W, ST_TH, ST_ACC, ST_TL, ST_CU, ST_DEV, ST_FRIC, ST_MECH, ST_EL = 0, 3, 4, 5, 6, 7, 8, 9, 10, 11
 ST_SIZE = 12
 # prm slots
 (PR_P, PR_SCALE, PR_POINTS, PR_R, PR_TAU, PR_AH, PR_H, PR_VCE, PR_VD, PR_RON, PR_J, PR_B,
- PR_CAN_OPEN, PR_DC, PR_DEAD, PR_N, PR_TICK) = range(17)
-PR_SIZE = 17
+ PR_CAN_OPEN, PR_DC, PR_DEAD, PR_N, PR_TICK, PR_LM) = range(18)
+PR_SIZE = 18
+# state_values slots (PlantState fields at t_k)
+(SV_E, SV_PSI, SV_TERM, SV_VN, SV_TE, SV_ROTOR, SV_STORED, SV_VP, SV_VU, SV_VL, SV_ES, SV_CU, SV_DEV,
+ SV_FRIC, SV_MECH, SV_TH, SV_W, SV_TL, SV_I) = (0, 3, 6, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20,
+                                               21, 22, 23, 24)
+SV_SIZE = 27
+TWO_PI = 2.0 * math.pi
 # res slots (one segment's results for the interpreted caller)
 RS_TE, RS_VP, RS_QP, RS_QM, RS_KIND, RS_Q, RS_DRAW = range(7)
 EV_NONE, EV_ZERO, EV_TRIP, EV_LIMIT = 0, 1, 2, 3
@@ -302,3 +308,53 @@ def advance_tick(legs, target, all_off, time, st, dcx, load, prm, lut, level, re
     for _ in range(n):
         n_ev, level = integrate(h, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev)
     return n_ev
+
+
+@njit
+def table_at(lut, prm, theta, out, at):
+    """The three columns of a periodic table at theta [rad], linearly interpolated, into out[at:]
+    (BackEmfShape lookup / pm_flux)."""
+    x = (theta * prm[PR_SCALE]) % prm[PR_POINTS]
+    j = int(x)
+    f = x - j
+    for c in range(3):
+        out[at + c] = lut[c, j] + f * (lut[c, j + 1] - lut[c, j])
+
+
+@njit
+def stored_energy(st, dcx, prm):
+    """Motor magnetic (L - M)/2 sum i^2 + capacitors + kinetic J w^2 / 2 [J] (without a front end)."""
+    i0, i1, i2 = st[ST_I], st[ST_I + 1], st[ST_I + 2]
+    w = st[ST_W]
+    return (0.5 * prm[PR_LM] * (i0 * i0 + i1 * i1 + i2 * i2) + link_stored_energy(dcx, int(prm[PR_DC]))
+            + 0.5 * prm[PR_J] * w * w)
+
+
+@njit
+def state_values(legs, st, dcx, prm, lut, lut_psi, out):
+    """PlantState's numeric fields at t_k (SV_* slots): EMFs, flux linkages, terminal voltages with
+    the applied legs (resolve_legs), star point, torque, rotor angle, stored energy, link, ledger."""
+    p = prm[PR_P]
+    theta_e = p * st[ST_TH]
+    table_at(lut, prm, theta_e, out, SV_PSI)          # k_abc, scratch
+    k0, k1, k2 = out[SV_PSI], out[SV_PSI + 1], out[SV_PSI + 2]
+    we = p * st[ST_W]
+    e = np.array((we * k0, we * k1, we * k2))
+    i = st[ST_I:ST_I + 3]
+    cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
+    vn = resolve_legs(legs, i, e, dcx[DC_VU] + dcx[DC_VL], dcx[DC_VL], prm[PR_VCE], prm[PR_VD],
+                      prm[PR_RON], cond, u, rail)
+    table_at(lut_psi, prm, theta_e, out, SV_PSI)
+    lm = prm[PR_LM]
+    for x in range(3):
+        out[SV_E + x] = e[x]
+        out[SV_PSI + x] = lm * i[x] + out[SV_PSI + x]
+        out[SV_TERM + x] = u[x] + e[x] if cond[x] else vn + e[x]
+        out[SV_I + x] = i[x]
+    out[SV_VN] = vn
+    out[SV_TE] = p * (k0 * i[0] + k1 * i[1] + k2 * i[2])
+    out[SV_ROTOR] = theta_e % TWO_PI
+    out[SV_STORED] = stored_energy(st, dcx, prm)
+    out[SV_VP], out[SV_VU], out[SV_VL], out[SV_ES] = dcx[DC_VU] + dcx[DC_VL], dcx[DC_VU], dcx[DC_VL], dcx[DC_ES]
+    out[SV_CU], out[SV_DEV], out[SV_FRIC], out[SV_MECH] = st[ST_CU], st[ST_DEV], st[ST_FRIC], st[ST_MECH]
+    out[SV_TH], out[SV_W], out[SV_TL] = st[ST_TH], st[ST_W], st[ST_TL]
