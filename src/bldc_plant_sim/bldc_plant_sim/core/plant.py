@@ -132,8 +132,11 @@ class PlantCore:
         self.sensors = Sensors(p, self.motor.pole_pairs)
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
         # State (plant_kernel ST_* slots: currents, shaft, energy ledger, elapsed time in the tick).
-        self.st = np.zeros(K.ST_SIZE)
-        self._res = np.zeros(7)
+        self._buf = np.zeros(K.B_SIZE)     # every float array the kernels use (plant_kernel B_*)
+        self.st = self._buf[K.B_ST:K.B_DC]
+        self._res = self._buf[K.B_RES:K.B_SIZE]
+        self._prm = self._buf[K.B_PRM:K.B_SV]
+        self._sv = self._buf[K.B_SV:K.B_RES]
         self._derive_constants(p['integration.max_step'])
         self.theta_m = p['motor.initial_angle']
         self.omega = p['motor.initial_speed']
@@ -273,6 +276,8 @@ class PlantCore:
         self._legs_of: dict = {}        # gate tuple -> (leg codes, shoot-through legs) (memo)
         self._switches_of: dict = {}    # leg codes -> applied gate tuple
         self._leg_arrays: dict = {}     # leg codes -> int64 array (memo)
+        self._codes: dict = {}          # leg codes -> plant_kernel.leg_code (memo)
+        self._legs_of_code: dict = {}   # and back
         inv = self.inverter
         self._can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
         self._substeps = max(1, math.ceil(self.base_tick / max_step - 1e-9))
@@ -282,7 +287,8 @@ class PlantCore:
         self._tau = m.time_constant
         self._a_h = math.exp(-self._h / self._tau)
         shape = m.backemf
-        prm = np.zeros(K.PR_SIZE)
+        self._adopt()
+        prm = self._prm
         prm[[K.PR_P, K.PR_SCALE, K.PR_POINTS, K.PR_R, K.PR_TAU, K.PR_AH, K.PR_H]] = (
             m.pole_pairs, shape.lut_scale, shape.points, self._R, self._tau, self._a_h, self._h)
         prm[[K.PR_VCE, K.PR_VD, K.PR_RON, K.PR_J, K.PR_B]] = (inv.v_ce, inv.v_d, inv.r_on,
@@ -290,13 +296,26 @@ class PlantCore:
         prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
             self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
         prm[K.PR_LM] = m.inductance
-        self._prm = prm
         self._lut = np.array(shape.lut_k, dtype=np.float64)
         self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
-        self._sv = np.zeros(K.SV_SIZE)
-        self._all_off = np.array(inv.all_off(), np.int64)
-        self._work_legs = np.zeros(3, np.int64)
+        self._off_code = K.leg_code(inv.all_off())
         self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
+
+    def _adopt(self) -> None:
+        """Move the DC link's and the load's state arrays into the core's buffer (views), so one
+        compiled call per tick reaches them all."""
+        for part, lo, hi in ((self.dc, K.B_DC, K.B_LOAD), (self.load, K.B_LOAD, K.B_PRM)):
+            view = self._buf[lo:hi]
+            if part.x is not view:
+                view[:] = part.x
+                part.x = view
+
+    def _code(self, legs: tuple) -> int:
+        code = self._codes.get(legs)
+        if code is None:
+            code = self._codes[legs] = K.leg_code(legs)
+            self._legs_of_code[code] = legs
+        return code
 
     def step_of(self, time: float) -> int:
         """Base tick index at sim time [s] (rounded to the nearest tick)."""
@@ -397,10 +416,10 @@ class PlantCore:
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
         m = self.motor
-        theta_e = m.pole_pairs * self.theta_m
-        return self.sensors.sample(self.step, self.time, self.i, self.dc.positive, self.dc.v_lower,
-                                   self.theta_m, self._count0, self.omega,
-                                   m.backemf.hall_code(theta_e))
+        i0, i1, i2, omega, theta_m = self.st[:5].tolist()
+        v_up, v_lo = self.dc.x[:2].tolist()
+        return self.sensors.sample(self.step, self.time, [i0, i1, i2], v_up + v_lo, v_lo, theta_m,
+                                   self._count0, omega, m.backemf.hall_code(m.pole_pairs * theta_m))
 
     def pfc_sample(self) -> PfcSample | None:
         """Sensed boost quantities at t_k (None without the front end)."""
@@ -425,8 +444,7 @@ class PlantCore:
         """Ground truth at t_k (numeric fields: plant_kernel.state_values; terminal voltages with
         the legs applied at the end of [t_k - T_s, t_k))."""
         sv = self._sv
-        K.state_values(self._leg_array(self._legs), self.st, self.dc.x, self._prm, self._lut,
-                       self._lut_psi, sv)
+        K.state_values(self._buf, self._lut, self._lut_psi, self._code(self._legs))
         (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
          friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv.tolist()
         fe = self.fe
@@ -482,14 +500,12 @@ class PlantCore:
         front end: plant_kernel.advance_tick)."""
         legs = self._effective_legs()
         if self.fe is None:
-            work = self._work_legs
-            work[:] = self._legs
-            n_ev = K.advance_tick(work, self._leg_array(legs), self._all_off, self.time, self.st,
-                                  self.dc.x, self.load.x, self._prm, self._lut, self._trip_level(), self._res,
-                                  self._ev)
-            self._legs = tuple(work.tolist())
-            for row in self._ev[:min(n_ev, len(self._ev))].tolist():
-                self._record_event(row[0], int(row[1]), int(row[2]), row[3])
+            n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
+                                        self._code(self._legs), self._code(legs), self._off_code)
+            self._legs = self._legs_of_code[code]
+            if n_ev:
+                for row in self._ev[:min(n_ev, len(self._ev))].tolist():
+                    self._record_event(row[0], int(row[1]), int(row[2]), row[3])
         else:
             self._advance_with_front_end(legs)
         applied = self._switches_of.get(self._legs)

@@ -19,7 +19,7 @@ import numpy as np
 from drive_common.compiled import njit
 
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, resolve_legs
-from .link_kernel import CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_VL, DC_VU, IDEAL, link_draw, \
+from .link_kernel import DC_SIZE, LD_SIZE, CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_VL, DC_VU, IDEAL, link_draw, \
     link_stored_energy, link_voltages, shaft_step
 
 # st slots
@@ -35,6 +35,14 @@ PR_SIZE = 18
                                                21, 22, 23, 24)
 SV_SIZE = 27
 TWO_PI = 2.0 * math.pi
+# PlantCore's one float64 buffer: st | DC link x | load x | prm | state values | segment results
+B_ST = 0
+B_DC = B_ST + ST_SIZE
+B_LOAD = B_DC + DC_SIZE
+B_PRM = B_LOAD + LD_SIZE
+B_SV = B_PRM + PR_SIZE
+B_RES = B_SV + SV_SIZE
+B_SIZE = B_RES + 7
 # res slots (one segment's results for the interpreted caller)
 RS_TE, RS_VP, RS_QP, RS_QM, RS_KIND, RS_Q, RS_DRAW = range(7)
 EV_NONE, EV_ZERO, EV_TRIP, EV_LIMIT = 0, 1, 2, 3
@@ -282,11 +290,34 @@ def dead_time_split(dead, h, n):
     return k, dead / k, k * h - dead
 
 
+def leg_code(legs) -> int:
+    """Three leg codes (-1..2) as one int: (l_a + 1) | (l_b + 1) << 2 | (l_c + 1) << 4."""
+    return (legs[0] + 1) | (legs[1] + 1) << 2 | (legs[2] + 1) << 4
+
+
 @njit
-def advance_tick(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, ev):
-    """One base tick without a front end (PlantCore.advance): legs (applied, in/out) move to
-    target through the dead time; returns the number of events logged in ev
-    (when, kind, phase, current)."""
+def legs_of_code(code):
+    """The leg codes of leg_code(legs) as an int64 array."""
+    legs = np.empty(3, np.int64)
+    for x in range(3):
+        legs[x] = ((code >> (2 * x)) & 3) - 1
+    return legs
+
+
+@njit
+def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code):
+    """One base tick without a front end (PlantCore.advance) on the core's buffer (B_* parts):
+    the applied legs move to the target through the dead time. Returns (number of events logged
+    in ev (when, kind, phase, current), leg code applied at the end)."""
+    legs = legs_of_code(legs_code)
+    n_ev = _advance(legs, legs_of_code(target_code), legs_of_code(off_code), time,
+                    buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM], buf[B_PRM:B_SV], lut, level,
+                    buf[B_RES:B_SIZE], ev)
+    return n_ev, (legs[0] + 1) | (legs[1] + 1) << 2 | (legs[2] + 1) << 4
+
+
+@njit
+def _advance(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, ev):
     n = int(prm[PR_N])
     h = prm[PR_H]
     st[ST_EL] = 0.0
@@ -331,9 +362,12 @@ def stored_energy(st, dcx, prm):
 
 
 @njit
-def state_values(legs, st, dcx, prm, lut, lut_psi, out):
-    """PlantState's numeric fields at t_k (SV_* slots): EMFs, flux linkages, terminal voltages with
-    the applied legs (resolve_legs), star point, torque, rotor angle, stored energy, link, ledger."""
+def state_values(buf, lut, lut_psi, legs_code):
+    """PlantState's numeric fields at t_k into buf's SV_* part: EMFs, flux linkages, terminal
+    voltages with the applied legs (resolve_legs), star point, torque, rotor angle, stored
+    energy, link, ledger."""
+    legs = legs_of_code(legs_code)
+    st, dcx, prm, out = buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_PRM:B_SV], buf[B_SV:B_RES]
     p = prm[PR_P]
     theta_e = p * st[ST_TH]
     table_at(lut, prm, theta_e, out, SV_PSI)          # k_abc, scratch
