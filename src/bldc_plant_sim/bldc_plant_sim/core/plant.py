@@ -275,7 +275,6 @@ class PlantCore:
         """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
         self._legs_of: dict = {}        # gate tuple -> (leg codes, shoot-through legs) (memo)
         self._switches_of: dict = {}    # leg codes -> applied gate tuple
-        self._leg_arrays: dict = {}     # leg codes -> int64 array (memo)
         self._codes: dict = {}          # leg codes -> plant_kernel.leg_code (memo)
         self._legs_of_code: dict = {}   # and back
         inv = self.inverter
@@ -484,12 +483,6 @@ class PlantCore:
                 - en.copper - en.device - en.friction - en.mechanical - fe_loss)
 
     # ------------------------------------------------------------------ integration
-    def _leg_array(self, legs: tuple) -> np.ndarray:
-        arr = self._leg_arrays.get(legs)
-        if arr is None:
-            arr = self._leg_arrays[legs] = np.array(legs, np.int64)
-        return arr
-
     def _trip_level(self) -> float:
         """The peak-current level to locate (0 = none: disabled or already tripped)."""
         trip = self.trip
@@ -556,19 +549,16 @@ class PlantCore:
     def _segment(self, T: float, nominal: bool, locate: bool = True) -> float:
         """One segment of at most T [s] with the front end feeding the link; returns the time
         integrated (circuit, link, shaft: plant_kernel.segment_electric / segment_mechanics)."""
-        st, res = self.st, self._res
-        T = K.segment_electric(T, nominal, locate, self._leg_array(self._legs), st, self.dc.x,
-                               self._prm, self._lut, self._trip_level(), res)
-        if res[K.RS_DRAW]:
-            dc = self.dc
-            dc.source_current = self.fe.advance(self.time + self._elapsed, T, float(res[K.RS_VP])) / T
-            dc.draw(float(res[K.RS_QP]), float(res[K.RS_QM]), T)
-        if T > 0.0:
-            K.segment_mechanics(T, float(res[K.RS_TE]), st, self._prm, self.load.x)
-        kind = int(res[K.RS_KIND])
+        buf = self._buf
+        T = K.segment_circuit(buf, self._lut, T, nominal, locate, self._code(self._legs),
+                              self._trip_level())
+        te, vp, q_p, q_m, kind, q, draw = self._res.tolist()
+        if draw:
+            self.dc.source_current = self.fe.advance(self.time + self._elapsed, T, vp) / T
+        K.segment_finish(buf, T)
         if kind != K.EV_NONE:
-            q = int(res[K.RS_Q])
-            self._record_event(self.time + self._elapsed + T, kind, q, float(st[K.ST_I + q]))
+            q = int(q)
+            self._record_event(self.time + self._elapsed + T, int(kind), q, self.i[q])
         return T
 
     def _record_event(self, when: float, kind: int, q: int, current: float) -> None:

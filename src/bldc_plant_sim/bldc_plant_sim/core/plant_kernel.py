@@ -246,6 +246,31 @@ def segment_mechanics(T, te, st, prm, load):
 
 
 @njit
+def finish_segment(T, st, dcx, load, prm, res):
+    """After segment_electric (and the front end setting the link's source current): the soft
+    link's charge balance and the shaft over the segment."""
+    if res[RS_DRAW] != 0.0:
+        link_draw(dcx, int(prm[PR_DC]), res[RS_QP], res[RS_QM], T)
+    if T > 0.0:
+        segment_mechanics(T, res[RS_TE], st, prm, load)
+
+
+@njit
+def segment_circuit(buf, lut, T, nominal, locate, legs_code, level):
+    """segment_electric on the core's buffer (the front-end path: one call before, one after
+    the front end); returns the time integrated."""
+    return segment_electric(T, nominal, locate, legs_of_code(legs_code), buf[B_ST:B_DC],
+                            buf[B_DC:B_LOAD], buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE])
+
+
+@njit
+def segment_finish(buf, T):
+    """finish_segment on the core's buffer."""
+    finish_segment(T, buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM], buf[B_PRM:B_SV],
+                   buf[B_RES:B_SIZE])
+
+
+@njit
 def _log(ev, n_ev, when, kind, phase, current):
     if n_ev < ev.shape[0]:
         ev[n_ev, 0], ev[n_ev, 1], ev[n_ev, 2], ev[n_ev, 3] = when, kind, phase, current
@@ -265,10 +290,7 @@ def integrate(dt, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, 
         if not locate and events == MAX_EVENTS_PER_STEP:
             n_ev = _log(ev, n_ev, time + st[ST_EL], EV_LIMIT, -1, 0.0)
         T = segment_electric(remaining, remaining == h, locate, legs, st, dcx, prm, lut, level, res)
-        if res[RS_DRAW] != 0.0:
-            link_draw(dcx, int(prm[PR_DC]), res[RS_QP], res[RS_QM], T)
-        if T > 0.0:
-            segment_mechanics(T, res[RS_TE], st, prm, load)
+        finish_segment(T, st, dcx, load, prm, res)
         kind = int(res[RS_KIND])
         if kind != EV_NONE:
             q = int(res[RS_Q])
