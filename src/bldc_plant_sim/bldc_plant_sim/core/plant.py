@@ -36,6 +36,7 @@ from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 from ..parameters import PLANT_SCHEMA, effective_params
 from . import plant_kernel as K
 from .dc_link import DcLink, array_slot
+from .link_kernel import DC_VL, DC_VU
 from .faults import FaultKind, FaultRecord
 from .front_end import FrontEnd
 from .inverter import Inverter
@@ -415,8 +416,9 @@ class PlantCore:
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
         m = self.motor
-        i0, i1, i2, omega, theta_m = self.st[:5].tolist()
-        v_up, v_lo = self.dc.x[:2].tolist()
+        b = self._buf[:K.B_DC + 2].tolist()     # st, then the link's v_u, v_l
+        i0, i1, i2, omega, theta_m = b[K.ST_I:K.ST_TH + 1]
+        v_up, v_lo = b[K.B_DC + DC_VU], b[K.B_DC + DC_VL]
         return self.sensors.sample(self.step, self.time, [i0, i1, i2], v_up + v_lo, v_lo, theta_m,
                                    self._count0, omega, m.backemf.hall_code(m.pole_pairs * theta_m))
 
