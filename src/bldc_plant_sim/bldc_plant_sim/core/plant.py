@@ -138,6 +138,8 @@ class PlantCore:
         self._res = self._buf[K.B_RES:K.B_SIZE]
         self._prm = self._buf[K.B_PRM:K.B_SV]
         self._sv = self._buf[K.B_SV:K.B_RES]
+        self._head = self.st[K.ST_I:K.ST_TH + 1]          # i_a, i_b, i_c, w, theta (drive_sample)
+        self._link_v = self._buf[K.B_DC + DC_VU:K.B_DC + DC_VL + 1]   # v_u, v_l
         self._derive_constants(p['integration.max_step'])
         self.theta_m = p['motor.initial_angle']
         self.omega = p['motor.initial_speed']
@@ -416,9 +418,8 @@ class PlantCore:
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
         m = self.motor
-        b = self._buf[:K.B_DC + 2].tolist()     # st, then the link's v_u, v_l
-        i0, i1, i2, omega, theta_m = b[K.ST_I:K.ST_TH + 1]
-        v_up, v_lo = b[K.B_DC + DC_VU], b[K.B_DC + DC_VL]
+        i0, i1, i2, omega, theta_m = self._head.tolist()
+        v_up, v_lo = self._link_v.tolist()
         return self.sensors.sample(self.step, self.time, [i0, i1, i2], v_up + v_lo, v_lo, theta_m,
                                    self._count0, omega, m.backemf.hall_code(m.pole_pairs * theta_m))
 
