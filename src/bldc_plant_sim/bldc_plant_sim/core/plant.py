@@ -22,6 +22,9 @@ segment: source (DC link), copper R int i^2, device sum v_f int i, friction,
 load work; stored = (L - M)/2 sum i^2 + capacitors + J w^2 / 2. The balance
 input = stored - stored_0 + losses + mechanical output then closes to the
 error of the mid-segment EMF prediction (second order in the step).
+
+The arithmetic runs in compiled kernels (:mod:`.plant_kernel`, one call per base tick
+without the front end); this class keeps the API, the event log and the fault record.
 """
 from __future__ import annotations
 

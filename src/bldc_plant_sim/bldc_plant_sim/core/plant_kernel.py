@@ -1,9 +1,12 @@
 """Compiled per-sample work of :class:`~.plant.PlantCore` (docs/architecture.md "The plant").
 
-State is held in float64 arrays the core owns: ``st`` (``ST_*`` slots: phase currents,
-shaft, energy ledger), the DC link's ``x`` (:mod:`.link_kernel`) and the parameters ``prm``
-(``PR_*`` slots, rebuilt by the core on every parameter change); ``lut`` is the back-EMF
-table (3 x (points + 1), wrap-around column). The equations are those of the
+State is held in one float64 buffer the core owns (``B_*`` parts): ``st`` (``ST_*`` slots:
+phase currents, shaft, energy ledger), the DC link's and the load's ``x``
+(:mod:`.link_kernel`), the parameters ``prm`` (``PR_*`` slots, rebuilt by the core on every
+parameter change), the state values (``SV_*``) and one segment's results (``RS_*``); ``lut``
+is the back-EMF table (3 x (points + 1), wrap-around column). Entry points called from Python
+take the buffer and legs as one int (:func:`leg_code`): numba's dispatch costs about 0.2 us
+per array argument. The equations are those of the
 :mod:`.plant` docstring: exact exponential currents over a segment with the back-EMF
 held at the predicted mid-segment angle, events (current zero, trip level) located on
 that exponential, exact integrals of i and i^2 for the energy ledger.
@@ -19,8 +22,8 @@ import numpy as np
 from drive_common.compiled import njit
 
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, resolve_legs
-from .link_kernel import DC_SIZE, LD_SIZE, CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_VL, DC_VU, IDEAL, link_draw, \
-    link_stored_energy, link_voltages, shaft_step
+from .link_kernel import (CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_SIZE, DC_VL, DC_VU, IDEAL, LD_SIZE,
+                          link_draw, link_stored_energy, link_voltages, shaft_step)
 
 # st slots
 ST_I, ST_W, ST_TH, ST_ACC, ST_TL, ST_CU, ST_DEV, ST_FRIC, ST_MECH, ST_EL = 0, 3, 4, 5, 6, 7, 8, 9, 10, 11
@@ -411,6 +414,7 @@ def state_values(buf, lut, lut_psi, legs_code):
     out[SV_TE] = p * (k0 * i[0] + k1 * i[1] + k2 * i[2])
     out[SV_ROTOR] = theta_e % TWO_PI
     out[SV_STORED] = stored_energy(st, dcx, prm)
-    out[SV_VP], out[SV_VU], out[SV_VL], out[SV_ES] = dcx[DC_VU] + dcx[DC_VL], dcx[DC_VU], dcx[DC_VL], dcx[DC_ES]
+    out[SV_VP] = dcx[DC_VU] + dcx[DC_VL]
+    out[SV_VU], out[SV_VL], out[SV_ES] = dcx[DC_VU], dcx[DC_VL], dcx[DC_ES]
     out[SV_CU], out[SV_DEV], out[SV_FRIC], out[SV_MECH] = st[ST_CU], st[ST_DEV], st[ST_FRIC], st[ST_MECH]
     out[SV_TH], out[SV_W], out[SV_TL] = st[ST_TH], st[ST_W], st[ST_TL]
