@@ -303,7 +303,7 @@ class PlantCore:
         prm[K.PR_LM] = m.inductance
         self._lut = np.array(shape.lut_k, dtype=np.float64)
         self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
-        self._off_code = K.leg_code(inv.all_off())
+        self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
         self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
 
     def _adopt(self) -> None:
@@ -501,7 +501,8 @@ class PlantCore:
         if self.fe is None:
             n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
                                         self._code(self._legs), self._code(legs), self._off_code)
-            self._legs = self._legs_of_code[code]
+            legs = self._legs_of_code.get(code)
+            self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
             if n_ev:
                 for row in self._ev[:min(n_ev, len(self._ev))].tolist():
                     self._record_event(row[0], int(row[1]), int(row[2]), row[3])
