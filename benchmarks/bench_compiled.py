@@ -13,7 +13,8 @@ Each figure is measured in a subprocess twice, compiled (warm cache) and with
 * headless ``two_phase_six_switch_torque_step`` (plant + DtcCore at 33.3 us),
   ``fstp_voltage_model_proposed_compensation``, ``three_phase_dtifc_sensorless`` and
   ``pfc_no_load_fig_3_5`` (plant with grid, bridge and boost + DTC + PFC cores): goal >= 1x
-  real time (the plant's motor/inverter loop is not compiled yet);
+  real time (the plant's motor/inverter/link/shaft tick is compiled: plant_kernel; the front
+  end's outer loop and the per-sample Python of the cores and the lockstep are not);
 * cold start (empty cache: import, compile, first sample): goal <= 30 s; warm start
   (cached machine code): goal <= 3 s.
 """

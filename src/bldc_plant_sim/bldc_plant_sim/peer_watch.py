@@ -105,7 +105,7 @@ class PeerWatch:
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples; before
         # the first run, discovery of readers started earlier is done once the graph settled.
-        if not getattr(self, '_graph_settled', False):
+        if not self._graph_settled:
             wait_for_stable_graph(self)
             self._graph_settled = True
         outputs = [c.publisher for c in self._channels.values()] + [self._state_pub, self._block_pub]

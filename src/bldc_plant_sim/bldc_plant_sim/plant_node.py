@@ -52,6 +52,7 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._stopping = threading.Event()   # set by stop(): the run ends at the next tick
         self._conflict: str | None = None    # a second graph in the domain: refuse to run
         self._refused = False
+        self._graph_settled = False          # discovery waited for before the first run
         self._ready: set[ControllerKind] = set()   # controllers that answered since they last failed
         self._startup_pending: set[ControllerKind] = set()
         self._faulted: dict[ControllerKind, str | None] = {kind: None for kind in ControllerKind}

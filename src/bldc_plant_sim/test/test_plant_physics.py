@@ -159,6 +159,20 @@ def test_protection_trip_is_located_inside_the_sample_and_latched():
     assert plant.i[0] > 0.0 and plant.state().applied_switch_on == A_PLUS_B_MINUS
 
 
+def test_trip_after_a_parameter_change_opens_all_switches():
+    # A runtime parameter change rebuilds the plant's constants while a+ b- conducts; the trip
+    # that follows ends the tick with all legs off, which the rebuilt plant had not seen yet.
+    params = bldc_params(**{'load.mode': 'dynamometer', 'load.speed': 0.0, 'motor.initial_angle': 0.3})
+    plant = PlantCore(params)
+    plant.apply_gates(A_PLUS_B_MINUS)
+    plant.advance()
+    plant.reconfigure({**params, 'sensors.current_offset': [0.5, 0.0, 0.0]})
+    while not plant.trip.tripped and plant.time < 0.005:
+        plant.advance()
+    assert plant.trip.tripped and plant.state().applied_switch_on == ALL_OFF
+    assert plant.faults.counts[int(FaultKind.MOTOR_OVER_CURRENT)] == 1
+
+
 def test_reset_is_refused_while_the_current_is_above_the_level():
     params = bldc_params(**{'load.mode': 'dynamometer', 'load.speed': 0.0, 'motor.initial_angle': 0.3,
                             'protection.peak_current': 24.0})

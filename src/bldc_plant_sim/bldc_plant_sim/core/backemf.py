@@ -166,7 +166,7 @@ class BackEmfShape:
     def _interpolate(self, lut, theta: float) -> tuple[float, float, float]:
         """The three phase columns of lut at theta [rad], linearly interpolated (scalar).
 
-        PlantCore._segment inlines the same interpolation on its hot path.
+        The compiled plant kernels do the same (plant_kernel.emf_at_mid / table_at).
         """
         x = (theta * self.lut_scale) % self.points
         i = int(x)

@@ -12,7 +12,7 @@ Modes:
 - ``current_fed``: the string is fed by a source current i_s into P (the port
   a boost/rectifier front end drives later):
   C_u dv_u/dt = i_s - i_P, C_l dv_l/dt = i_s - i_P - i_M.
-  ``source_current`` is a constant (A) or a callable(time, v_P) -> A set by the
+  ``source_current`` is a constant (A), set per segment by the
   front end; its energy is counted as DC-source energy here.
 All updates take the charge each node drew over a segment (integrals of the
 currents, exact for the piecewise-linear circuit). Within a segment the
@@ -25,27 +25,53 @@ residual is second order.
 """
 from __future__ import annotations
 
+import numpy as np
+
+from .link_kernel import (DC_CL, DC_CU, DC_ES, DC_IM, DC_IP, DC_IS, DC_SIZE, DC_SRC, DC_V, DC_VL,
+                          DC_VU, link_draw, link_stored_energy, link_voltages)
+
 MODES = ('ideal', 'split_capacitors', 'current_fed')
 
 
+def array_slot(index: int, doc: str, array: str = 'x') -> property:
+    """A float attribute stored in self.<array>[index] (a compiled kernel's state array)."""
+    def get(self):
+        return float(getattr(self, array)[index])
+
+    def set_(self, value):
+        getattr(self, array)[index] = value
+    return property(get, set_, doc=doc)
+
+
 class DcLink:
+    """State in ``x`` (float64, slots of :mod:`.link_kernel`), advanced by its compiled kernels."""
+
+    v_upper = array_slot(DC_VU, 'v_u = V_P - V_M [V]')
+    v_lower = array_slot(DC_VL, 'v_l = V_M [V]')
+    energy_source = array_slot(DC_ES, 'J delivered by the source')
+    source_current = array_slot(DC_SRC, 'current_fed: source current into P [A]')
+    voltage = array_slot(DC_V, 'V_dc [V]')
+    c_upper = array_slot(DC_CU, 'F')
+    c_lower = array_slot(DC_CL, 'F')
+    _i_p = array_slot(DC_IP, 'A, average P current of the last segment')
+    _i_m = array_slot(DC_IM, 'A, average M current of the last segment')
+    _i_s = array_slot(DC_IS, 'A, source current of the last segment')
+
     def __init__(self, mode: str, voltage: float, c_upper: float, c_lower: float,
-                 initial_midpoint: float = 0.5, source_current=0.0) -> None:
+                 initial_midpoint: float = 0.5, source_current: float = 0.0) -> None:
         if mode not in MODES:
             raise ValueError(f'dc_link.mode {mode!r} is not one of {MODES}')
+        self.x = np.zeros(DC_SIZE)
         self.mode = mode
+        self.mode_code = MODES.index(mode)
         self.voltage = float(voltage)
         self.c_upper, self.c_lower = float(c_upper), float(c_lower)
         self.v_lower = self.voltage * initial_midpoint
         self.v_upper = self.voltage - self.v_lower
         if mode == 'ideal':
             self.v_lower = self.v_upper = 0.5 * self.voltage
-        self.source_current = source_current
-        self.energy_source = 0.0
+        self.source_current = float(source_current)
         self.stiff = mode == 'ideal'
-        self._i_p = 0.0      # A, average node currents of the last segment
-        self._i_m = 0.0
-        self._i_s = 0.0
 
     @classmethod
     def from_params(cls, p: dict) -> 'DcLink':
@@ -60,38 +86,13 @@ class DcLink:
 
     def stored_energy(self) -> float:
         """Capacitor energy [J] (0 for the ideal source)."""
-        if self.mode == 'ideal':
-            return 0.0
-        return 0.5 * (self.c_upper * self.v_upper ** 2 + self.c_lower * self.v_lower ** 2)
+        return link_stored_energy(self.x, self.mode_code)
 
     def segment_voltages(self, dt: float) -> tuple[float, float]:
         """(V_P, V_M) [V] predicted at the middle of the next segment of length dt [s]."""
-        if self.mode == 'ideal':
-            return self.v_upper + self.v_lower, self.v_lower
-        if self.mode == 'split_capacitors':
-            return self.voltage, self.v_lower - 0.5 * dt * self._i_m / (self.c_upper + self.c_lower)
-        d_up = 0.5 * dt * (self._i_s - self._i_p) / self.c_upper
-        d_lo = 0.5 * dt * (self._i_s - self._i_p - self._i_m) / self.c_lower
-        return self.v_upper + d_up + self.v_lower + d_lo, self.v_lower + d_lo
+        return link_voltages(self.x, self.mode_code, dt)
 
-    def draw(self, q_p: float, q_m: float, dt: float, time: float) -> None:
-        """The inverter drew charge q_p [C] from P and q_m from M over dt [s] starting at time."""
-        mode = self.mode
-        self._i_p, self._i_m = q_p / dt, q_m / dt
-        if mode == 'ideal':
-            self.energy_source += self.positive * q_p + self.v_lower * q_m
-        elif mode == 'split_capacitors':
-            c_sum = self.c_upper + self.c_lower
-            dv = q_m / c_sum
-            self.energy_source += self.voltage * (q_p + q_m * self.c_upper / c_sum)
-            self.v_lower -= dv
-            self.v_upper += dv
-        else:
-            src = self.source_current
-            i_s = src(time, self.positive) if callable(src) else src
-            self._i_s = i_s
-            q_s = i_s * dt
-            v_p0 = self.positive
-            self.v_upper += (q_s - q_p) / self.c_upper
-            self.v_lower += (q_s - q_p - q_m) / self.c_lower
-            self.energy_source += 0.5 * (v_p0 + self.positive) * q_s
+    def draw(self, q_p: float, q_m: float, dt: float, time: float = 0.0) -> None:
+        """The inverter drew charge q_p [C] from P and q_m from M over dt [s] (time: unused, kept
+        for callers that pass the segment start)."""
+        link_draw(self.x, self.mode_code, q_p, q_m, dt)

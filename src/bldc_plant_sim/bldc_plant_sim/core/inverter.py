@@ -20,6 +20,10 @@ integration segment (a constant source, so energy accounting stays exact).
 """
 from __future__ import annotations
 
+import numpy as np
+
+from drive_common.compiled import njit
+
 UPPER, LOWER, OFF, MIDPOINT = 1, -1, 0, 2
 RAIL_N, RAIL_P, RAIL_M = 0, 1, 2
 PHASES = 'abc'
@@ -84,93 +88,115 @@ class Inverter:
 
         Returns (cond, u, vn, rail): cond[x] whether phase x conducts; u[x] its
         terminal voltage minus e_x [V]; vn the star-point voltage above the
-        negative rail [V]; rail[x] the DC node the phase connects to.
-        Conducting phases obey (L - M) di_x/dt = u_x - v_n - R i_x with
-        v_n = mean of u over the conducting phases (sum of currents is zero).
+        negative rail [V]; rail[x] the DC node the phase connects to
+        (:func:`resolve_legs`, compiled).
         """
-        vce, vd, ron = self.v_ce, self.v_d, self.r_on
-        cond = [False, False, False]
-        u = [0.0, 0.0, 0.0]
-        rail = [RAIL_N, RAIL_N, RAIL_N]
-        floating = []
-        for x in (0, 1, 2):
-            code = legs[x]
-            ix = i[x]
-            if code == MIDPOINT:
-                cond[x] = True
-                u[x] = vm - e[x]
-                rail[x] = RAIL_M
-                continue
-            if ix > 0.0:
-                if code == UPPER:
-                    t = vp - vce - ron * ix
-                    rail[x] = RAIL_P
-                else:
-                    t = -vd - ron * ix
-            elif ix < 0.0:
-                if code == LOWER:
-                    t = vce - ron * ix
-                else:
-                    t = vp + vd - ron * ix
-                    rail[x] = RAIL_P
-            else:
-                if code == UPPER:
-                    lo, hi, rail_lo, rail_hi = vp - vce, vp + vd, RAIL_P, RAIL_P
-                elif code == LOWER:
-                    lo, hi, rail_lo, rail_hi = -vd, vce, RAIL_N, RAIL_N
-                else:
-                    lo, hi, rail_lo, rail_hi = -vd, vp + vd, RAIL_N, RAIL_P
-                if hi > lo:
-                    floating.append((x, lo, hi, rail_lo, rail_hi))
-                    continue
-                t = lo
-                rail[x] = rail_lo
-            cond[x] = True
-            u[x] = t - e[x]
-        n = cond[0] + cond[1] + cond[2]
-        while True:
-            if n >= 2:
-                vn = (u[0] * cond[0] + u[1] * cond[1] + u[2] * cond[2]) / n
-            elif n == 1:
-                vn = u[0] if cond[0] else u[1] if cond[1] else u[2]
-            else:
-                vn = self._open_circuit_neutral(floating, e, vp, cond, u, rail)
-                n = cond[0] + cond[1] + cond[2]
-                if n:
-                    floating = [f for f in floating if not cond[f[0]]]
-                    continue
-                return cond, u, vn, rail
-            if not floating:
-                return cond, u, vn, rail
-            # Add the most forward-biased open leg (if any), then re-solve v_n.
-            worst, excess = None, 0.0
-            for f in floating:
-                term = vn + e[f[0]]
-                over = max(term - f[2], f[1] - term)
-                if over > excess:
-                    worst, excess = f, over
-            if worst is None:
-                return cond, u, vn, rail
-            x, lo, hi, rail_lo, rail_hi = worst
-            if vn + e[x] > hi:
-                u[x], rail[x] = hi - e[x], rail_hi
-            else:
-                u[x], rail[x] = lo - e[x], rail_lo
-            cond[x] = True
-            n += 1
-            floating.remove(worst)
+        cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
+        vn = resolve_legs(np.asarray(legs, np.int64), np.asarray(i, np.float64),
+                          np.asarray(e, np.float64), vp, vm, self.v_ce, self.v_d, self.r_on,
+                          cond, u, rail)
+        return [bool(c) for c in cond], u.tolist(), vn, rail.tolist()
 
-    @staticmethod
-    def _open_circuit_neutral(floating, e, vp, cond, u, rail) -> float:
-        """No phase conducts: v_n floats; a pair of diodes conducts if the EMFs force it."""
-        if len(floating) < 2:
-            return 0.5 * vp - (e[0] + e[1] + e[2]) / 3.0
-        neg = min(floating, key=lambda f: f[2] - e[f[0]])   # needs v_n > hi - e to conduct (i < 0)
-        pos = max(floating, key=lambda f: f[1] - e[f[0]])   # needs v_n < lo - e to conduct (i > 0)
-        upper_bound, lower_bound = neg[2] - e[neg[0]], pos[1] - e[pos[0]]
-        if upper_bound < lower_bound and neg[0] != pos[0]:
-            for f, t, r in ((neg, neg[2], neg[4]), (pos, pos[1], pos[3])):
-                cond[f[0]], u[f[0]], rail[f[0]] = True, t - e[f[0]], r
-            return 0.5 * (u[neg[0]] + u[pos[0]])
-        vn = 0.5 * vp - (e[0] + e[1] + e[2]) / 3.0
-        return min(max(vn, lower_bound), upper_bound)
+
+@njit
+def _leg_start(code, ix, ex, vp, vm, vce, vd, ron, fl):
+    """Leg x at current ix: (conducts, u_x, rail), or a blocking band [lo, hi] stored in fl
+    (lo, hi, rail_lo, rail_hi) when it is open at zero current (module docstring)."""
+    if code == MIDPOINT:
+        return True, vm - ex, RAIL_M
+    rail = RAIL_N
+    if ix > 0.0:
+        if code == UPPER:
+            t = vp - vce - ron * ix
+            rail = RAIL_P
+        else:
+            t = -vd - ron * ix
+    elif ix < 0.0:
+        if code == LOWER:
+            t = vce - ron * ix
+        else:
+            t = vp + vd - ron * ix
+            rail = RAIL_P
+    else:
+        if code == UPPER:
+            lo, hi, rail_lo, rail_hi = vp - vce, vp + vd, RAIL_P, RAIL_P
+        elif code == LOWER:
+            lo, hi, rail_lo, rail_hi = -vd, vce, RAIL_N, RAIL_N
+        else:
+            lo, hi, rail_lo, rail_hi = -vd, vp + vd, RAIL_N, RAIL_P
+        if hi > lo:
+            fl[0], fl[1], fl[2], fl[3] = lo, hi, rail_lo, rail_hi
+            return False, 0.0, RAIL_N
+        t = lo
+        rail = rail_lo
+    return True, t - ex, rail
+
+
+@njit
+def resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail):
+    """Conduction state (cond, u, rail written in place; returns v_n) of Inverter.resolve.
+
+    Conducting phases obey (L - M) di_x/dt = u_x - v_n - R i_x with v_n = mean of u over the
+    conducting phases (sum of currents is zero); open legs join, most forward-biased first.
+    """
+    band = np.zeros((3, 4))            # lo, hi, rail_lo, rail_hi of each open leg
+    floating = np.zeros(3, np.int64)   # 1: leg x is open at zero current (in leg order)
+    for x in range(3):
+        c, ux, r = _leg_start(legs[x], i[x], e[x], vp, vm, vce, vd, ron, band[x])
+        cond[x], u[x], rail[x] = c, ux, r
+        floating[x] = 0 if c else 1
+    n = cond[0] + cond[1] + cond[2]
+    while True:
+        if n >= 2:
+            vn = (u[0] * cond[0] + u[1] * cond[1] + u[2] * cond[2]) / n
+        elif n == 1:
+            vn = u[0] if cond[0] else u[1] if cond[1] else u[2]
+        else:
+            vn = _open_circuit_neutral(floating, band, e, vp, cond, u, rail)
+            n = cond[0] + cond[1] + cond[2]
+            if n:
+                for x in range(3):
+                    if cond[x]:
+                        floating[x] = 0
+                continue
+            return vn
+        # Add the most forward-biased open leg (if any), then re-solve v_n.
+        worst, excess = -1, 0.0
+        for x in range(3):
+            if floating[x]:
+                term = vn + e[x]
+                over = max(term - band[x, 1], band[x, 0] - term)
+                if over > excess:
+                    worst, excess = x, over
+        if worst < 0:
+            return vn
+        x = worst
+        if vn + e[x] > band[x, 1]:
+            u[x], rail[x] = band[x, 1] - e[x], int(band[x, 3])
+        else:
+            u[x], rail[x] = band[x, 0] - e[x], int(band[x, 2])
+        cond[x] = 1
+        n += 1
+        floating[x] = 0
+
+
+@njit
+def _open_circuit_neutral(floating, band, e, vp, cond, u, rail):
+    """No phase conducts: v_n floats; a pair of diodes conducts if the EMFs force it."""
+    count = floating[0] + floating[1] + floating[2]
+    if count < 2:
+        return 0.5 * vp - (e[0] + e[1] + e[2]) / 3.0
+    neg, pos = -1, -1     # first minimum of hi - e (needs v_n above it, i < 0), max of lo - e
+    for x in range(3):
+        if floating[x]:
+            if neg < 0 or band[x, 1] - e[x] < band[neg, 1] - e[neg]:
+                neg = x
+            if pos < 0 or band[x, 0] - e[x] > band[pos, 0] - e[pos]:
+                pos = x
+    upper_bound, lower_bound = band[neg, 1] - e[neg], band[pos, 0] - e[pos]
+    if upper_bound < lower_bound and neg != pos:
+        cond[neg], u[neg], rail[neg] = 1, band[neg, 1] - e[neg], int(band[neg, 3])
+        cond[pos], u[pos], rail[pos] = 1, band[pos, 0] - e[pos], int(band[pos, 2])
+        return 0.5 * (u[neg] + u[pos])
+    vn = 0.5 * vp - (e[0] + e[1] + e[2]) / 3.0
+    return min(max(vn, lower_bound), upper_bound)

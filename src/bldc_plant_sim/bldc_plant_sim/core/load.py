@@ -9,12 +9,33 @@ so kinetic-energy change + friction + load work = T_e,avg * w_avg * dt exactly.
 """
 from __future__ import annotations
 
+import numpy as np
+
+from .link_kernel import LD_SIZE, LD_MODE, LD_SPEED, LD_TORQUE, LD_VISCOUS, shaft_step
+
 MODES = ('torque', 'viscous', 'dynamometer')
 
 
+def _slot(index: int) -> property:
+    """A float setting stored in LoadMachine.x[index] (read by the compiled shaft update)."""
+    def get(self):
+        return float(self.x[index])
+
+    def set_(self, value):
+        self.x[index] = value
+    return property(get, set_)
+
+
 class LoadMachine:
+    """Settings in ``x`` (link_kernel LD_* slots), so a change between ticks reaches the kernels."""
+
+    torque = _slot(LD_TORQUE)      # N m
+    viscous = _slot(LD_VISCOUS)    # N m s/rad
+    speed = _slot(LD_SPEED)        # rad/s
+
     def __init__(self, mode: str = 'torque', torque: float = 0.0, viscous: float = 0.0,
                  speed: float = 0.0) -> None:
+        self.x = np.zeros(LD_SIZE)
         self.configure(mode, torque, viscous, speed)
 
     @classmethod
@@ -25,6 +46,7 @@ class LoadMachine:
         if mode not in MODES:
             raise ValueError(f'load.mode {mode!r} is not one of {MODES}')
         self.mode, self.torque, self.viscous, self.speed = mode, float(torque), float(viscous), float(speed)
+        self.x[LD_MODE] = MODES.index(mode)
         self.dynamometer = mode == 'dynamometer'
 
     def load_torque(self, w: float) -> float:
@@ -36,19 +58,8 @@ class LoadMachine:
         return 0.0
 
     def step(self, inertia: float, friction: float, w0: float, te: float, dt: float):
-        """Advance the shaft over dt with average T_e = te.
+        """Advance the shaft over dt with average T_e = te (:func:`.link_kernel.shaft_step`).
 
         Returns (w1, w_avg, t_load, friction_energy, load_energy).
         """
-        if self.dynamometer:
-            w1 = self.speed
-            w_avg = 0.5 * (w0 + w1)
-            t_load = te - friction * w_avg - inertia * (w1 - w0) / dt
-        else:
-            b_load = self.viscous if self.mode == 'viscous' else 0.0
-            t_const = self.torque if self.mode == 'torque' else 0.0
-            b = friction + b_load
-            w1 = (inertia * w0 + dt * (te - t_const - 0.5 * b * w0)) / (inertia + 0.5 * b * dt)
-            w_avg = 0.5 * (w0 + w1)
-            t_load = t_const + b_load * w_avg
-        return w1, w_avg, t_load, friction * w_avg * w_avg * dt, t_load * w_avg * dt
+        return shaft_step(self.x, inertia, friction, w0, te, dt)

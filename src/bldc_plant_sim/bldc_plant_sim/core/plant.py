@@ -22,20 +22,27 @@ segment: source (DC link), copper R int i^2, device sum v_f int i, friction,
 load work; stored = (L - M)/2 sum i^2 + capacitors + J w^2 / 2. The balance
 input = stored - stored_0 + losses + mechanical output then closes to the
 error of the mid-segment EMF prediction (second order in the step).
+
+The arithmetic runs in compiled kernels (:mod:`.plant_kernel`, one call per base tick
+without the front end); this class keeps the API, the event log and the fault record.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from drive_common.parameters import ParameterError
 from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
 from ..parameters import PLANT_SCHEMA, effective_params
-from .dc_link import DcLink
+from . import plant_kernel as K
+from .dc_link import DcLink, array_slot
+from .link_kernel import DC_VL, DC_VU
 from .faults import FaultKind, FaultRecord
 from .front_end import FrontEnd
-from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, Inverter
+from .inverter import Inverter
 from .load import LoadMachine
 from .motor import Motor
 from .protection import MOTOR_OVER_CURRENT, SHOOT_THROUGH, PeakCurrentTrip
@@ -43,7 +50,7 @@ from .sensors import Sensors
 
 TWO_PI = 2.0 * math.pi
 NAN = math.nan
-_MAX_EVENTS_PER_STEP = 64
+_MAX_EVENTS_PER_STEP = K.MAX_EVENTS_PER_STEP
 
 
 @dataclass(slots=True)
@@ -87,15 +94,18 @@ class PlantStateSample:
     first_fault_time: float = NAN
 
 
-@dataclass
 class EnergyLedger:
-    """Cumulative losses and work since start [J] (the source energy is kept by the DC link)."""
+    """Cumulative losses and work since start [J] (the source energy is kept by the DC link),
+    held in the core's state array (plant_kernel ST_* slots)."""
 
-    copper: float = 0.0
-    device: float = 0.0
-    friction: float = 0.0
-    mechanical: float = 0.0
-    stored_initial: float = 0.0     # stored energy at start (moved when a part is rebuilt)
+    copper = array_slot(K.ST_CU, 'R int i^2 [J]', 'st')
+    device = array_slot(K.ST_DEV, 'device drops [J]', 'st')
+    friction = array_slot(K.ST_FRIC, 'B w^2 [J]', 'st')
+    mechanical = array_slot(K.ST_MECH, 'load work [J]', 'st')
+
+    def __init__(self, st: np.ndarray) -> None:
+        self.st = st
+        self.stored_initial = 0.0     # stored energy at start (moved when a part is rebuilt)
 
 
 class PlantCore:
@@ -125,9 +135,15 @@ class PlantCore:
         self.load = LoadMachine.from_params(p)
         self.sensors = Sensors(p, self.motor.pole_pairs)
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
+        # State (plant_kernel ST_* slots: currents, shaft, energy ledger, elapsed time in the tick).
+        self._buf = np.zeros(K.B_SIZE)     # every float array the kernels use (plant_kernel B_*)
+        self.st = self._buf[K.B_ST:K.B_DC]
+        self._res = self._buf[K.B_RES:K.B_SIZE]
+        self._prm = self._buf[K.B_PRM:K.B_SV]
+        self._sv = self._buf[K.B_SV:K.B_RES]
+        self._head = self.st[K.ST_I:K.ST_TH + 1]          # i_a, i_b, i_c, w, theta (drive_sample)
+        self._link_v = self._buf[K.B_DC + DC_VU:K.B_DC + DC_VL + 1]   # v_u, v_l
         self._derive_constants(p['integration.max_step'])
-        # State.
-        self.i = [0.0, 0.0, 0.0]
         self.theta_m = p['motor.initial_angle']
         self.omega = p['motor.initial_speed']
         if self.load.dynamometer:
@@ -140,10 +156,24 @@ class PlantCore:
         self._legs = self._commanded
         self._applied = ALL_OFF
         self._duty = (0.0, False)
-        self._elapsed = 0.0
         self.events: list[tuple[float, str]] = []   # (time, what) of located events, bounded
-        self.energy = EnergyLedger()
+        self.energy = EnergyLedger(self.st)
         self.energy.stored_initial = self.stored_energy()
+
+    @property
+    def i(self) -> list:
+        """Phase currents [A]."""
+        return self.st[K.ST_I:K.ST_I + 3].tolist()
+
+    @i.setter
+    def i(self, value) -> None:
+        self.st[K.ST_I:K.ST_I + 3] = value
+
+    omega = array_slot(K.ST_W, 'mechanical speed [rad/s]', 'st')
+    theta_m = array_slot(K.ST_TH, 'mechanical angle [rad]', 'st')
+    accel = array_slot(K.ST_ACC, 'last segment acceleration [rad/s^2]', 'st')
+    _t_load = array_slot(K.ST_TL, 'load torque [N m]', 'st')
+    _elapsed = array_slot(K.ST_EL, 'time integrated in the current tick [s]', 'st')
 
     # ------------------------------------------------------------------ parameters
     @staticmethod
@@ -248,8 +278,11 @@ class PlantCore:
                            else FaultKind.BOOST_OVER_VOLTAGE, when, self.step, text)
 
     def _derive_constants(self, max_step: float) -> None:
+        """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
         self._legs_of: dict = {}        # gate tuple -> (leg codes, shoot-through legs) (memo)
         self._switches_of: dict = {}    # leg codes -> applied gate tuple
+        self._codes: dict = {}          # leg codes -> plant_kernel.leg_code (memo)
+        self._legs_of_code: dict = {}   # and back
         inv = self.inverter
         self._can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
         self._substeps = max(1, math.ceil(self.base_tick / max_step - 1e-9))
@@ -258,6 +291,36 @@ class PlantCore:
         self._R = m.resistance
         self._tau = m.time_constant
         self._a_h = math.exp(-self._h / self._tau)
+        shape = m.backemf
+        self._adopt()
+        prm = self._prm
+        prm[[K.PR_P, K.PR_SCALE, K.PR_POINTS, K.PR_R, K.PR_TAU, K.PR_AH, K.PR_H]] = (
+            m.pole_pairs, shape.lut_scale, shape.points, self._R, self._tau, self._a_h, self._h)
+        prm[[K.PR_VCE, K.PR_VD, K.PR_RON, K.PR_J, K.PR_B]] = (inv.v_ce, inv.v_d, inv.r_on,
+                                                             m.inertia, m.friction)
+        prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
+            self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
+        prm[K.PR_LM] = m.inductance
+        self._lut = np.array(shape.lut_k, dtype=np.float64)
+        self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
+        self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
+        self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
+
+    def _adopt(self) -> None:
+        """Move the DC link's and the load's state arrays into the core's buffer (views), so one
+        compiled call per tick reaches them all."""
+        for part, lo, hi in ((self.dc, K.B_DC, K.B_LOAD), (self.load, K.B_LOAD, K.B_PRM)):
+            view = self._buf[lo:hi]
+            if part.x is not view:
+                view[:] = part.x
+                part.x = view
+
+    def _code(self, legs: tuple) -> int:
+        code = self._codes.get(legs)
+        if code is None:
+            code = self._codes[legs] = K.leg_code(legs)
+            self._legs_of_code[code] = legs
+        return code
 
     def step_of(self, time: float) -> int:
         """Base tick index at sim time [s] (rounded to the nearest tick)."""
@@ -355,10 +418,10 @@ class PlantCore:
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
         m = self.motor
-        theta_e = m.pole_pairs * self.theta_m
-        return self.sensors.sample(self.step, self.time, self.i, self.dc.positive, self.dc.v_lower,
-                                   self.theta_m, self._count0, self.omega,
-                                   m.backemf.hall_code(theta_e))
+        i0, i1, i2, omega, theta_m = self._head.tolist()
+        v_up, v_lo = self._link_v.tolist()
+        return self.sensors.sample(self.step, self.time, [i0, i1, i2], v_up + v_lo, v_lo, theta_m,
+                                   self._count0, omega, m.backemf.hall_code(m.pole_pairs * theta_m))
 
     def pfc_sample(self) -> PfcSample | None:
         """Sensed boost quantities at t_k (None without the front end)."""
@@ -370,8 +433,7 @@ class PlantCore:
 
     def stored_energy(self) -> float:
         """J: motor magnetic + capacitors + kinetic (+ front-end inductors and filter capacitors)."""
-        e = (self.motor.magnetic_energy(self.i) + self.dc.stored_energy()
-             + 0.5 * self.motor.inertia * self.omega * self.omega)
+        e = K.stored_energy(self.st, self.dc.x, self._prm)
         if self.fe is not None:
             e += self.fe.stored_energy()
         return e
@@ -381,45 +443,40 @@ class PlantCore:
         return self.fe.energy.grid if self.fe is not None else self.dc.energy_source
 
     def state(self) -> PlantStateSample:
-        """Ground truth at t_k."""
-        m = self.motor
-        p = m.pole_pairs
-        theta_e = p * self.theta_m
-        k = m.backemf.lookup(theta_e)
-        we = p * self.omega
-        e = (we * k[0], we * k[1], we * k[2])
-        i = tuple(self.i)
-        # terminal voltages with the legs applied at the end of [t_k - T_s, t_k)
-        cond, u, vn, _ = self.inverter.resolve(self._legs, i, e, self.dc.positive, self.dc.v_lower)
-        term = tuple(u[x] + e[x] if cond[x] else vn + e[x] for x in range(3))
-        en = self.energy
+        """Ground truth at t_k (numeric fields: plant_kernel.state_values; terminal voltages with
+        the legs applied at the end of [t_k - T_s, t_k))."""
+        sv = self._sv
+        K.state_values(self._buf, self._lut, self._lut_psi, self._code(self._legs))
+        (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
+         friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv.tolist()
         fe = self.fe
         if fe is not None:
             grid_v, grid_i = fe.grid_voltage(self.time), fe.grid_current
             rect_v, ind_i = fe.rectified_voltage, fe.i_L
             boost_duty, boost_on = fe.applied_duty, fe.switch_enabled
             e_grid, e_src, e_fe = fe.energy.grid, 0.0, fe.energy.losses
+            stored += fe.stored_energy()
         else:
             grid_v = grid_i = rect_v = ind_i = NAN
             boost_duty, boost_on = 0.0, False
-            e_grid, e_src, e_fe = 0.0, self.dc.energy_source, 0.0
+            e_grid, e_fe = 0.0, 0.0
+        faults = self.faults
         return PlantStateSample(
-            step=self.step, phase_current=i, back_emf=e, flux_linkage=m.flux_linkages(theta_e, i),
-            terminal_voltage=term, neutral_voltage=vn,
-            electromagnetic_torque=p * (k[0] * i[0] + k[1] * i[1] + k[2] * i[2]),
-            load_torque=self._t_load, rotor_angle=theta_e % TWO_PI, mechanical_angle=self.theta_m,
-            mechanical_speed=self.omega, dc_link_voltage=self.dc.positive,
-            upper_capacitor_voltage=self.dc.v_upper, lower_capacitor_voltage=self.dc.v_lower,
+            step=self.step, phase_current=(i0, i1, i2), back_emf=(e0, e1, e2), flux_linkage=(f0, f1, f2),
+            terminal_voltage=(v0, v1, v2), neutral_voltage=vn, electromagnetic_torque=te,
+            load_torque=t_load, rotor_angle=rotor, mechanical_angle=theta_m,
+            mechanical_speed=omega, dc_link_voltage=vp,
+            upper_capacitor_voltage=vu, lower_capacitor_voltage=vl,
             grid_voltage=grid_v, grid_current=grid_i, rectified_voltage=rect_v,
             inductor_current=ind_i,
             applied_switch_on=self._applied, boost_duty=boost_duty, boost_switch_enabled=boost_on,
             protection=self.protection, safe_state=self.in_safe_state,
             energy_grid_input=e_grid, energy_dc_source=e_src,
-            energy_copper_loss=en.copper, energy_device_loss=en.device, energy_front_end_loss=e_fe,
-            energy_friction_loss=en.friction, energy_mechanical_output=en.mechanical,
-            energy_stored=self.stored_energy(),
-            fault_count=self.faults.total, fault_counts=tuple(self.faults.counts),
-            first_fault_kind=int(self.faults.first_kind), first_fault_time=self.faults.first_time)
+            energy_copper_loss=copper, energy_device_loss=device, energy_front_end_loss=e_fe,
+            energy_friction_loss=friction, energy_mechanical_output=mech,
+            energy_stored=stored,
+            fault_count=faults.total, fault_counts=tuple(faults.counts),
+            first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
@@ -429,31 +486,25 @@ class PlantCore:
                 - en.copper - en.device - en.friction - en.mechanical - fe_loss)
 
     # ------------------------------------------------------------------ integration
+    def _trip_level(self) -> float:
+        """The peak-current level to locate (0 = none: disabled or already tripped)."""
+        trip = self.trip
+        return trip.level if (trip.enabled and not trip.tripped) else 0.0
+
     def advance(self) -> None:
-        """Integrate one base tick with the latched commands."""
+        """Integrate one base tick with the latched commands (one compiled call without the
+        front end: plant_kernel.advance_tick)."""
         legs = self._effective_legs()
-        h = self._h
-        n = self._substeps
-        self._elapsed = 0.0
-        dead = self.inverter.dead_time
-        if dead > 0.0 and legs != self._legs:
-            # The dead time covers k inner steps (k > 1 when it is longer than the step): it is
-            # integrated in k equal pieces of at most h, then the rest of the k-th step, then
-            # the n - k full steps: the integrated time is exactly n h = base_tick.
-            k = min(n, max(1, math.ceil(dead / h - 1e-9)))
-            self._legs = self.inverter.dead_time_legs(self._legs, legs)
-            piece = dead / k
-            for _ in range(k):
-                self._integrate(piece)
-            if self._legs != self._effective_legs():  # a trip inside the dead time wins
-                legs = self._effective_legs()
-            self._legs = legs
-            self._integrate(k * h - dead)
-            n -= k
+        if self.fe is None:
+            n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
+                                        self._code(self._legs), self._code(legs), self._off_code)
+            legs = self._legs_of_code.get(code)
+            self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
+            if n_ev:
+                for row in self._ev[:min(n_ev, len(self._ev))].tolist():
+                    self._record_event(row[0], int(row[1]), int(row[2]), row[3])
         else:
-            self._legs = legs
-        for _ in range(n):
-            self._integrate(h)
+            self._advance_with_front_end(legs)
         applied = self._switches_of.get(self._legs)
         if applied is None:
             applied = self._switches_of[self._legs] = self.inverter.switches(self._legs)
@@ -461,8 +512,28 @@ class PlantCore:
         self.step += 1
         self.time = self.step * self.base_tick
 
+    def _advance_with_front_end(self, legs: tuple) -> None:
+        """advance_tick's schedule from Python: the front end is advanced between a segment's
+        circuit (plant_kernel.segment_electric) and its link and shaft updates."""
+        h = self._h
+        n = self._substeps
+        self._elapsed = 0.0
+        dead = self.inverter.dead_time
+        if dead > 0.0 and legs != self._legs:
+            k, piece, rest = K.dead_time_split(dead, h, n)
+            self._legs = self.inverter.dead_time_legs(self._legs, legs)
+            for _ in range(k):
+                self._integrate(piece)
+            self._legs = legs   # as advance_tick: the rest of the step takes the target legs
+            self._integrate(rest)
+            n -= k
+        else:
+            self._legs = legs
+        for _ in range(n):
+            self._integrate(h)
+
     def _integrate(self, dt: float) -> None:
-        """Integrate dt [s], splitting at located events.
+        """Integrate dt [s], splitting at located events (plant_kernel.integrate with a front end).
 
         A run of more than _MAX_EVENTS_PER_STEP events inside one step (a
         chattering circuit) finishes the step without further splitting and
@@ -473,190 +544,41 @@ class PlantCore:
         while remaining > 1e-15:
             locate = events < _MAX_EVENTS_PER_STEP
             if not locate and events == _MAX_EVENTS_PER_STEP:
-                self.events.append((self.time + self._elapsed, 'event limit: rest of step not split'))
+                self._record_event(self.time + self._elapsed, K.EV_LIMIT, -1, 0.0)
             done = self._segment(remaining, remaining == self._h, locate)
             remaining -= done
             self._elapsed += done
             events += 1
 
     def _segment(self, T: float, nominal: bool, locate: bool = True) -> float:
-        """One piecewise-linear segment of at most T [s]; returns the time integrated."""
-        m = self.motor
-        p = m.pole_pairs
-        w0 = self.omega
-        th0 = self.theta_m
-        # Back-EMF held at the predicted mid-segment angle and speed.
-        w_mid = w0 + 0.5 * T * self.accel
-        shape = m.backemf
-        x = (p * (th0 + 0.5 * T * (w0 + 0.25 * T * self.accel)) * shape.lut_scale) % shape.points
-        j = int(x)
-        f = x - j
-        ta, tb, tc = shape.lut_k
-        ka = ta[j] + f * (ta[j + 1] - ta[j])
-        kb = tb[j] + f * (tb[j + 1] - tb[j])
-        kc = tc[j] + f * (tc[j + 1] - tc[j])
-        we = p * w_mid
-        e = (we * ka, we * kb, we * kc)
-        i = self.i
-        dc = self.dc
-        if dc.stiff:
-            vp, vm = dc.v_upper + dc.v_lower, dc.v_lower
-        else:
-            vp, vm = dc.segment_voltages(T)
-        legs = self._legs
-        cond, u, vn, rail = self.inverter.resolve(legs, i, e, vp, vm)
-        R = self._R
-        tau = self._tau
-        if dc.mode == 'current_fed' and cond[0] + cond[1] + cond[2] >= 2:
-            # Corrector: the link prediction above uses the previous segment's average node
-            # currents, a first-order error when the legs just changed (a chopped 20 A phase
-            # current on 135 uF: about 1 % of the energy). Predict again from this segment's
-            # own average rail currents (exact integrals at the predicted voltages).
-            w_avg = tau * (1.0 - (self._a_h if nominal else math.exp(-T / tau))) / T
-            ip = im = 0.0
-            for q in (0, 1, 2):
-                if cond[q]:
-                    r = rail[q]
-                    if r == RAIL_P or r == RAIL_M:
-                        s = (u[q] - vn) / R
-                        avg = s + (i[q] - s) * w_avg
-                        if r == RAIL_P:
-                            ip += avg
-                        else:
-                            im += avg
-            i_s = dc._i_s
-            d_lo = 0.5 * T * (i_s - ip - im) / dc.c_lower
-            vm = dc.v_lower + d_lo
-            vp = dc.v_upper + 0.5 * T * (i_s - ip) / dc.c_upper + vm
-            cond, u, vn, rail = self.inverter.resolve(legs, i, e, vp, vm)
-        a = self._a_h if nominal else math.exp(-T / tau)
-        n_cond = cond[0] + cond[1] + cond[2]
-        event = None
-        if n_cond >= 2:
-            iss = [(u[0] - vn) / R, (u[1] - vn) / R, (u[2] - vn) / R]
-            i1 = [iss[0] + (i[0] - iss[0]) * a if cond[0] else 0.0,
-                  iss[1] + (i[1] - iss[1]) * a if cond[1] else 0.0,
-                  iss[2] + (i[2] - iss[2]) * a if cond[2] else 0.0]
-            # Events: zero crossings of phases that can extinguish, and the trip level.
-            t_event = T
-            can_open = self._can_open
-            trip = self.trip
-            level = trip.level if (trip.enabled and not trip.tripped) else 0.0
-            for q in (0, 1, 2):
-                if not cond[q] or not locate:
-                    continue
-                i0q, i1q = i[q], i1[q]
-                if i0q * i1q < 0.0 and legs[q] != MIDPOINT and (can_open or legs[q] == OFF):
-                    c = i0q - iss[q]
-                    t = -tau * math.log(-iss[q] / c)
-                    if t < t_event:
-                        t_event, event = t, ('zero', q)
-                if level and abs(i1q) >= level:
-                    target = level if i1q > 0.0 else -level
-                    c = i0q - iss[q]
-                    ratio = (target - iss[q]) / c if c != 0.0 else 0.0
-                    t = -tau * math.log(ratio) if ratio > 0.0 and abs(i0q) < level else 0.0
-                    if t < t_event or (event is not None and event[0] == 'zero' and t <= t_event):
-                        t_event, event = t, ('trip', q)
-            if event is not None:
-                T = max(0.0, min(t_event, T))
-                a = math.exp(-T / tau)
-                i1 = [iss[q] + (i[q] - iss[q]) * a if cond[q] else 0.0 for q in (0, 1, 2)]
-                if event[0] == 'zero':
-                    q = event[1]
-                    i1[q] = 0.0
-                    if n_cond == 2:
-                        i1 = [0.0, 0.0, 0.0]
-            # Exact integrals of i and i^2 over the segment.
-            one_a = 1.0 - a
-            g1 = tau * one_a
-            g2 = 0.5 * tau * (1.0 - a * a)
-            q_int = [0.0, 0.0, 0.0]
-            sq = 0.0
-            dev = 0.0
-            q_p = 0.0
-            q_m = 0.0
-            for q in (0, 1, 2):
-                if cond[q]:
-                    s = iss[q]
-                    c = i[q] - s
-                    qi = s * T + c * g1
-                    q_int[q] = qi
-                    sq += s * s * T + 2.0 * s * c * g1 + c * c * g2
-                    r = rail[q]
-                    v_ideal = vp if r == RAIL_P else vm if r == RAIL_M else 0.0
-                    dev += (v_ideal - u[q] - e[q]) * qi
-                    if r == RAIL_P:
-                        q_p += qi
-                    elif r == RAIL_M:
-                        q_m += qi
-            # Keep the star-point constraint exact after rounding.
-            if n_cond == 3:
-                b0, b1, b2 = abs(i1[0]), abs(i1[1]), abs(i1[2])
-                if b0 >= b1 and b0 >= b2:
-                    i1[0] = -(i1[1] + i1[2])
-                elif b1 >= b2:
-                    i1[1] = -(i1[0] + i1[2])
-                else:
-                    i1[2] = -(i1[0] + i1[1])
-            elif cond[0]:
-                if cond[1]:
-                    i1[1] = -i1[0]
-                else:
-                    i1[2] = -i1[0]
-            else:
-                i1[2] = -i1[1]
-            en = self.energy
-            en.copper += R * sq
-            en.device += dev
-            if dc.stiff:
-                dc.energy_source += vp * q_p + vm * q_m
-            elif T > 0.0:
-                self._draw_link(T, vp, q_p, q_m)
-            te = p * (ka * q_int[0] + kb * q_int[1] + kc * q_int[2]) / T if T > 0.0 else 0.0
-            self.i = i1
-        else:
-            te = 0.0
-            if i[0] or i[1] or i[2]:
-                self.i = [0.0, 0.0, 0.0]
-            if T > 0.0 and dc.mode == 'current_fed':
-                self._draw_link(T, vp, 0.0, 0.0)
-        if T > 0.0:
-            w1, w_avg, t_load, e_fric, e_load = self.load.step(m.inertia, m.friction, w0, te, T)
-            self.omega = w1
-            self.theta_m = th0 + w_avg * T
-            self.accel = (w1 - w0) / T
-            self._t_load = t_load
-            en = self.energy
-            en.friction += e_fric
-            en.mechanical += e_load
-        if event is not None:
-            self._record_event(T, event)
+        """One segment of at most T [s] with the front end feeding the link; returns the time
+        integrated (circuit, link, shaft: plant_kernel.segment_electric / segment_mechanics)."""
+        buf = self._buf
+        T = K.segment_circuit(buf, self._lut, T, nominal, locate, self._code(self._legs),
+                              self._trip_level())
+        te, vp, q_p, q_m, kind, q, draw = self._res.tolist()
+        if draw:
+            self.dc.source_current = self.fe.advance(self.time + self._elapsed, T, vp) / T
+        K.segment_finish(buf, T)
+        if kind != K.EV_NONE:
+            q = int(q)
+            self._record_event(self.time + self._elapsed + T, int(kind), q, self.i[q])
         return T
 
-    def _draw_link(self, T: float, vp: float, q_p: float, q_m: float) -> None:
-        """Advance the soft DC link over the segment [t0, t0 + T): the front end (if any) sets the
-        source current at link voltage vp, the inverter draws q_p / q_m [C] from the rails."""
-        dc = self.dc
-        t0 = self.time + self._elapsed
-        if self.fe is not None:
-            dc.source_current = self.fe.advance(t0, T, vp) / T
-        dc.draw(q_p, q_m, T, t0)
-
-    def _record_event(self, T: float, event: tuple) -> None:
-        """Act on and log an event located at the end of the segment just integrated."""
-        kind, q = event
-        when = self.time + self._elapsed + T
+    def _record_event(self, when: float, kind: int, q: int, current: float) -> None:
+        """Act on and log an event (plant_kernel EV_*) located at sim time when [s]."""
         if len(self.events) > 10000:
             del self.events[:5000]
-        if kind == 'trip':
-            self.trip.trip(when, self.i[q])
+        if kind == K.EV_LIMIT:
+            self.events.append((when, 'event limit: rest of step not split'))
+        elif kind == K.EV_TRIP:
+            self.trip.trip(when, current)
             self._legs = self.inverter.all_off()
             self.events.append((when, f'trip phase {"abc"[q]}'))
             self.faults.record(FaultKind.MOTOR_OVER_CURRENT, when, self.step,
                                f'motor peak-current trip: phase {"abc"[q]} current '
-                               f'{self.i[q]:.3f} A reached {self.trip.level:g} A: all switches off, safe state '
+                               f'{current:.3f} A reached {self.trip.level:g} A: all switches off, safe state '
                                'until plant/reset_protection',
-                               phase='abc'[q], current=f'{self.i[q]:.6f}')
+                               phase='abc'[q], current=f'{current:.6f}')
         else:
             self.events.append((when, f'current zero phase {"abc"[q]}'))
