@@ -51,13 +51,7 @@ def _spec_line(spec: ParameterSpec) -> str:
     default = repr(spec.default)
     if spec.unit:
         default += f' {spec.unit}'
-    extra = []
-    if spec.min_value is not None or spec.max_value is not None:
-        lo = '-inf' if spec.min_value is None else spec.min_value
-        hi = 'inf' if spec.max_value is None else spec.max_value
-        extra.append(f'range [{lo}, {hi}]')
-    if spec.choices:
-        extra.append('one of ' + ', '.join(str(c) for c in spec.choices))
+    extra = spec.limits()
     if spec.read_only:
         extra.append('read-only')
     elif not spec.runtime:

@@ -56,6 +56,17 @@ class ParameterSpec:
     def value_type(self) -> ValueType:
         return type(self.default)
 
+    def limits(self) -> list[str]:
+        """What bounds a value, in words: range, choices (unit and runtime flags not included)."""
+        out = []
+        if self.min_value is not None or self.max_value is not None:
+            lo = '-inf' if self.min_value is None else self.min_value
+            hi = 'inf' if self.max_value is None else self.max_value
+            out.append(f'range [{lo}, {hi}]')
+        if self.choices:
+            out.append('one of ' + ', '.join(str(c) for c in self.choices))
+        return out
+
     def describe(self) -> str:
         """Human text for the ROS descriptor: description, unit, range."""
         parts = [self.description]

@@ -9,13 +9,12 @@ import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 
-from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.waiting import wait_until
 from drive_logger.bag_reader import BagReader
 from drive_logger.block_topics import per_sample_messages
 from drive_common.cdr_padding import canonicalize
 from drive_logger.ros_types import message_class
-from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag
+from drive_testing.block_bags import scenario_bags
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.012      # s: 360 controller samples, the runtime torque step at 9.4 ms included
@@ -24,11 +23,7 @@ PER_SAMPLE_TOPICS = ('/plant/state', '/dtc/status', '/drive/measurement', '/driv
 
 @pytest.fixture(scope='module')
 def run(tmp_path_factory):
-    scenario = load_scenario(find_scenario(SCENARIO)).shortened(DURATION)
-    samples = headless_samples(scenario)
-    root = tmp_path_factory.mktemp('blocks')
-    return scenario, {'per_sample': write_per_sample_bag(samples, root / 'per_sample'),
-                      'blocks': write_block_bag(samples, root / 'blocks', block_size=16)}
+    return scenario_bags(SCENARIO, DURATION, tmp_path_factory.mktemp('blocks'))
 
 
 def _by_topic(messages):

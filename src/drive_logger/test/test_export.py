@@ -6,14 +6,13 @@ import random
 import numpy as np
 import pytest
 
-from drive_bringup.scenario import find_scenario, load_scenario
 from drive_logger import export
 from drive_logger.bag_reader import BagReader
 from drive_logger.bag_writer import BagWriter
 from drive_logger.sample_topics import SampleTopics, finish_canonical
 from drive_common.cdr_padding import canonicalize
 from drive_logger.ros_types import message_class
-from drive_testing.block_bags import headless_samples, write_block_bag, write_per_sample_bag
+from drive_testing.block_bags import scenario_bags
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.012      # s: 360 controller samples at 1/30 kHz, the torque step at 9.4 ms included
@@ -22,11 +21,7 @@ PER_SAMPLE_TOPICS = ('/plant/state', '/dtc/status', '/drive/measurement', '/driv
 
 @pytest.fixture(scope='module')
 def bags(tmp_path_factory):
-    scenario = load_scenario(find_scenario(SCENARIO)).shortened(DURATION)
-    samples = headless_samples(scenario)
-    root = tmp_path_factory.mktemp('export')
-    return {'per_sample': write_per_sample_bag(samples, root / 'per_sample'),
-            'blocks': write_block_bag(samples, root / 'blocks', block_size=16)}   # + decimated live topics
+    return scenario_bags(SCENARIO, DURATION, tmp_path_factory.mktemp('export'))[1]   # + decimated live topics
 
 
 def _by_topic(reader, topics):

@@ -194,6 +194,16 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
     return Path(path)
 
 
+def scenario_bags(name: str, duration: float, root: Path, block_size: int = 16):
+    """(scenario, {'per_sample': bag, 'blocks': bag}): the first ``duration`` s of a shipped
+    scenario run headless and written both ways under root (the fixtures of the bag tests)."""
+    from drive_bringup.scenario import find_scenario, load_scenario
+    scenario = load_scenario(find_scenario(name)).shortened(duration)
+    samples = headless_samples(scenario)
+    return scenario, {'per_sample': write_per_sample_bag(samples, root / 'per_sample'),
+                      'blocks': write_block_bag(samples, root / 'blocks', block_size=block_size)}
+
+
 def _first_ns(block) -> int:
     from drive_common.telemetry_blocks import stamp_ns
     return stamp_ns(block.header.stamp)
