@@ -106,8 +106,12 @@ class PeerWatch:
         # matched too before sample 0 goes out, or it would miss the first samples; before
         # the first run, discovery of readers started earlier is done once the graph settled.
         if not self._graph_settled:
+            settling = time.monotonic()
             wait_for_stable_graph(self)
             self._graph_settled = True
+            waited = time.monotonic() - settling     # discovery, not the controllers' start-up:
+            self._run_started += waited               # startup_timeout does not count it
+            deadline += waited
         outputs = [c.publisher for c in self._channels.values()] + [self._state_pub, self._block_pub]
         if not wait_until(lambda: readers_matched(self, outputs) or self._halted(),
                           max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,

@@ -99,6 +99,7 @@ class Case:
     controller: dict | None = None                     # scenario controller entry instead of DTC
     exit_codes: tuple = (0,)
     kind: str = ''                                     # the fault kind the result must name
+    duration: float = DURATION                         # s of sim time of the run
 
 
 @dataclass
@@ -211,9 +212,12 @@ def cases() -> list[Case]:
                 Case(f'random bytes on {topic}', 'outsider', _raw_bytes(type_name, topic, _random)),
                 Case(f'intruding {short} messages', 'outsider', _valid_messages(type_name, topic))]
     out += [
+        # A late node that finds the running graph refuses to join it (exit 2, one line) or, if
+        # it gets to send, is ignored and reported by the graph: a run long enough for either.
         Case('second fake controller', 'outsider',
-             _second_node('drive_testing', 'fixed_responder', 'intruding_controller')),
-        Case('second plant, late', 'outsider', _second_node('bldc_plant_sim', 'plant', 'late_plant')),
+             _second_node('drive_testing', 'fixed_responder', 'intruding_controller'), duration=0.3),
+        Case('second plant, late', 'outsider', _second_node('bldc_plant_sim', 'plant', 'late_plant'),
+             duration=0.3),
         Case('out-of-range plant parameter', 'refused', _parameter('/plant', 'load.torque', 1e9)),
         Case('wrong-type plant parameter', 'refused', _parameter('/plant', 'load.torque', 'high')),
         Case('out-of-range controller parameter', 'refused',
@@ -233,8 +237,8 @@ def cases() -> list[Case]:
 def _scenario_file(case: Case, directory: Path) -> Path:
     from drive_bringup.scenario import find_scenario
     tree = yaml.safe_load(find_scenario(SCENARIO).read_text())
-    tree['duration'] = DURATION
-    tree['events'] = [e for e in tree.get('events') or [] if e['time'] < DURATION] + case.events
+    tree['duration'] = case.duration
+    tree['events'] = [e for e in tree.get('events') or [] if e['time'] < case.duration] + case.events
     tree['events'].sort(key=lambda e: e['time'])
     tree['checks'], tree['figures'] = [], []
     if case.controller is not None:
@@ -274,6 +278,10 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
         if (out / 'logs').is_dir() else ''
     outcome.log = bool(LOG_LINE.search(logs))
     outcome.diagnostics = any(_level(s) >= 1 for s in ctx.diagnostics)
+    refused = _refused_itself(ctx)
+    if refused:            # a late node that found the running graph refused to join it
+        outcome.log = outcome.diagnostics = True
+        outcome.detail = refused
     outcome.crashed = _crash(code, text + logs, case) or next(
         (f'injection failed: {why}' for kind, why in ctx.notes if kind == 'injection failed'), '')
     if case.expect == 'refused':
@@ -284,6 +292,16 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
         outcome.changed = _block_data(out / 'bag') != reference
     outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
     return outcome
+
+
+def _refused_itself(ctx: Injection) -> str:
+    """The one-line refusal of an intruding node that exited 2 on finding the graph, or ''."""
+    for kind, process in ctx.notes:
+        if kind == 'process' and process.process.poll() == 2:
+            lines = [ln for ln in process.output().splitlines() if 'refusing' in ln]
+            if lines:
+                return lines[-1]
+    return ''
 
 
 def _level(status) -> int:
@@ -367,11 +385,11 @@ def _run_graph(command, case: Case, domain_id: int):
     return code, log.read(), ctx
 
 
-def clean_reference(directory: Path) -> list[bytes]:
+def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
     """The block data of the scenario run without a fault (what outsiders must not change)."""
-    clean = Case('clean', 'outsider')
+    clean = Case(f'clean {duration:g} s', 'outsider', duration=duration)
     scenario = _scenario_file(clean, directory)
-    out = directory / 'clean'
+    out = directory / f'clean_{duration:g}'
     from drive_testing.harness import isolated_env, reserve_domain
     with reserve_domain() as domain_id:
         code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out',
@@ -384,12 +402,14 @@ def clean_reference(directory: Path) -> list[bytes]:
 
 def run_matrix(directory: Path, select: Callable[[Case], bool] = lambda case: True,
                progress: Callable[[Outcome], None] = lambda outcome: None) -> list[Outcome]:
-    """Run the selected cases (a clean reference first); their outcomes."""
-    reference = clean_reference(directory)
+    """Run the selected cases (with a clean reference run per duration); their outcomes."""
+    references: dict[float, list[bytes]] = {}    # clean runs by duration, made when needed
     outcomes = []
     for case in cases():
         if select(case):
-            outcome = run_case(case, directory, reference)
+            if case.expect in ('outsider', 'refused') and case.duration not in references:
+                references[case.duration] = clean_reference(directory, case.duration)
+            outcome = run_case(case, directory, references.get(case.duration))
             outcomes.append(outcome)
             progress(outcome)
     return outcomes
