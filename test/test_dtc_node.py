@@ -16,7 +16,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
 from drive_common import topics
-from drive_testing.harness import wait_for_subscribers
+from drive_testing.harness import send_until_answered, wait_for_subscribers
 from drive_common.waiting import wait_until
 from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
 
@@ -59,9 +59,10 @@ def test_answers_each_step_and_applies_runtime_changes(start_node, ros_session, 
     assert params.wait_for_services(timeout_sec=30.0)
 
     def send(step):
-        pub.publish(_measurement(step, 0.3))
-        wait_until(lambda: any(g.step == step for g in gates) and any(s.step == step for s in statuses),
-                   10.0, what=f'answer to step {step}')
+        msg = _measurement(step, 0.3)
+        send_until_answered(lambda: pub.publish(msg),
+                            lambda: any(g.step == step for g in gates)
+                            and any(s.step == step for s in statuses), what=f'answer to step {step}')
         return ([g for g in gates if g.step == step][-1], [s for s in statuses if s.step == step][-1])
 
     gate, status = send(7)

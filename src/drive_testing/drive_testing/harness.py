@@ -7,11 +7,13 @@
   background executor, for test nodes (injected ``context`` and overrides).
 - :func:`processes_with_env` finds leftover processes of a test.
 - the ``wait_for_*`` helpers wait for graph matching
-  (:func:`drive_common.waiting.wait_until`, re-exported).
+  (:func:`drive_common.waiting.wait_until`, re-exported); :func:`send_until_answered`
+  re-sends a lockstep sample as the plant does until it is answered.
 """
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, reserve_domain,
@@ -20,8 +22,8 @@ from drive_common.node_main import spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
 __all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
-           'processes_with_env', 'reserve_domain', 'ros_arguments', 'wait_for_publishers',
-           'wait_for_subscribers', 'wait_until']
+           'processes_with_env', 'reserve_domain', 'ros_arguments', 'send_until_answered',
+           'wait_for_publishers', 'wait_for_subscribers', 'wait_until']
 
 
 def processes_with_env(marker: str) -> list[int]:
@@ -87,6 +89,25 @@ class RosSession:
 def wait_for_subscribers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
     wait_until(lambda: node.count_subscribers(topic) >= count, timeout,
                what=f'{count} subscriber(s) on {topic}')
+
+
+def send_until_answered(publish, answered, timeout: float = 30.0, every: float = 1.0,
+                        what: str = 'answer') -> None:
+    """publish() then wait for answered(); re-send every ``every`` s until timeout [s].
+
+    A controller binds to a counterpart only once its graph cache shows it (peer
+    binding); a sample that arrives earlier is dropped, and the plant re-sends it.
+    Tests that stand in for the plant do the same (a re-sent sample is answered
+    again without a second core update).
+    """
+    deadline = time.monotonic() + timeout
+    while True:
+        publish()
+        left = deadline - time.monotonic()
+        if wait_until(answered, max(0.0, min(every, left)), what=what, raise_timeout=False):
+            return
+        if time.monotonic() >= deadline:
+            raise WaitTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
 
 
 def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:

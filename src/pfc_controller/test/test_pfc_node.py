@@ -5,7 +5,7 @@ import threading
 
 import pytest
 
-from drive_testing.harness import wait_for_subscribers
+from drive_testing.harness import send_until_answered, wait_for_subscribers
 from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros
@@ -49,11 +49,11 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
                              output_voltage=75.0)
         msg.header.stamp = time_msg(step * 12.5e-6)
         sent[step] = message_bits(msg)
-        pub.publish(msg)
+        send_until_answered(lambda: pub.publish(msg), lambda: step in duties and step in statuses,
+                            what=f'answer to step {step}')
 
     for step in (7, 8, 9):
         send(step)
-        wait_until(lambda: step in duties and step in statuses, 10.0, what=f'answer to step {step}')
     with lock:
         duty, status = duties[9], statuses[9]
     assert duty.header.stamp == time_msg(9 * 12.5e-6)
@@ -73,7 +73,6 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
                                      Parameter('enable', value=False)]))
     assert all(r.successful for r in ok.results), ok
     send(10)
-    wait_until(lambda: 10 in statuses and 10 in duties, 10.0, what='answer to step 10')
     assert not statuses[10].enabled and not duties[10].enable and duties[10].duty == 0.0
     assert statuses[10].voltage_reference == pytest.approx(90.0)
     # pfc/status_block (partial blocks flushed while no measurement comes): every answered
