@@ -4,7 +4,7 @@ Prints one row per case (log, /diagnostics, result, crash, data changed by an
 outsider) and the totals with their goals: silent 0, crashes 0, runs an
 outsider changed 0. Run after ``source scripts/env.sh``:
 
-    python benchmarks/bench_fault_matrix.py [--only SUBSTRING]
+    python benchmarks/bench_fault_matrix.py [--only SUBSTRING] [--workers N]
 """
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ from drive_testing.fault_matrix import run_matrix, table
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--only', help='run only the cases whose name contains this')
+    parser.add_argument('--workers', type=int, default=1, help='cases run at once (default 1)')
     args = parser.parse_args()
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix='fault_matrix_') as directory:
@@ -28,7 +29,8 @@ def main() -> int:
                               progress=lambda o: print(f'  {o.where:8s} {o.case}: '
                                                        f'{"reported" if o.reported else "NOT reported"}'
                                                        f'{", " + o.crashed if o.crashed else ""}',
-                                                       flush=True))
+                                                       flush=True),
+                              workers=args.workers)
     print()
     print(table(outcomes))
     print(f'\n{time.monotonic() - started:.0f} s wall')

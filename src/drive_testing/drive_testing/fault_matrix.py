@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -401,18 +402,22 @@ def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
 
 
 def run_matrix(directory: Path, select: Callable[[Case], bool] = lambda case: True,
-               progress: Callable[[Outcome], None] = lambda outcome: None) -> list[Outcome]:
-    """Run the selected cases (with a clean reference run per duration); their outcomes."""
-    references: dict[float, list[bytes]] = {}    # clean runs by duration, made when needed
-    outcomes = []
-    for case in cases():
-        if select(case):
-            if case.expect in ('outsider', 'refused') and case.duration not in references:
-                references[case.duration] = clean_reference(directory, case.duration)
+               progress: Callable[[Outcome], None] = lambda outcome: None,
+               workers: int = 1) -> list[Outcome]:
+    """Run the selected cases (with a clean reference run per duration); their outcomes, in
+    the matrix's order. workers: cases run at once, each in its own ROS domain (most of a
+    case's wall time is process start-up and discovery, so two overlap well on two cores)."""
+    selected = [case for case in cases() if select(case)]
+    durations = sorted({c.duration for c in selected if c.expect in ('outsider', 'refused')})
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        references = dict(zip(durations, pool.map(lambda d: clean_reference(directory, d),
+                                                  durations)))
+
+        def one(case: Case) -> Outcome:
             outcome = run_case(case, directory, references.get(case.duration))
-            outcomes.append(outcome)
             progress(outcome)
-    return outcomes
+            return outcome
+        return list(pool.map(one, selected))
 
 
 def table(outcomes: list[Outcome]) -> str:
