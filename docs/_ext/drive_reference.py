@@ -112,6 +112,7 @@ def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
                            (t.CLOCK, 'rosgraph_msgs/msg/Clock'),
                            (t.DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray'),
                            (t.PARAMETER_EVENTS, 'rcl_interfaces/msg/ParameterEvent')],
+            'services': [(t.RECORDER_MATCHED_SERVICE, 'dtc_msgs/srv/MatchedPublishers')],
         },
         'replay': {
             'publishes': [('the bag\'s topics (or the per-sample topics with `expand_blocks`)', 'as recorded'),

@@ -19,6 +19,7 @@ PFC_STATUS_BLOCK = 'pfc/status_block'
 PARAMETER_EVENTS = '/parameter_events'
 RUN_ACTION = 'plant/run'
 RESET_PROTECTION_SERVICE = 'plant/reset_protection'
+RECORDER_MATCHED_SERVICE = 'recorder/matched_publishers'   # dtc_msgs/srv/MatchedPublishers
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 

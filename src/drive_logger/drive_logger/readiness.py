@@ -6,9 +6,12 @@ the runner's own node until the recorder (node name ``recorder`` unless
 remapped) has a subscription on each topic. Start the plant only after it
 returns, and stop the recorder with SIGINT/SIGTERM after the run.
 
-Matching with publishers of nodes that already run when the recorder starts
-completes asynchronously on their side: start the recorder first (before the
-plant and controllers), or allow about 1 s after :func:`wait_for_recorder`.
+A subscription on the graph is not yet a matched one: a publisher that its
+subscription matches only after the first samples went out never delivers
+them (volatile durability). Before a run, ask the recorder's
+``recorder/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers)
+until it has matched every publisher of the topics you need, as
+``run_scenario`` does.
 """
 from __future__ import annotations
 

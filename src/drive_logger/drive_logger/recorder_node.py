@@ -72,6 +72,8 @@ import time
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
 
+from dtc_msgs.srv import MatchedPublishers
+
 from drive_common.cdr_padding import canonicalize
 from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver, GraphConflict, graph_conflict
 from drive_common.node_main import run_node
@@ -168,6 +170,7 @@ class RecorderNode(Node):
         self.topics: dict[str, _Topic] = {}
         for name, (type_name, definition) in wanted.items():
             self._subscribe(name, type_name, definition)
+        self.create_service(MatchedPublishers, '~/matched_publishers', self._matched_publishers)
         self.get_logger().info(
             f'recorder ready: recording {len(self.topics)} topic(s) {sorted(self.topics)} '
             f'into {self.writer.path}')
@@ -227,6 +230,16 @@ class RecorderNode(Node):
             message_class(type_name), name, topic.callback, topic.qos, raw=True,
             callback_group=self._not_spun)
         self.topics[name] = topic
+
+    def _matched_publishers(self, request, response):
+        """Per requested topic, the publishers its subscription has matched (a runner waits for
+        them before the run: a publisher matched only on its own side loses the first samples)."""
+        response.publishers = [self._matched(self.resolve_topic_name(t)) for t in request.topics]
+        return response
+
+    def _matched(self, name: str) -> int:
+        topic = self.topics.get(name)
+        return topic.subscription.get_publisher_count() if topic and topic.subscription else 0
 
     def discover(self) -> None:
         for name, types in self.get_topic_names_and_types():
