@@ -34,7 +34,6 @@ class FaultKind(IntEnum):
     MALFORMED_COMMAND = 6      # a command message that could not be decoded
     COMMAND_TIMEOUT = 7        # a due command did not arrive within command_timeout
     LOST_CONTROLLER = 8        # a due command did not arrive and its publisher left the graph
-    INTRUDER = 9               # a foreign publisher / second graph on a lockstep topic
 
     @property
     def label(self) -> str:
