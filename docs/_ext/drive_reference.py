@@ -30,6 +30,13 @@ def _cell(value) -> str:
     return text.replace('|', '\\|') if text else ' '
 
 
+def _table(header: tuple[str, ...], rows) -> str:
+    """One Markdown table: the header, its rule, then one line per row (a tuple of cell texts)."""
+    lines = ['| ' + ' | '.join(header) + ' |', '|' + '---|' * len(header)]
+    lines += ['| ' + ' | '.join(cells) + ' |' for cells in rows]
+    return '\n'.join(lines) + '\n'
+
+
 def _code(value) -> str:
     return f'`{value!r}`' if isinstance(value, str) else f'`{value}`'
 
@@ -61,19 +68,12 @@ def _when(spec) -> str:
     return 'runtime' if spec.runtime else 'held'
 
 
-PARAMETER_HEADER = ('| name | type | default | range | unit | changes | description |\n'
-                    '|---|---|---|---|---|---|---|\n')
-
-
 def schema_table(schema) -> str:
     """Markdown table of a drive_common.parameters.ParameterSchema."""
-    rows = []
-    for name in schema.names():
-        spec = schema[name]
-        rows.append(f'| `{name}` | {_type_name(spec.default)} | {_cell(_code(spec.default))} | '
-                    f'{_cell(_range(spec))} | {_cell(spec.unit or "—")} | {_when(spec)} | '
-                    f'{_cell(spec.description)} |')
-    return PARAMETER_HEADER + '\n'.join(rows) + '\n'
+    specs = [(name, schema[name]) for name in schema.names()]
+    return _table(('name', 'type', 'default', 'range', 'unit', 'changes', 'description'),
+                  ((f'`{name}`', _type_name(spec.default), _cell(_code(spec.default)), _cell(_range(spec)),
+                    _cell(spec.unit or '—'), _when(spec), _cell(spec.description)) for name, spec in specs))
 
 
 def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
@@ -131,13 +131,11 @@ def node_interfaces() -> dict[str, dict[str, list[tuple[str, str]]]]:
 
 
 def _interface_table(interfaces: dict[str, list[tuple[str, str]]]) -> str:
-    lines = ['| kind | name | type |', '|---|---|---|']
-    for kind in ('publishes', 'subscribes', 'services', 'actions'):
-        for name, type_name in interfaces.get(kind, []):
-            shown = f'`{name}`' if not name.startswith('the ') else name
-            lines.append(f'| {kind} | {shown} | `{type_name}` |' if '/' in type_name
-                         else f'| {kind} | {shown} | {type_name} |')
-    return '\n'.join(lines) + '\n'
+    return _table(('kind', 'name', 'type'),
+                  ((kind, name if name.startswith('the ') else f'`{name}`',
+                    f'`{type_name}`' if '/' in type_name else type_name)
+                   for kind in ('publishes', 'subscribes', 'services', 'actions')
+                   for name, type_name in interfaces.get(kind, [])))
 
 
 def node_pages() -> dict[str, tuple[str, str, str]]:
@@ -178,8 +176,7 @@ def node_pages() -> dict[str, tuple[str, str, str]]:
 
 def _interface_fields(path: Path) -> str:
     """Field table of one .msg (or one section of .srv/.action): type, name, default/value, comment."""
-    lines = ['| type | name | value | comment |', '|---|---|---|---|']
-    comments = []
+    rows, comments = [], []
     for raw in path.read_text().splitlines() if isinstance(path, Path) else path:
         text, _, comment = raw.partition('#')
         text, comment = text.strip(), comment.strip()
@@ -196,9 +193,9 @@ def _interface_fields(path: Path) -> str:
             value = parts[2]
         if value.startswith('='):
             value = value[1:].strip()
-        lines.append(f'| `{_cell(type_name)}` | `{name.strip()}` | {_cell(value.strip()) if value else " "} | '
-                     f'{_cell(comment)} |')
-    return '\n'.join(lines) + '\n', ' '.join(comments)
+        rows.append((f'`{_cell(type_name)}`', f'`{name.strip()}`', _cell(value.strip()) if value else ' ',
+                     _cell(comment)))
+    return _table(('type', 'name', 'value', 'comment'), rows), ' '.join(comments)
 
 
 def messages_page() -> str:
@@ -224,12 +221,10 @@ def messages_page() -> str:
 def scenarios_page() -> str:
     """Markdown table of every shipped scenario (name, seed reference, duration, description)."""
     from drive_bringup.scenario import load_scenario, scenario_dir
-    lines = ['| scenario | seed reference | duration (s sim) | checks | description |', '|---|---|---|---|---|']
-    for path in sorted(scenario_dir().glob('*.yaml')):
-        s = load_scenario(path)
-        lines.append(f'| `{s.name}` | {_cell(s.seed_reference or "—")} | {s.duration:g} | {len(s.checks)} | '
-                     f'{_cell(s.description)} |')
-    return '\n'.join(lines) + '\n'
+    shipped = [load_scenario(path) for path in sorted(scenario_dir().glob('*.yaml'))]
+    return _table(('scenario', 'seed reference', 'duration (s sim)', 'checks', 'description'),
+                  ((f'`{s.name}`', _cell(s.seed_reference or '—'), f'{s.duration:g}', str(len(s.checks)),
+                    _cell(s.description)) for s in shipped))
 
 
 def write_all(out: Path = GENERATED) -> list[Path]:

@@ -4,19 +4,12 @@ docs/architecture.md "Faults and diagnostics". The ROS-agnostic core counts
 faults in :class:`~bldc_plant_sim.core.faults.FaultRecord` and queues them; the
 plant node calls :meth:`FaultReporter.flush` after each tick (a no-op without
 a new fault) and :meth:`FaultReporter.report` for the faults it detects itself
-(a late, invalid or malformed command, a lost controller, an intruder). Each
-fault gives, at its sim time:
-
-- a log line at ERROR: ``fault <kind> at t = X s (step k), node N: cause``;
-- a DiagnosticStatus ERROR named ``plant: faults`` with key/values sim_time,
-  step, kind, node and the event's own (phase, leg, controller, ...);
-- the PlantState fault fields (the core's counters and first fault).
-
-A safe-state exit (commands resumed, plant/reset_protection) is logged at INFO
-with an OK status. Repeats of one kind are shown at most once per
-REPEAT_PERIOD of sim time (a cycle-by-cycle boost limit trips every PWM
-period); the next shown report says how many were left out. Every one is
-counted in the record all the same.
+(a late, invalid or malformed command, a lost controller). Each fault gives, at
+its sim time, an ERROR log line, an ERROR DiagnosticStatus ``plant: faults``
+(sim_time, step, kind, node and the event's own values) and the PlantState
+fault fields. A safe-state exit is logged at INFO with an OK status. Repeats
+of one kind are shown at most once per REPEAT_PERIOD of sim time (the next
+report says how many were left out); every one is counted.
 """
 from __future__ import annotations
 

@@ -1,27 +1,16 @@
 """Parameter schema of the ``plant`` node (pure: no rclpy).
 
 One :class:`~drive_common.parameters.ParameterSchema` serves the ROS node,
-scenario files and the headless co-simulation. Defaults describe the BLDC
-motor of 000 Appendix A (the values of ``motors/ozturk_bldc.yaml``, pinned by
-test_motor_files.py) on a six-switch inverter with the device drops of 001
-Table IV (V_CE 0.9 V, V_d 1.25 V, R_on 0.075 ohm; set them to 0 for ideal
-switches, as the 000 scenarios do) fed by an ideal 40*sqrt(2) V source (000
-ch. II/V test conditions). Motor, topology and
-periods are ``runtime=False`` (changed only while the simulation is held);
-load, sensor errors, device drops and the trip level may change at any
-sample boundary. ``front_end.*`` describe the boost PFC front end of 000
-ch. III (core/front_end.py); it needs ``dc_link.mode: current_fed`` and a
-PFC controller (``pfc_enabled``) needs it. Line voltage and phase, the
-resistances and drops and the protection levels are runtime parameters.
+scenario files and the headless co-simulation. Defaults: the BLDC motor of 000
+Appendix A (``motors/ozturk_bldc.yaml``) on a six-switch inverter with the device
+drops of 001 Table IV, fed by an ideal 40*sqrt(2) V source. Motor, topology and
+periods change only while the simulation is held; the rest at any sample
+boundary. ``front_end.*`` (000 ch. III) needs ``dc_link.mode: current_fed``.
 
 Motor data files (``motors/*.yaml``) hold a ``parameters:`` mapping of these
-same names, checked by the schema like any other change (an error names the
-file, the key and the reason). :func:`plant_params` merges one into the
-defaults before its overrides. The ``motor.file`` parameter: the file gives
-the motor's values and explicit parameters set in the same snapshot override
-it; :func:`effective_params` turns a requested snapshot into the values
-actually used (PlantCore.params, and what the node writes back into its
-declared parameters).
+names, checked like any change; :func:`plant_params` merges one into the
+defaults before its overrides, and :func:`effective_params` turns a requested
+snapshot (``motor.file`` plus explicit values, which win) into the values used.
 """
 from __future__ import annotations
 

@@ -107,7 +107,8 @@ class PeerWatch:
         # the first run, discovery of readers started earlier is done once the graph settled.
         if not self._graph_settled:
             settling = time.monotonic()
-            wait_for_stable_graph(self)
+            if not wait_for_stable_graph(self, stop=lambda: self._halted() is not None):
+                return self._halted() or 'plant shutting down'   # Ctrl-C, shutdown, a second graph
             self._graph_settled = True
             waited = time.monotonic() - settling     # discovery, not the controllers' start-up:
             self._run_started += waited               # startup_timeout does not count it

@@ -203,7 +203,10 @@ class GraphRunner:
                                      cli_args=namespace_arguments(self.namespace))
             if self.domain_id is None:
                 # A shared domain: refuse before starting anything if a drive graph runs there.
-                refuse_if_busy(node, 'run_scenario')
+                # Ctrl-C shuts the context down: the look ends at once, nothing is started.
+                refuse_if_busy(node, 'run_scenario', stop=lambda: not rclpy.ok(context=context))
+                if not rclpy.ok(context=context):
+                    raise KeyboardInterrupt
             self.out_dir.mkdir(parents=True, exist_ok=True)     # after every refusal: none leaves a directory
             if self.record:
                 self._start('recorder', 'drive_logger', 'recorder',

@@ -1,19 +1,11 @@
 """First-order mean-torque deficit of sampled hysteresis DTC (derivation: docs/studies.md).
 
-Two-phase conduction of the 000 BLDC (two phases in series, both on their
-back-EMF flat tops, phase current i): the pair obeys
-``v = 2 R i + 2 L_s di/dt + 2 E`` with ``L_s = L - M`` and ``E = K p w_m``,
-and ``T = k_t i`` with ``k_t = 2 p K`` (000 eq. 2.16 on the flat tops). The
-six-switch table (000 Table II) raises the torque with the active vector
-(+V_dc across the pair) and lowers it with the reverse vector (-V_dc):
-
-    s_up   = k_t (V_dc - 2 E - 2 R i) / (2 L_s)      [N m/s]
-    s_down = k_t (V_dc + 2 E + 2 R i) / (2 L_s)
-
-With a band far below one sample's torque step, the sampled comparator
-turns every sample into a rotation on the interval
-[T* - s_down T_s, T* + s_up T_s): the samples spread uniformly over it and
-the mean torque is T* + (s_up - s_down) T_s / 2, a deficit
+Two-phase conduction of the 000 BLDC (two phases in series on their back-EMF
+flat tops, phase current i, L_s = L - M, E = K p w_m, k_t = 2 p K): the active
+vector raises the torque at s_up = k_t (V_dc - 2 E - 2 R i) / (2 L_s) and the
+reverse vector lowers it at s_down = k_t (V_dc + 2 E + 2 R i) / (2 L_s) [N m/s].
+With a band far below one sample's torque step the samples spread uniformly over
+[T* - s_down T_s, T* + s_up T_s), so the mean torque falls short of T* by
 
     dT = (s_down - s_up) T_s / 2 = k_t (E + R i) T_s / L_s,
 

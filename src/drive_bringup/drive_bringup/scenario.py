@@ -7,42 +7,9 @@ reproduces. Every mistake is reported as ``ScenarioError`` naming the file,
 the key path and the reason; node parameters are validated against each
 node's own parameter schema (the same one the node declares).
 
-Schema (keys marked * are required)::
-
-    name*: str                 # also the default bag directory name
-    description: str
-    seed_reference: str        # e.g. "000 Fig. 2.13"
-    duration*: float           # s of sim time
-    nodes*:
-      plant: {parameters: {...}}
-      dtc_controller: {parameters: {...}}     # optional: omit for plant-only runs
-      pfc_controller: {parameters: {...}}     # optional: the boost PFC loop
-      controller:              # optional, instead of dtc_controller: your own drive controller
-        package*: str          #   ros2 run <package> <executable>
-        executable*: str
-        core*: module:Class    #   its ControllerCore (drive_common.controller_api): schema, headless
-        node_name: str         #   ROS node name (default: the executable)
-        parameters: {...}
-    events:                    # applied at exact sim times, in order
-      - time*: float           # s, 0 <= time < duration
-        node*: plant | dtc_controller | pfc_controller | controller
-        parameters*: {...}
-    record: {enabled: bool, topics: [str, ...], lockstep: bool, viewer_period: float | false}
-                               # lockstep: also the raw per-sample lockstep topics (default: blocks
-                               # only); viewer_period: s of sim time between the samples of the
-                               # viewer topics the recorder derives from the blocks (default 0.001,
-                               # 0 = every sample, false = no viewer topics)
-    metrics: {name: {...options}}   # names: drive_analysis.registry
-    figures: [str, ...]
-    checks:                    # rows of the reproduction table
-      - metric*: str           # key of the analysis summary
-        seed*: float           # value reported by the seed
-        tolerance*: float      # allowed |sim - seed| (absolute)
-        label: str
-        # or, instead of seed/tolerance, bounds: min / max
-    expect_faults: [str, ...]  # fault kinds this run is meant to produce (e.g. boost_over_current;
-                               # labels of bldc_plant_sim.core.faults.FaultKind): a run whose faults
-                               # are all expected passes; any other fault exits run_scenario with 3
+The file's keys (``name``, ``duration``, ``nodes``, ``events``, ``record``,
+``metrics``, ``figures``, ``checks``, ``expect_faults``, ...): docs/scenarios.md
+"The scenario file".
 """
 from __future__ import annotations
 

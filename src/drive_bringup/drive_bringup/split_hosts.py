@@ -3,19 +3,13 @@
     split_hosts two_phase_six_switch_torque_step --duration 0.012 --out bags/split
     split_hosts two_phase_six_switch_torque_step --cut-controller-at 0.005 --out bags/cut
 
-Three virtual hosts on one bridged link (``drive_common.netns``, Linux
-network namespaces; needs root): ``plant`` runs the plant, ``controller``
-runs dtc_controller (and pfc_controller), ``supervisor`` runs the recorder
-and this runner's action/parameter client. Every node is started as
-``ip netns exec <host> <program> --ros-args ...`` with the same
-ROS_DOMAIN_ID and ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast
-discovery; ``--static-peers``: a link without multicast, discovery by
-``ROS_STATIC_PEERS`` with range LOCALHOST), so every
-lockstep message crosses the link as UDP. ``--cut-controller-at T`` runs to
-sim time T, takes the controller host's link down and runs on: the plant
-must go to the safe state with a diagnostic (exit code 1, the plant's
-reason printed) instead of hanging. docs/multi_host.md has the recipe for
-real machines.
+Three virtual hosts on one bridged link (``drive_common.netns``, Linux network
+namespaces; needs root): ``plant``, ``controller`` (dtc_controller, pfc_controller)
+and ``supervisor`` (the recorder and this runner). Discovery by multicast, or by
+``ROS_STATIC_PEERS`` with ``--static-peers``; every lockstep message crosses the
+link as UDP. ``--cut-controller-at T`` takes the controller host's link down at
+sim time T: the plant must go to the safe state with a diagnostic (exit 1), not
+hang. Recipe for real machines: docs/multi_host.md.
 
 Exit codes as run_scenario: 0 ok, 1 the run failed, 2 bad arguments or no
 virtual hosts here (not root), 130 interrupted.

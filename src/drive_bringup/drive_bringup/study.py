@@ -6,41 +6,12 @@ validated scenario (the base with the point's values applied), run by
 :func:`drive_bringup.headless.run_headless` as one ``dask.distributed`` task:
 on a ``LocalCluster`` (one single-threaded worker process per core) by
 default, or on any running cluster given its scheduler address. Results go to
-one table (``results.parquet`` via pyarrow, and ``results.csv``); each finished
-point is appended to ``points.jsonl`` at once, so re-running a study skips the
-points already done (key = hash of the point's full parameters) and a dead
-cluster loses only its running tasks.
+one table (``results.parquet`` and ``results.csv``); each finished point is
+appended to ``points.jsonl`` at once, so re-running a study skips the points
+already done (key = hash of the point's full parameters).
 
-Schema (keys marked * are required)::
-
-    name*: str
-    description: str
-    scenario*: str             # scenario name (scenarios/<name>.yaml) or a path relative to this file
-    duration: float            # s, replaces the scenario's duration (drops events at or after it)
-    set: {target: value}       # fixed changes applied to every point
-    parameters*:               # the varied parameters (one column each)
-      - name*: str
-        targets*: [target, ...]   # every target gets the point's value
-        values: [v, ...]          # a list (numbers or strings) ...
-        range: {start, stop, num, log: false}   # ... or an evenly (log-)spaced grid
-        min: float                # ... or bounds for random / latin_hypercube sampling
-        max: float
-        log: bool
-    sampling: grid | zip | random | latin_hypercube     # default grid (Cartesian product)
-    samples: int               # random / latin_hypercube: number of points
-    seed: int                  # random / latin_hypercube: generator seed
-    repeats: int               # default 1; repeat r sets repeat_seed to r
-    repeat_seed: target        # default plant.sensors.seed (the sensor-noise generator)
-    metrics: {name: {...}}     # as a scenario's metrics; default: the scenario's own
-    timeout: float             # s of wall time per point (default 600)
-
-A target is ``duration``, ``<node>.<parameter>`` (``plant.load.speed``,
-``dtc_controller.sample_period``), ``events[i].time`` or
-``events[i].<parameter>`` (a value of the i-th event of the scenario).
-
-Status of a point: ``ok``; ``protection_trip`` (the plant's protection word
-was set during the run: metrics still recorded); ``error`` (with the reason);
-``timeout`` (the point ran longer than ``timeout``).
+The study file (schema, targets) and the status of a point (``ok``,
+``protection_trip``, ``error``, ``timeout``): docs/studies.md.
 """
 from __future__ import annotations
 

@@ -1,27 +1,18 @@
 """Action goals whose reply is lost right after discovery: recovered, never run twice.
 
-An action client sees the server ready once the server's request readers
-have matched it, but the server's reply writers may not have matched the
-client's reply readers yet; Fast DDS then drops the reply ("failed to send
-response (timeout)") and the client would wait for it forever. Sending the
-goal again with a new id could run it twice (a relative plant/run goal would
-go twice as far). So :func:`send_goal` keeps one goal id for every attempt
-and asks the action's status topic (``<action>/_action/status``, transient
-local: it lists every goal the server tracks, kept there after the goal
-ends) whether the goal was accepted:
-
-- the reply came: it is the answer (a rejection of a repeat, which the
-  server gives for an id it already tracks, is checked against the status);
-- no reply, and the status lists the id: the goal was accepted; its handle
-  is rebuilt from the status (``ClientGoalHandle``; feedback, status and
-  result work as for an answered goal);
-- no reply and no status: the request is sent again, same id.
+An action client sees the server ready before the server's reply writers have
+matched it, so Fast DDS may drop the goal reply and the client would wait
+forever; sending the goal again under a new id could run it twice. So
+:func:`send_goal` keeps one goal id for every attempt and asks the action's
+status topic (transient local: every goal the server tracks) whether it was
+accepted: a reply is the answer; no reply but the id in the status: accepted,
+its handle rebuilt from the status; neither: the same request again.
 
 :func:`goal_result` asks again for a result whose reply was lost, once the
 handle or the status topic says the goal has ended (and every
 RESULT_ASK_ANYWAY s in any case). ``wait(done, seconds)`` is how a helper
-waits: it lets the client's node be spun and returns whether ``done()``
-holds (:func:`polling_wait` when an executor spins the node elsewhere).
+waits (:func:`polling_wait` when an executor spins the node elsewhere).
+docs/architecture.md "Faults and diagnostics" (every goal ends).
 """
 from __future__ import annotations
 

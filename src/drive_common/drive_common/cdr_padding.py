@@ -1,22 +1,16 @@
 """Canonical CDR: a message's serialization with zeroed padding and its exact length.
 
-rmw_fastrtps serializes a published message into a reused payload buffer
-and Fast CDR skips the alignment padding without writing it, so the padding
-bytes of a message hold whatever an earlier message left there. Its size
-calculation also reserves alignment before an empty sequence of 8-byte
-elements that the serializer then does not write (CDR aligns only elements
-that exist), so such a message (rcl_interfaces/ParameterEvent,
-ParameterValue) ends in bytes of uninitialised memory that readers held to
-the format (rosbags) refuse. Two runs of one scenario would record the same
-values in different bytes.
+rmw_fastrtps leaves stale bytes of earlier messages in the alignment padding
+of its reused buffer, and after an empty sequence of 8-byte elements
+(rcl_interfaces/ParameterEvent) it appends uninitialised bytes that strict
+readers (rosbags) refuse: two runs of one scenario would record the same values
+in different bytes (docs/architecture.md "Time and lockstep").
 
 :func:`canonical_bytes` walks the fields of the message with the CDR (XCDR1)
-rules -- each primitive aligned to its size from the end of the 4-byte
-encapsulation header, string and sequence lengths to 4, no alignment for
-the elements of an empty sequence -- zeroes every padding byte and cuts the
-bytes after the last field. :func:`serialize_zero_padded` (publishers) and
-:func:`canonicalize` (the recorder, for bytes taken off the wire) use it, so
-the recorded data is a function of the values only.
+rules, zeroes every padding byte and cuts the bytes after the last field.
+:func:`serialize_zero_padded` (publishers) and :func:`canonicalize` (the
+recorder, for bytes taken off the wire) use it, so the recorded data is a
+function of the values only.
 """
 from __future__ import annotations
 

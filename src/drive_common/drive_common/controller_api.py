@@ -4,15 +4,12 @@ A drive controller takes part in the plant's lockstep exactly as the
 built-in ``dtc_controller`` does (docs/write_your_own_controller.md,
 docs/architecture.md "Time and lockstep"): for every ``drive/measurement``
 of step k it answers one ``drive/gate_command`` carrying step k, and may
-publish a ``dtc/status`` for the recorder, the analysis and the live view.
-Everything that controls lives in a ROS-free *core* class
-(:class:`ControllerCore`); :func:`run_controller` wraps it in the same node
-base the built-ins use (:class:`drive_common.lockstep_controller.LockstepControllerNode`):
-declared, validated parameters (``ros2 param``), changes applied at the next
-sample boundary, a re-sent measurement answered from the cache, a second
-graph in the domain refused. The same core class runs headless
-(``drive_bringup.headless``), so a scenario gives the same trajectory with
-and without ROS.
+publish a ``dtc/status``. Everything that controls lives in a ROS-free *core*
+class (:class:`ControllerCore`); :func:`run_controller` wraps it in the node base
+the built-ins use (:class:`drive_common.lockstep_controller.LockstepControllerNode`):
+validated parameters, changes applied at the next sample boundary, a re-sent
+measurement answered from the cache, a second graph in the domain refused. The
+same core runs headless (``drive_bringup.headless``), giving the same trajectory.
 
 This module imports no rclpy: a core module may import it.
 """

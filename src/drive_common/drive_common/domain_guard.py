@@ -17,6 +17,7 @@ only the later graph's nodes refuse.
 from __future__ import annotations
 
 import time
+from typing import Callable
 
 from drive_common import topics
 
@@ -44,15 +45,23 @@ def _graph(node) -> tuple:
     return names, endpoints
 
 
-def wait_for_stable_graph(node, settle: float = SETTLE, timeout: float = DISCOVERY_TIMEOUT) -> None:
-    """Return once the node's view of the graph has not changed for settle s (or at timeout)."""
+def wait_for_stable_graph(node, settle: float = SETTLE, timeout: float = DISCOVERY_TIMEOUT,
+                          stop: Callable[[], bool] = lambda: False) -> bool:
+    """Wait until the node's view of the graph has not changed for settle s (or timeout s).
+
+    stop is polled with the graph: once it returns True (Ctrl-C, shutdown) the
+    wait ends at once. Return False if stop ended it, else True.
+    """
     start = changed = time.monotonic()
     seen = _graph(node)
     while time.monotonic() - changed < settle and time.monotonic() - start < timeout:
+        if stop():
+            return False
         time.sleep(POLL)
         now = _graph(node)
         if now != seen:
             seen, changed = now, time.monotonic()
+    return True
 
 
 def drive_graph_nodes(node) -> list[str]:
@@ -72,9 +81,11 @@ def drive_graph_nodes(node) -> list[str]:
     return sorted(found)
 
 
-def refuse_if_busy(node, what: str) -> None:
-    """Raise DomainBusy (one line) if a drive graph already runs where node is."""
-    wait_for_stable_graph(node)
+def refuse_if_busy(node, what: str, stop: Callable[[], bool] = lambda: False) -> None:
+    """Raise DomainBusy (one line) if a drive graph already runs where node is; stop as in
+    :func:`wait_for_stable_graph` (stopped early: no look, nothing raised)."""
+    if not wait_for_stable_graph(node, stop=stop):
+        return
     found = drive_graph_nodes(node)
     if found:
         where = f'ROS domain {node.context.get_domain_id()}'

@@ -1,36 +1,18 @@
 """ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller, your own).
 
-Controller authors: start from :mod:`drive_common.controller_api` (the documented
-core contract and a one-call ``main``); this module is the node base behind it.
-
-A controller node answers each measurement of step k with a command of the
-same step and publishes its status (docs/architecture.md, "Time and lockstep"). All control lives in a
-ROS-agnostic core object with ``update(sample) -> (command, status)`` and
-``reconfigure(params)``; this class only converts messages, declares the
-node's parameter schema and swaps accepted parameter changes in at the next
-sample boundary. Measurements are taken and commands published as CDR bytes
-converted straight from and into the core's samples
-(:mod:`drive_common.lockstep_wire`: no message objects on the hot path).
-
-The measurement subscription is the node's own (``ros2 node info`` lists
-it) but in a :class:`~drive_common.lockstep_io.DirectCallbackGroup`: one
-thread receives it directly, no executor hand-off per sample. A repeated
-measurement (the plant re-sends a first measurement it got no answer to) is
-answered with the same command, without a second core update (and without a
-second telemetry sample). Before its first measurement, a second node of
-the same name, or a second publisher of the measurement or the command
-topic, in the domain makes the node refuse to run (exit code 2, the domain
-named). The first measurement binds the node to the plant that sent it
-(:mod:`drive_common.peer_binding`): from then on any other publisher on its
-lockstep topics is ignored and reported once on ``/diagnostics`` (WARN).
-
-Telemetry (docs/architecture.md "Telemetry: blocks and live topics"): every
-answered sample goes into a status block (status + the measurement it acted
-on + the command it sent, bit-exact; ``telemetry.block_size`` samples per
-message) and the status topic carries the samples the live decimator keeps
-(``telemetry.live_period`` of sim time). A partial block is published when
-no measurement arrived for HOLD_FLUSH s of wall time (the plant holds
-between goals) and at stop.
+Controller authors: start from :mod:`drive_common.controller_api`; this module is
+the node base behind it. A controller node answers each measurement of step k
+with a command of the same step and publishes its status; all control lives in
+a ROS-agnostic core (``update(sample) -> (command, status)``, ``reconfigure``),
+and this class converts CDR bytes to and from the core's samples
+(:mod:`drive_common.lockstep_wire`), declares the parameter schema and swaps
+accepted changes in at the next sample boundary. A repeated measurement is
+answered with the same command; before its first measurement a second graph in
+the domain makes it refuse (exit 2); then it is bound to its plant
+(:mod:`drive_common.peer_binding`). Telemetry: every sample goes into a status
+block, the status topic carries the decimated live samples, and a partial block
+goes out after HOLD_FLUSH s without a measurement and at stop (docs/architecture.md
+"Time and lockstep", "Telemetry: blocks and live topics").
 """
 from __future__ import annotations
 

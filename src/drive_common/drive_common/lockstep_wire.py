@@ -1,26 +1,16 @@
 """The lockstep messages as CDR bytes, straight from and into the core samples.
 
 Each lockstep sample is one measurement out and one command back
-(DriveMeasurement/GateCommand, PfcMeasurement/DutyCommand). rclpy turns a
-received message into a Python message object field by field and a
-published one back into C: on this machine a typed take of a
-DriveMeasurement, converted to the core sample, costs about 16 us and a raw
-(serialized) take decoded here 4 us, and a typed publish 10 us against 4 us
-for bytes (``benchmarks/bench_lockstep_wire.py``, best case, one process;
-more under load), paid on the critical path at both ends of every sample. The lockstep nodes
-therefore publish and take these messages serialized (``Publisher.publish``
-takes bytes, ``create_subscription(..., raw=True)`` gives bytes) and convert
-bytes <-> the core's sample dataclass (:mod:`drive_common.samples`) here,
-with one precompiled :class:`struct.Struct` per message type.
-
-The bytes are exactly what rclpy's ``serialize_message`` makes of the same
-message (XCDR1 little endian: a 4-byte encapsulation header, each primitive
-aligned to its size from the header's end, a string as uint32 length + bytes
-+ NUL, no padding after the last field), with every padding byte zero (as
-:mod:`drive_common.cdr_padding` does for the blocks), so any ROS reader
-(``ros2 topic echo``, a C++ controller, a bag) sees ordinary messages; the
-tests check both directions against rclpy. A message type qualifies when
-it is a ``std_msgs/Header`` followed by fixed-size primitives and arrays.
+(DriveMeasurement/GateCommand, PfcMeasurement/DutyCommand). A typed rclpy take or
+publish costs several times a raw one on the critical path of every sample
+(``benchmarks/bench_lockstep_wire.py``, docs/benchmarks.md), so the lockstep nodes
+publish and take these messages serialized and convert bytes <-> the core's
+sample dataclass (:mod:`drive_common.samples`) here, with one precompiled
+:class:`struct.Struct` per message type. The bytes are exactly rclpy's
+``serialize_message`` of the same message (XCDR1 little endian) with every
+padding byte zero, so any ROS reader sees ordinary messages; the tests check
+both directions against rclpy. A message type qualifies when it is a
+``std_msgs/Header`` followed by fixed-size primitives and arrays.
 """
 from __future__ import annotations
 

@@ -1,27 +1,17 @@
 """Virtual hosts on one machine: Linux network namespaces joined by a bridge.
 
-Each host is a network namespace with its loopback up and one interface
-``eth0`` (a veth pair whose other end sits on a bridge in a separate
-"switch" namespace), an address ``10.213.0.<n>/24`` and a multicast route
-on ``eth0`` (none with ``multicast=False``). DDS in two such namespaces
-sees two machines on one LAN: the hosts have different interface
-addresses, so Fast DDS computes different
-host ids and sends everything over UDP on the link (no shared memory), and
-SPDP multicast discovery works across the bridge (IGMP snooping off).
-Nothing touches the root namespace's interfaces or routes; traffic stays
-between the namespaces made here.
+Each host is a network namespace with its loopback up and one ``eth0`` (a veth
+pair to a bridge in a separate "switch" namespace), an address ``10.213.0.<n>/24``
+and, unless ``multicast=False``, a multicast route. DDS in two such namespaces
+sees two machines on one LAN: everything goes over UDP on the link (no shared
+memory) and SPDP multicast discovery works across the bridge. Nothing touches
+the root namespace's interfaces or routes.
 
-:class:`VirtualHosts` creates them (unique names, so parallel runs never
-collide), gives the command prefix that runs a program in a host
-(``ip netns exec <name>``), the ROS environment for a host, cuts a
-host's link (``ip link set eth0 down``), and always tears
-everything down: it kills what still runs inside, deletes the namespaces,
-and also removes namespaces left behind by a run that was SIGKILLed
-(their creator's pid is in the name).
-
-Needs root (CAP_SYS_ADMIN, CAP_NET_ADMIN) and iproute2's ``ip``; see
-docs/multi_host.md and ``drive_bringup.split_hosts`` (a scenario run split
-across such hosts).
+:class:`VirtualHosts` creates them (unique names), gives the command prefix that
+runs a program in a host (``ip netns exec <name>``) and its ROS environment, cuts a
+host's link, and always tears everything down, including namespaces left by a
+SIGKILLed run (their creator's pid is in the name). Needs root and iproute2's
+``ip``; see docs/multi_host.md and ``drive_bringup.split_hosts``.
 """
 from __future__ import annotations
 

@@ -4,16 +4,14 @@
 destroy, shutdown) with the drive stack's rules: a node that cannot start
 prints one line naming the program and the reason and exits 2 (no
 traceback); SIGINT and SIGTERM end it with exit 0. The node's executor
-(parameter services, actions, timers) spins in a background thread; the
-main thread waits for a signal, or runs the node's own ``work`` loop
-(recorder, replay) and returns when it is done.
+spins in a background thread; the main thread waits for a signal, or runs the
+node's own ``work`` loop (recorder, replay) and returns when it is done.
 
 A bug is not survived: an exception that escapes any thread of the node
-(a callback, a controller core's ``update`` in the lockstep thread) prints
-its traceback and ends the process with exit 1, as an rclpy node whose
-callback raises does. The node leaves the graph, so nothing keeps waiting
-on a node that is listed but will never answer (the plant applies the safe
-state once its command timeout has passed).
+prints its traceback and ends the process with exit 1, as an rclpy node whose
+callback raises does. The node leaves the graph, so nothing keeps waiting on
+a node that will never answer (the plant applies the safe state once its
+command timeout has passed).
 """
 from __future__ import annotations
 

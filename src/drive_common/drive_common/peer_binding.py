@@ -1,30 +1,18 @@
 """Peer binding: once the lockstep starts, each side hears only its peer.
 
-The lockstep protocol matches a command to a measurement by step only, so
-any other publisher on a lockstep topic (a stray ``ros2 topic pub``, a second
-controller or plant started later) could otherwise answer or feed a run.
-Each side therefore binds to its peer by publisher identity (the DDS writer
-GUID, ``rmw_gid_t``) when the lockstep starts:
+The lockstep protocol matches a command to a measurement by step only, so any
+other publisher on a lockstep topic could answer or feed a run. Each side binds
+to its peer by publisher identity (the DDS writer GUID) when the lockstep
+starts: the plant each command topic to the publisher of the first command it
+takes, a controller the measurement topic to the publisher of the first
+measurement. Only a lockstep counterpart (it also subscribes to this side's
+topic) can be bound; every other publisher is then ignored and reported once
+(``/diagnostics`` WARN and the log), until the bound publisher leaves the graph.
 
-* the plant binds each command topic to the publisher of the first command
-  it takes (the answer to its first measurement);
-* a controller binds the measurement topic to the publisher of the first
-  measurement it receives.
-
-Only a lockstep counterpart can be bound: a node that publishes the received
-topic *and* subscribes to the topic this side publishes (a ``ros2 topic pub``
-never is one). From then on every other publisher on the bound topics is
-ignored, and reported once (``/diagnostics`` WARN with its node name, and the
-log). The binding ends when the bound publisher leaves the graph (a plant or
-controller restarted): the next counterpart that sends binds again.
-
-rclpy (Jazzy) gives no publisher identity per message: its take returns only
-time stamps and sequence numbers. :class:`IdentifiedTake` calls rcl's own
-``rcl_take_serialized_message`` through ctypes, whose ``rmw_message_info_t``
-carries ``publisher_gid``: the same 16 bytes that
-``get_publishers_info_by_topic`` lists as ``endpoint_gid``. An RMW that
-leaves it empty (all zeros) binds nothing: every publisher is accepted, as
-before peer binding.
+rclpy gives no publisher per message, so :class:`IdentifiedTake` calls rcl's
+``rcl_take_serialized_message`` through ctypes (``publisher_gid`` =
+``endpoint_gid``). An RMW that leaves it empty binds nothing.
+docs/architecture.md "Time and lockstep".
 """
 from __future__ import annotations
 

@@ -1,23 +1,18 @@
 """Sample blocks: N consecutive per-sample messages as one typed message of arrays.
 
-A block type (dtc_msgs/PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
-holds, for `count` samples, one array per field of its per-sample messages
-(its *parts*, :data:`BLOCK_PARTS`): the status fields under their own names,
-the measurement and command fields prefixed ``measurement_`` / ``command_``.
-Fixed-size per-sample arrays (``float64[3] phase_current``, ``bool[6]
-switch_on``) become flat sequences of count * width elements, sample-major;
-string fields (DtcStatus.mode) are one value per block. Sample i has
-``step = first_step + i * step_stride`` and header stamp ``header.stamp +
-stamp_offset[i]`` ns, exactly what its per-sample message carries (the
-plant's tick, e.g. 1/30 kHz, need not be a whole number of ns, so the stamps
-are kept rather than rebuilt from a period) (docs/architecture.md "Telemetry: blocks and live topics").
+A block type (dtc_msgs/PlantStateBlock, DtcStatusBlock, PfcStatusBlock) holds,
+for ``count`` samples, one array per field of its per-sample messages (its
+*parts*, :data:`BLOCK_PARTS`; measurement and command fields prefixed
+``measurement_`` / ``command_``); fixed-size arrays become flat sample-major
+sequences, strings one value per block. Sample i has ``step = first_step + i *
+step_stride`` and stamp ``header.stamp + stamp_offset[i]`` ns (docs/architecture.md
+"Telemetry: blocks and live topics").
 
 :class:`BlockPacker` collects one sample at a time and hands back a filled
-block every N samples (``flush`` for the partial block at the end of a run);
-a sample that breaks the block's regular step pattern or changes a
-per-block string closes the block early, so a block always expands to
-exactly the messages that went in. :func:`expand` and :func:`block_columns`
-are the inverse, per sample (bit-exact, NaN payloads kept) or per column.
+block every N samples (``flush`` for the partial one); a sample that breaks the
+step pattern or changes a per-block string closes the block early, so a block
+always expands to exactly the messages that went in. :func:`expand` and
+:func:`block_columns` are the inverse (bit-exact, NaN payloads kept).
 """
 from __future__ import annotations
 

@@ -2,20 +2,13 @@
 
 A recorder killed with SIGKILL (or a power cut) leaves an MCAP file without
 summary and footer and no metadata.yaml. :func:`reindex` reads the intact
-part of the file with the mcap stream reader (every chunk that was completely
-written and passes its CRC: :func:`drive_logger.bag_reader.intact_records`)
-and writes those messages, unchanged and in file order (same topics, schemas,
-channel metadata, log/publish times and sequence numbers), into a complete
-MCAP file with the mcap writer (chunk indexes, message indexes, statistics,
-summary, footer, rosbag2 metadata record), then metadata.yaml. Nothing is
-invented: a message of a cut chunk is dropped, not repaired.
-
-The data file is replaced atomically: the new file is written next to it
-and fsynced, the original bytes are kept aside as ``<file>.orig`` (a hard
-link, or a copy where links are not possible), and the new file is renamed
-over the original, so the bag's data file is always either the old or the
-new one. A bag that is already complete (MCAP footer and metadata.yaml) is
-left as it is.
+chunks (complete and CRC-valid: :func:`drive_logger.bag_reader.intact_records`)
+and writes those messages, unchanged and in file order, into a complete MCAP
+file, then metadata.yaml. Nothing is invented: a message of a cut chunk is
+dropped. The data file is replaced atomically (the new file written and
+fsynced next to it, the original kept as ``<file>.orig``, then renamed over
+it); a bag that is already complete is left as it is. docs/architecture.md
+"Bags: log times and crash recovery".
 
 No rclpy here.
 """

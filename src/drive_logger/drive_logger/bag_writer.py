@@ -1,17 +1,13 @@
 """rosbag2-layout (Jazzy, metadata version 9) MCAP bag writer on the ``mcap`` library.
 
-Layout (docs/architecture.md "Bags"): a new directory ``<dir>`` holding ``<dir>_0.mcap`` and,
-once closed, ``metadata.yaml``. The MCAP file has profile ``ros2``, one
-``ros2msg`` schema per type, one ``cdr`` channel per topic whose metadata holds
-``offered_qos_profiles`` (the same YAML as metadata.yaml) and
-``topic_type_hash``, messages with the log and publish times the caller gives
-(ns; sim time or wall time, see :data:`LOG_TIME_SOURCES`), a ``drive_logger``
-metadata record written first (which clock the times are on) and a
-``rosbag2`` metadata record holding the serialized metadata at the end.
-Messages are appended to chunks of ``chunk_size`` bytes that are compressed
-and streamed to disk, so memory stays bounded; :meth:`BagWriter.flush` closes
-the current chunk and fsyncs, so a crash loses only what came after it
-(``drive_logger.bag_reindex`` turns such a file into a complete bag).
+Layout (docs/architecture.md "Bags"): a new directory ``<dir>`` holding
+``<dir>_0.mcap`` and, once closed, ``metadata.yaml``; one ``ros2msg`` schema per
+type, one ``cdr`` channel per topic (offered QoS and type hash in its metadata),
+messages at the log and publish times the caller gives (:data:`LOG_TIME_SOURCES`),
+a ``drive_logger`` metadata record first and the ``rosbag2`` one at the end.
+Chunks of ``chunk_size`` bytes are compressed and streamed to disk (bounded
+memory); :meth:`BagWriter.flush` closes the chunk and fsyncs, so a crash loses
+only what came after it (``drive_logger.bag_reindex`` completes such a file).
 
 No rclpy here: message data are the exact CDR bytes the caller took from a
 raw subscription.

@@ -1,20 +1,16 @@
 """A bag's per-sample topics, taken from its block topics where it has them.
 
 A block topic (``/plant/state_block``, ``/dtc/status_block``,
-``/pfc/status_block``; docs/architecture.md "Telemetry: blocks and live
-topics") carries every sample of the per-sample topics of its parts
-(:data:`drive_common.telemetry_blocks.BLOCK_PARTS`): the status block also
-carries the measurement the controller acted on and the command it sent.
-Readers take a per-sample topic from its block whenever the bag holds the
-block topic, and never mix it with the recorded per-sample topic of the same
-name (decimated, or the raw lockstep topic recorded on request): one source
-per topic, every sample. Bags without blocks read as before.
+``/pfc/status_block``) carries every sample of the per-sample topics of its
+parts (:data:`drive_common.telemetry_blocks.BLOCK_PARTS`). Readers take a
+per-sample topic from its block whenever the bag holds the block topic, and
+never mix it with a recorded per-sample topic of the same name: one source per
+topic, every sample. Bags without blocks read as before.
 
-:func:`per_sample_messages` yields the recorded messages of the other topics
-and the expanded per-sample messages (serialized, bit-exact as their node
-published them) merged in log-time order. A sample's log time is the
-block's plus the sample's stamp offset in the block (with sim log times:
-exactly the sample's stamp).
+:func:`per_sample_messages` yields the other topics' messages and the expanded
+per-sample messages (bit-exact) merged in log-time order; a sample's log time
+is the block's plus its stamp offset (docs/architecture.md "Telemetry: blocks
+and live topics").
 """
 from __future__ import annotations
 

@@ -1,24 +1,15 @@
 """Regression: re-drive a controller from a bag's drive measurements and compare its commands.
 
 The measurements and recorded commands are the bag's raw lockstep topics when
-it has them, else those its controller status blocks carry (a default
-recording: ``/dtc/status_block`` holds every measurement the controller
-acted on and every command it sent, bit-exact).
+it has them, else those its controller status blocks carry. The controller
+(``--package/--executable`` as ``ros2 run`` finds it, or ``--command``) runs as its
+own process; each recorded measurement is published with /clock at its stamp
+and the command of the same ``step`` awaited. Parameter changes the recorded
+controller accepted (its ``/parameter_events``) are applied at the same place in
+the sequence. Commands are compared field by field (header excluded); exit 0 if
+every recorded step is reproduced exactly, 1 otherwise.
 
-The controller (any executable: ``--package/--executable`` as ``ros2 run``
-finds it, or ``--command``) is started as its own process with the given
-parameters. The recorded measurements are then replayed in lockstep: for
-each one, /clock is set to its stamp, the exact recorded bytes are published,
-and the controller's command with the same ``step`` is awaited. Parameter
-changes the recorded controller accepted during the run (its
-``/parameter_events``, when the bag has them) are applied to the fresh one
-at the same place in the sequence, before the next measurement, as the
-original took them at its next sample. The commands
-are compared with the recorded ones field by field (header excluded), step by
-step; exit code 0 if every recorded step is reproduced exactly, 1 otherwise.
-
-    compare_replay bags/run1 --package dtc_controller --executable dtc_controller \
-        -p mode:=four_switch_three_phase --json report.json
+    compare_replay bags/run1 --package dtc_controller --executable dtc_controller --json report.json
 """
 from __future__ import annotations
 

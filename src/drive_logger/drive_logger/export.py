@@ -1,21 +1,15 @@
 """Export a bag for viewers and tables: ``ros2 run drive_logger export BAG --to mcap|parquet|csv OUT``.
 
-- ``--to mcap``: a viewer bag in rosbag2 layout (metadata.yaml + .mcap) where
-  every sample of the block topics is its own per-sample message
-  (``/plant/state``, ``/dtc/status``, ``/drive/measurement``,
-  ``/drive/gate_command``, the PFC three), bit-exact, logged at the sample's
-  sim time, in canonical order (:mod:`drive_logger.sample_topics`); the
-  other topics (``/clock``, ``/parameter_events``, ``/diagnostics``) are
-  copied, the blocks and the decimated viewer topics are left out.
-- ``--to parquet`` / ``--to csv``: one table per block topic, one row per
-  sample (naming rule: :mod:`drive_logger.tables`), for pandas
-  (``pandas.read_parquet``) and MATLAB (``parquetread``).
+- ``--to mcap``: a viewer bag in rosbag2 layout where every sample of the block
+  topics is its own per-sample message, bit-exact, at the sample's sim time, in
+  canonical order (:mod:`drive_logger.sample_topics`); ``/clock``,
+  ``/parameter_events`` and ``/diagnostics`` are copied.
+- ``--to parquet`` / ``--to csv``: one table per block topic, one row per sample
+  (:mod:`drive_logger.tables`), for pandas and MATLAB.
 
-Options: ``--topics`` (per-sample or block topic names: only these),
-``--start`` / ``--end`` (s of sim time, inclusive), ``--every N`` (every
-N-th sample), ``--quiet`` (no progress bar; there is none when stderr is not
-a terminal). Streams block by block: memory stays bounded whatever the bag's
-length (benchmarks/bench_export.py). Exit 0 done, 2 bad input.
+Options ``--topics``, ``--start`` / ``--end`` (s of sim time), ``--every N``,
+``--quiet``. Streams block by block: memory stays bounded whatever the bag's
+length (benchmarks/bench_export.py). Exit 0 done, 2 bad input. docs/bags.md.
 """
 from __future__ import annotations
 

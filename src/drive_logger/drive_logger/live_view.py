@@ -1,54 +1,18 @@
 """live_view node: serve the running graph to the Foxglove app over the Foxglove WebSocket protocol.
 
-Built on ``foxglove-sdk`` (its WebSocket server speaks the protocol). Open
-the Foxglove app, "Open connection", ``ws://localhost:8765``, then import
-the layout ``share/drive_logger/layouts/dtc_live.json`` (docs/live_view.md).
+Built on ``foxglove-sdk``. Open the Foxglove app, "Open connection",
+``ws://localhost:8765``, then import ``share/drive_logger/layouts/dtc_live.json``
+(docs/live_view.md). It serves each chosen topic as a channel with its
+``ros2msg`` schema and the CDR bytes as received, decimated by sim time; sim time
+from ``/clock`` as the server time; the graph's parameters (get and set through
+each node's parameter services, a rejected change reported in the app); and its
+own health on /diagnostics (frames forwarded and dropped).
 
-What it serves:
-- each chosen topic as a channel with its ``ros2msg`` schema (the full
-  concatenated definition, as rosbag2 stores it: message_definitions) and
-  the CDR bytes as received (raw subscription, no re-serialization),
-  decimated by sim time (header stamp), default one message per 1 ms;
-- sim time from ``/clock`` as the server time (Time capability), decimated alike;
-- the graph's parameters (Parameters capability) as ``/node.parameter``:
-  get and set go through each node's ROS parameter services
-  (AsyncParameterClient, the same checks as ``ros2 param set``); a
-  rejected change keeps the old value, is sent back as the value in force
-  and reported as a status message in the app; changes made elsewhere
-  arrive through /parameter_events;
-- its own health on /diagnostics (``live_view``: frames forwarded and dropped).
-
-A viewer never blocks the graph: the subscriptions are best effort with a
-bounded depth (a reliable publisher never waits for a best-effort reader),
-the receive thread hands decimated frames to the send thread through a
-bounded queue (full: the oldest frame is dropped and counted as
-``dropped_frames`` on /diagnostics), and the SDK's send path never waits
-for a client either: ``Channel.log`` puts the frame into each subscribed
-client's bounded outbox (``message_backlog_size``) and, when that is full,
-drops the oldest data frame; a client whose control queue (status, time,
-parameters) overflows is disconnected. foxglove-sdk 0.30.3 does not report
-its per-client drops to Python, so they are not in ``dropped_frames``:
-compare ``forwarded <topic>`` on /diagnostics with what a viewer received.
-
-Parameters (read at start):
-- ``topics`` (string[]): ``name`` or ``name:pkg/msg/Type``; default plant/state,
-  dtc/status, pfc/status, /diagnostics. A topic nobody publishes is still advertised.
-- ``decimation_period`` (s, 0): per topic, at most one message per this much sim time (0 = all:
-  the default topics are already decimated by their nodes, ``telemetry.live_period``).
-- ``topic_periods`` (string[], ``['/diagnostics=0']``): per-topic ``name=seconds`` overrides.
-- ``time_period`` (s, 0.001): server-time broadcasts from /clock, at most one per this much sim time.
-- ``host`` ('127.0.0.1'), ``port`` (8765; 0 = any free port; the log says which).
-- ``qos_depth`` (1): depth of the best-effort subscriptions to the served
-  topics (/diagnostics: 64). With depth 1 DDS keeps only the newest sample
-  between two wake-ups, so the samples in between cost this process nothing.
-- ``queue_depth`` (256): frames between the receive and the send thread.
-- ``message_backlog_size`` (1024): the SDK's outbox per client.
-- ``parameter_timeout`` (s, 5.0): per ROS parameter service call.
-- ``diagnostics_period`` (s wall, 1.0).
-- ``batch_period`` (s wall, 0.005): rest after a wake-up that took messages.
-  Keep it below the decimation period's wall time (at 0.1x real time, 1 ms
-  of sim time lasts 10 ms), or fewer messages than the period allows are served.
-Bad parameters end the node with exit code 2 and a one-line reason.
+A viewer never blocks the graph: best-effort subscriptions of bounded depth, a
+bounded queue between the receive and the send thread (full: the oldest frame is
+dropped and counted), and the SDK's bounded per-client outbox (its drops are not
+reported to Python). Parameters (read at start): :data:`LIVE_VIEW_SCHEMA`, listed
+in the node reference; bad parameters end the node with exit code 2.
 """
 from __future__ import annotations
 

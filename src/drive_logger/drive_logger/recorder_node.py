@@ -1,67 +1,18 @@
 """Recorder node: record topics of the drive graph into a rosbag2-layout MCAP bag.
 
 Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw
-subscriptions hand over the CDR bytes, each callback appends them to the
-current MCAP chunk, and full chunks are compressed and streamed to disk
-(bounded memory). The blocks and lockstep messages arrive in canonical CDR
-and are written as they come; any other message (parameter events,
-diagnostics, live topics, topics of other nodes) is brought to canonical CDR
-first (:func:`drive_common.cdr_padding.canonicalize`: padding zeroed, the
-uninitialised bytes rmw_fastrtps appends after some messages cut), so a bag
-holds the same bytes for the same values and every CDR reader decodes it.
+subscriptions hand over the CDR bytes, taken in the node's own wait loop
+(:class:`drive_common.lockstep_io.DirectCallbackGroup`; the executor serves only
+the parameter services). Blocks and lockstep messages are written as they come;
+any other message is brought to canonical CDR first
+(:func:`drive_common.cdr_padding.canonicalize`). Subscriptions exist once the node
+logs ``recorder ready`` (:func:`drive_logger.readiness.wait_for_recorder`).
+Parameters: :data:`RECORDER_SCHEMA` (read-only; the node reference lists them).
 
-Parameters (:data:`RECORDER_SCHEMA`, all read-only, set at start):
-- ``topics`` (string[]): topics to record, ``name`` or ``name:pkg/msg/Type``;
-  default every topic of the drive graph (:data:`graph_topics.DEFAULT_TOPICS`).
-  A name outside the drive graph without a type is looked up on the graph for
-  ``type_discovery_timeout`` s. Subscriptions exist once the node logs
-  ``recorder ready`` -- a runner waits for them with
-  :func:`drive_logger.readiness.wait_for_recorder` before starting the run.
-- ``all_topics`` (bool, false): also subscribe to every topic that appears later.
-- ``output`` (string): bag directory to create; default ``bags/<YYYYmmdd-HHMMSS>``.
-- ``compression`` ('lz4' | 'zstd' | 'none'), ``chunk_size`` (bytes).
-- ``qos_depth`` (int, 10000): KEEP_LAST depth of the RELIABLE subscriptions
-  (0 = KEEP_ALL); reliable unless a known publisher offers only best effort.
-- ``drain_timeout`` (s, 2.0): at stop, keep taking queued messages until the
-  topics are quiet for 0.1 s or this time has passed.
-- ``batch_period`` (s, 0.005): after a wake-up that took messages, rest this
-  long before waiting again, so the next wake-up takes a batch. Waking once
-  per message costs the lockstep nodes CPU on a small machine; the queues
-  (``qos_depth``) hold many times a batch.
-- ``log_time`` ('sim' | 'wall', 'sim'): the clock of the bag's log times.
-  'sim' (as ``ros2 bag record --use-sim-time``): a message that carries the
-  sim time of its sample (a std_msgs/Header first, or rosgraph_msgs/Clock) is
-  logged at that stamp, log and publish time alike, so two recordings of one
-  scenario hold the same times. A /parameter_events message is logged at its
-  stamp when that is a sim time (the drive nodes stamp their events with sim
-  time); any other message (a parameter event stamped by the wall clock of a
-  node outside the stack) is logged at the latest sim time the recorder has
-  taken, set once the wake-up that took it is done. 'wall': log
-  time = receive time, publish time = send time (ns since the epoch).
-- ``flush_period`` (s, 0.5): at least this often (wall time) the current
-  chunk is closed and the file fsynced, so a killed recorder loses at most
-  that much; ``ros2 run drive_logger reindex <bag>`` completes its bag.
-- ``viewer_topics`` (bool, true), ``viewer_period`` (s of sim time, 0.001;
-  0 = every sample): at stop, add the per-sample viewer topics
-  (``/plant/state``, ``/dtc/status``, ``/pfc/status``) derived from the
-  recorded blocks (:class:`drive_logger.sample_topics.SampleTopics`), unless
-  the bag records a topic of that name itself.
-
-The recorder takes messages in its own wait loop (the rclpy executor's
-per-callback cost is several times the recording cost): its subscriptions
-are in a callback group the executor leaves alone
-(:class:`drive_common.lockstep_io.DirectCallbackGroup`), and the executor serves only the
-parameter services (parameters are read-only, fixed at start).
-
-Stop with SIGINT or SIGTERM: queued messages are taken, then the bag is
-finalized: the data file, written in arrival order, is rewritten in
-canonical order with the viewer topics
-(:func:`drive_logger.sample_topics.finish_canonical`: two recordings of one
-scenario are byte-identical files), metadata.yaml is written, and the
-process exits 0. A bad
-output directory or an unknown/uninstalled topic type is an error at start
-(exit code 2, nothing written); an output directory that holds the bag of a
-killed recorder is refused with the reindex command that recovers it.
+Stop with SIGINT or SIGTERM: queued messages are taken, the file is rewritten
+in canonical order with the viewer topics
+(:func:`drive_logger.sample_topics.finish_canonical`), metadata.yaml is written
+and it exits 0; a bad output or topic type is refused at start (exit 2).
 """
 from __future__ import annotations
 

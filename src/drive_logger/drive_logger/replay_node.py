@@ -3,37 +3,14 @@
 Messages are published as the exact recorded CDR bytes, in log-time order,
 paced by their recorded log times divided by ``rate``. /clock follows the
 bag: its recorded /clock messages if it has them, otherwise a /clock built
-from each message's header stamp (sim time) whenever it advances, so
-``use_sim_time`` nodes follow the recorded sim time.
-
-Parameters (:data:`REPLAY_SCHEMA`, read-only, set at start):
-- ``bag`` (string, required): bag directory (or .mcap file).
-- ``rate`` (double, 1.0): speed factor; <= 0 publishes as fast as possible.
-- ``loop`` (bool, false): start over at the end.
-- ``topics`` (string[], []): topics to replay (default all).
-- ``remap`` (string[], []): ``from:=to`` topic renames (``--ros-args -r`` works too).
-- ``publish_clock`` (bool, true), ``salvage`` (bool, false: replay the intact
-  part of a truncated or corrupt bag instead of failing),
-  ``wait_for_subscribers`` (double s, 0.0: wait up to this long for at least
-  one subscriber on every replayed topic before starting).
-- ``start_offset`` (double s, 0.0): skip the first seconds of log time.
-- ``namespace`` (string, ''): the drive to replay from a bag of drives recorded
-  under namespaces (``/drive1``; '': the bag's only one). A namespaced drive's
-  topics are published under this node's namespace (``-r __ns:=/NAME``), so it
-  replays into a namespaced graph.
-- ``expand_blocks`` (bool, false): publish the per-sample topics a block
-  topic carries (``plant/state`` from ``plant/state_block``; ``dtc/status``,
-  ``drive/measurement``, ``drive/gate_command`` from ``dtc/status_block``;
-  the PFC topics likewise) instead of the blocks, every sample at its
-  stamp, bit-exact as the nodes published them, so a controller can be
-  re-driven from a block bag (:mod:`drive_logger.block_topics`). The
-  recorded per-sample messages of those names (the recorder's 1 ms viewer
-  topics, or decimated live topics) are not published then; ``topics`` may
-  name the per-sample topics. Left false, a recorded bag replays as the
-  live graph looked: the blocks and the viewer topics at their rate.
-At the end a replay waits (up to 5 s) until every reliable sample it published
-is acknowledged, so a reader that matched late still gets the first ones.
-A bag that cannot be read is an error naming the problem (exit code 2).
+from each message's header stamp whenever it advances, so ``use_sim_time``
+nodes follow the recorded sim time. ``expand_blocks`` publishes the per-sample
+topics a block topic carries instead of the blocks, every sample bit-exact, so
+a controller can be re-driven from a block bag; ``namespace`` picks one drive of
+a bag of namespaced drives. Parameters: :data:`REPLAY_SCHEMA` (read-only; the
+node reference lists them). At the end a replay waits (up to 5 s) until every
+reliable sample is acknowledged. A bag that cannot be read is an error naming
+the problem (exit code 2). docs/bags.md "Reading a bag again".
 """
 from __future__ import annotations
 

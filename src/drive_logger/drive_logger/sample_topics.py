@@ -1,27 +1,17 @@
 """Per-sample messages derived from a bag's telemetry blocks, and bag files in one total order.
 
-Viewers (Foxglove, PlotJuggler, ``ros2 bag``) plot per-sample topics: one
-message per sample, one scalar (or small fixed array) per field. The blocks
-(docs/architecture.md "Telemetry: blocks and live topics") carry every
-sample as arrays; :class:`SampleTopics` turns a block's bytes into the
-per-sample messages of its parts (``/plant/state`` from
-``/plant/state_block``, ``/dtc/status`` from ``/dtc/status_block``, ...),
-serialized bit-exact in canonical CDR and logged at their sample's time
-(the block's log time plus the sample's stamp offset; with sim log times:
-the sample's stamp), either every sample (``period`` 0, the full-rate
-export) or the first sample at or after each multiple of ``period`` of sim
-time (:class:`drive_common.telemetry.Decimator`, the live topics' rule: the
-recorder's viewer topics).
+:class:`SampleTopics` turns a block's bytes into the per-sample messages of its
+parts (``/plant/state`` from ``/plant/state_block``, ...), bit-exact in canonical
+CDR and logged at their sample's time, every sample (``period`` 0) or the first
+at or after each multiple of ``period`` of sim time
+(:class:`drive_common.telemetry.Decimator`: the recorder's viewer topics).
 
 :func:`write_canonical` copies a complete MCAP data file into a
-:class:`drive_logger.bag_writer.BagWriter` in one total order, so the file
-depends only on the messages, never on their arrival: channels registered
-sorted by topic name, messages sorted by (log time, topic, arrival order
-within the topic, bytes), chunks
-cut by size only, offered QoS profiles deduplicated and sorted. The
-recorder writes its bag this way at the end (two recordings of one scenario
-are byte-identical files), adding the viewer topics on the way; the
-exporter (:mod:`drive_logger.export`) uses it for full-rate viewer bags.
+:class:`drive_logger.bag_writer.BagWriter` in one total order (channels sorted by
+topic, messages by log time, topic, arrival within the topic and bytes; chunks
+cut by size only), so the file depends only on the messages: two recordings of
+one scenario are byte-identical. The recorder and the exporter use it.
+docs/architecture.md "Telemetry: blocks and live topics".
 """
 from __future__ import annotations
 

@@ -13,7 +13,6 @@
 import os
 import signal
 import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -21,6 +20,7 @@ import yaml
 
 from drive_bringup.runner import GraphRunner, RunFailed
 from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.waiting import wait_until
 from drive_testing.harness import reserve_domain
 from drive_logger.bag_reader import intact_messages
 from drive_logger.message_definitions import is_sim_stamp
@@ -145,15 +145,18 @@ def test_sigkilled_recorder_bag_is_reindexed_to_what_it_had_flushed(reference_ba
     killed = threading.Event()
 
     def kill_recorder_mid_run(runner):
-        deadline = time.monotonic() + 300
-        while time.monotonic() < deadline:
+        def flushed_recorder():
+            """The recorder, once KILL_AFTER measurements are in its flushed chunks."""
             recorder = runner.processes.get('recorder')
             if recorder is not None and bag.is_dir() and any(bag.glob('*.mcap')):
                 if len(_by_topic(bag).get('/drive/measurement', [])) >= KILL_AFTER:
-                    os.killpg(recorder.pid, signal.SIGKILL)
-                    killed.set()
-                    return
-            time.sleep(0.05)
+                    return recorder
+            return None
+
+        recorder = wait_until(flushed_recorder, 300.0, 0.05, raise_timeout=False)
+        if recorder is not None:             # else timed out: the test fails on `killed` below
+            os.killpg(recorder.pid, signal.SIGKILL)
+            killed.set()
 
     with pytest.raises(RunFailed, match='recorder exited'):
         _run(out, 1.0, kill_recorder_mid_run)       # 10 x the reference: still running at the kill

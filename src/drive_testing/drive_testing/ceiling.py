@@ -3,17 +3,14 @@
 ``raw_responder`` answers each DriveMeasurement with a GateCommand of the
 same step and nothing else; :func:`measure_round_trips` publishes
 measurements one at a time and waits for each reply the way the plant node
-does (a wait set on the reply subscription, no executor per message, the
-messages serialized and converted by :mod:`drive_common.lockstep_wire`);
-the responder receives and answers the same way.
-The plant's lockstep rate divided by this figure is the overhead ratio the
-benchmarks report.
+does (a wait set, no executor per message, bytes via
+:mod:`drive_common.lockstep_wire`). The plant's lockstep rate divided by this
+figure is the overhead ratio the benchmarks report.
 
-The naive ceiling is what plain rclpy gives without that care:
-``naive_responder`` replies from a subscription callback spun by a
-SingleThreadedExecutor (:func:`drive_common.node_main.run_node`), and
-:func:`measure_naive_round_trips` publishes one measurement and spins its
-own SingleThreadedExecutor until the reply's callback has run.
+The naive ceiling is plain rclpy: ``naive_responder`` replies from a
+subscription callback spun by a SingleThreadedExecutor, and
+:func:`measure_naive_round_trips` spins its own executor until the reply's
+callback has run (docs/benchmarks.md).
 """
 from __future__ import annotations
 

@@ -17,11 +17,12 @@ from drive_common.waiting import wait_until
 
 def test_reserved_domains_are_exclusive_across_processes():
     probe = ('from drive_testing.harness import reserve_domain\n'
-             'import sys, time\n'
+             'import sys\n'
              'with reserve_domain() as d:\n'
-             '    print(d, flush=True); time.sleep(5)\n')
+             '    print(d, flush=True); sys.stdin.read()\n')   # held until this test kills it
     with reserve_domain() as mine:
-        others = [subprocess.Popen([sys.executable, '-c', probe], stdout=subprocess.PIPE, text=True)
+        others = [subprocess.Popen([sys.executable, '-c', probe], stdin=subprocess.PIPE,
+                                   stdout=subprocess.PIPE, text=True)
                   for _ in range(3)]
         try:
             ids = [int(p.stdout.readline()) for p in others]
@@ -82,10 +83,12 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
     marker = f'DTC_HARNESS_PROBE=fail_{os.getpid()}_{time.monotonic_ns()}'
     test_file = tmp_path / 'test_failing_probe.py'
     test_file.write_text(textwrap.dedent('''
-        import time
-        def test_fails(start_node):
+        from drive_common.waiting import wait_until
+        def test_fails(start_node, ros_session):
             node = start_node('drive_testing', 'message_echo')
-            time.sleep(2.0)
+            probe = ros_session.node('probe')
+            wait_until(lambda: probe.count_subscribers('/echo/in/DriveMeasurement') >= 1, 60.0,
+                       what='message_echo up')
             assert node.alive()
             assert False, 'deliberate failure'
     '''))

@@ -1,21 +1,13 @@
 """Parameter schema of the pfc_controller node (pure: no rclpy).
 
 Defaults reproduce the dissertation's boost PFC (000 ch. III, section 3.3):
-V_o* = 80 V, input range 28.28-70.71 V peak (K_m = V_max/V_min = 2.5, eq. 3.6),
-K_pv = 0.1736, K_iv = 0.01388, K_pi = 0.005, K_ii = 0.03125 at 80 kHz,
-protections 8 A / 140 V. How the per-unit gains are read is explained in
-:mod:`pfc_controller.core.average_current_control`.
-
+V_o* = 80 V, input range 28.28-70.71 V peak (K_m = 2.5, eq. 3.6), K_pv = 0.1736,
+K_iv = 0.01388, K_pi = 0.005, K_ii = 0.03125 at 80 kHz, protections 8 A / 140 V.
 Two defaults are OUR ADDITIONS, not in 000, and the PF/THD of the shipped PFC
-scenarios depend on them: ``duty_feedforward`` (d_ff = 1 - v_in/v_o, on) and
-``current_loop_output_scale`` (125). At the 000 Fig. 3.5 conditions: both on,
-PF 0.997 / THD 5-7 %; feed-forward off, PF 0.973 / THD 15.8 %; the seed's
-structure as printed (feed-forward off, scale 1), PF 0.77 / THD 80 % with the
-output in a +-25 V limit cycle (scenario ``pfc_seed_structure_only``).
-
-References, gains, limits and ``enable`` may change at runtime (they act at
-the next sample); the sample period, line frequency and per-unit bases
-define the discretisation and the per-unit system and are ``runtime=False``.
+scenarios depend on them: ``duty_feedforward`` (on) and
+``current_loop_output_scale`` (125); their effect: docs/models.md "Defaults and
+our additions". References, gains, limits and ``enable`` may change at runtime;
+the sample period, line frequency and per-unit bases are ``runtime=False``.
 """
 from __future__ import annotations
 

@@ -1,45 +1,15 @@
 """Back-EMF shapes k_x(theta_e) = d psi_rx / d theta_e [V*s/rad] and their lookup tables.
 
-Conventions (docs/architecture.md): the PM flux of phase a is maximal at
-theta_e = 0, so the fundamental of k_a is -sin(theta_e); phase b and c are
-the same shape shifted by 2 pi/3 and 4 pi/3 (lagging) and scaled by their
-imbalance gain (001 Table VII); e_x = omega_e * k_x.
+Phase a's PM flux is maximal at theta_e = 0 (fundamental of k_a: -sin(theta_e));
+phases b and c are the same shape lagging by 2 pi/3 and 4 pi/3, scaled by their
+imbalance gain (001 Table VII); e_x = omega_e * k_x. Shapes: ``trapezoid`` (000
+ch. II), ``harmonic`` (1st, 3rd, 5th terms, :func:`trapezoid_harmonics`), ``sine``
+(001) and ``table`` (a back-EMF table file, phase constants rebuilt from the
+line-to-line columns, 000 eq. (5.13)).
 
-Shapes (per unit of the constant K, phase a before the gain):
-- ``trapezoid``: ideal 120 deg flat top -K on theta in [pi/6, 5 pi/6], linear
-  30 deg ramps through zero, half-wave antisymmetric (000 ch. II).
-- ``harmonic``: -K * sum_n c_n sin(n theta); 000's non-ideal case keeps the
-  1st, 3rd and 5th terms of the trapezoid's series, see
-  :func:`trapezoid_harmonics` (c_3 = 2/9, c_5 = 1/25 of the fundamental).
-- ``sine``: -K sin(theta) (001's PM BLAC, K = psi_PM).
-- ``table``: a back-EMF table file (:mod:`drive_common.backemf_file`); the phase
-  constants are rebuilt from the line-to-line columns as in 000 eq. (5.13):
-  k_a = -(k_ba + k_ca)/3, k_b = k_a + k_ba, k_c = k_a + k_ca (no zero sequence,
-  which line-to-line measurements cannot see).
-
-Rotor flux of the ideal trapezoid in the project's Clarke convention (the
-DTIFC start-up flux; 000 eq. (5.38) text and Appendix E). With flat top K and
-k_LL = 2K the line-to-line peak, k_alpha = k_a - (k_a + k_b + k_c)/3 is
-piecewise linear with values (0, -2/3, -1, -4/3, -1, -2/3, 0) K at
-theta = 0, 30, ..., 180 deg, so
-
-    psi_r_alpha(0) = -1/2 * integral_0^pi k_alpha dtheta = 7 pi K / 18 = 7 pi k_LL / 36
-                   = 0.6109 k_LL,      psi_r_beta(0) = 0.
-
-000 (E.1) is the amplitude-invariant Clarke of the line-to-line set rotated
-by +30 deg: alpha' = (x_a - x_b)/sqrt(3) = alpha cos30 - beta sin30 and
-beta' = (x_a + x_b - 2 x_c)/3 = alpha sin30 + beta cos30, so both conventions
-give the same |psi_r| and differ only in angle. e_alpha' = e_ab/sqrt(3) is a
-trapezoid of height k_LL omega_e/sqrt(3) (60 deg flat top, 60 deg ramps), and
-its integral over the half period where it is positive is
-
-    (k_LL/sqrt(3)) * (2 pi/3) = 2 pi k_LL / (3 sqrt(3))     (000 eq. (E.9)),
-
-which is the peak-to-peak swing of psi_r_alpha'; the peak of psi_r_alpha'
-is half of it, pi k_LL/(3 sqrt(3)) = 0.6046 k_LL (the locus is a near-circle
-between 0.6046 and 0.6109 k_LL). E.9 is therefore twice the rotor-flux
-amplitude in either convention; test_backemf.py pins all three numbers. For
-the 000 motor (k_LL = 0.1146 V*s/rad): psi_r_alpha(0) = 0.0700 Wb.
+The rotor flux of the ideal trapezoid is 7 pi k_LL/36 = 0.6109 k_LL at theta_e = 0;
+000 eq. (E.9) is twice the amplitude (its peak-to-peak swing). Shapes and the
+derivation: docs/models.md "Back-EMF shapes"; test_backemf.py pins the numbers.
 """
 from __future__ import annotations
 

@@ -1,27 +1,11 @@
 """DC link: ideal source, or split capacitors C_upper + C_lower (000 ch. III/IV: C3 = C4 = 270 uF).
 
-Nodes: P (positive rail), M (midpoint), N (negative rail, 0 V). The inverter
-draws i_P from P and i_M from M (the four-switch midpoint-phase current,
-positive into the motor). Capacitor voltages v_u = V_P - V_M, v_l = V_M.
-
-Modes:
-- ``ideal``: stiff source V_dc, stiff midpoint at V_dc/2 (two ideal halves).
-- ``split_capacitors``: stiff source across the capacitor string; the sum is
-  held, the midpoint drifts: dv_l/dt = -i_M / (C_u + C_l), and the source
-  delivers i_P + i_M C_u / (C_u + C_l).
-- ``current_fed``: the string is fed by a source current i_s into P (the port
-  a boost/rectifier front end drives later):
-  C_u dv_u/dt = i_s - i_P, C_l dv_l/dt = i_s - i_P - i_M.
-  ``source_current`` is a constant (A), set per segment by the
-  front end; its energy is counted as DC-source energy here.
-All updates take the charge each node drew over a segment (integrals of the
-currents, exact for the piecewise-linear circuit). Within a segment the
-inverter sees the capacitor voltages predicted at the segment's middle from
-the previous segment's average node currents (:meth:`segment_voltages`):
-holding the start values instead would act like a series resistance
-T/(2C) (0.09 ohm at 50 us, 2 x 270 uF) and leave a first-order error in the
-dynamics and the energy balance; with the mid-segment prediction the
-residual is second order.
+Nodes P (positive rail), M (midpoint), N (0 V); the inverter draws i_P from P and
+i_M from M. Modes ``ideal``, ``split_capacitors`` (the midpoint drifts) and
+``current_fed`` (the boost front end feeds ``source_current`` into P). Updates take
+the charge each node drew over a segment; within a segment the inverter sees the
+voltages predicted at the segment's middle (:meth:`DcLink.segment_voltages`), which
+leaves a second-order residual. Equations and why: docs/models.md "DC link".
 """
 from __future__ import annotations
 

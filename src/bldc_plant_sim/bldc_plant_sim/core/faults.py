@@ -3,17 +3,12 @@
 docs/architecture.md "Faults and diagnostics". A fault is anything that makes a
 run not a good one: a protection trip (detected inside the integration by the
 core), a shoot-through request, or a controller's command that is invalid,
-late or gone (detected by the node, recorded here too). The record keeps
-
-- a counter per :class:`FaultKind` and the total (PlantState ``fault_count``,
-  ``fault_counts[kind]``),
-- the first fault's kind, sim time and text (``first_fault_kind``,
-  ``first_fault_time``; NaN / FAULT_NONE while there is none),
-- a bounded queue of new :class:`FaultEvent` s that the ROS node drains after
-  each tick to log and diagnose them (the headless runner may ignore it).
-
-The no-fault path costs nothing per tick: the node only looks at ``pending``
-(an empty list) and the counters change only when a fault happens.
+late or gone (detected by the node, recorded here too). The record keeps a
+counter per :class:`FaultKind` and the total (PlantState ``fault_count``,
+``fault_counts[kind]``), the first fault's kind, sim time and text (NaN /
+FAULT_NONE while there is none), and a bounded queue of new :class:`FaultEvent` s
+that the ROS node drains after each tick to log and diagnose them (the headless
+runner may ignore it). The no-fault path costs nothing per tick.
 """
 from __future__ import annotations
 
@@ -34,7 +29,6 @@ class FaultKind(IntEnum):
     MALFORMED_COMMAND = 6      # a command message that could not be decoded
     COMMAND_TIMEOUT = 7        # a due command did not arrive within command_timeout
     LOST_CONTROLLER = 8        # a due command did not arrive and its publisher left the graph
-    INTRUDER = 9               # a foreign publisher / second graph on a lockstep topic
 
     @property
     def label(self) -> str:

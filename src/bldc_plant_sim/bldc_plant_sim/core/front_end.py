@@ -1,81 +1,17 @@
 """Switching-level boost PFC front end of 000 ch. III (Fig. 3.1), no rclpy.
 
-Circuit (docs/architecture.md "The plant"): 60 Hz grid v_g = sqrt(2) V_rms sin(w t + phi)
--> optional EMI filter (C1 across the grid, L1 and L2 in the two line
-conductors, C2 across the bridge input) -> diode bridge (forward drop V_f per
-diode, two in the path) -> boost inductor L (series resistance R_L) -> boost
-switch (R_on) to the negative rail, or boost diode (drop V_fd) into the
-positive rail of the split capacitor string C3 + C4 (kept by
-:class:`~.dc_link.DcLink` in ``current_fed`` mode). Boost switch held off
-(``enable`` false, duty 0, or a protection) = plain diode-bridge rectifier
-with the inductor in series.
+60 Hz grid -> optional EMI filter (C1, L1 + L2, C2) -> diode bridge -> boost
+inductor L -> boost switch, or boost diode into the split capacitor string kept by
+:class:`~.dc_link.DcLink` in ``current_fed`` mode; the switch held off is a plain
+diode-bridge rectifier. States i_f, v_c, i_L; conduction modes ``COND``,
+``OVERLAP`` and ``BLOCK``. Pieces between events (PWM edges, zero crossings,
+located DCM / overlap / over-current events) are integrated with the implicit
+midpoint rule in closed form, so the energy balance closes to round-off. PWM
+carrier locked to sim time (``triangle`` or ``sawtooth``); protections open the
+switch cycle by cycle or latched (000 3.3).
 
-States: i_f (filter inductor current, L_f = L1 + L2 in series), v_c (C2,
-bridge-input voltage), i_L (boost inductor, >= 0: the bridge blocks reverse
-current). With an ideal grid C1 only adds the reactive current C1 dv_g/dt to
-the line current (and its energy 1/2 C1 v_g^2).
-
-Conduction modes of the bridge + boost stage:
-- ``COND`` (i_L > 0 through one diagonal pair, polarity s = +-1):
-  L_f di_f/dt = v_g - v_c - R_f i_f,  C2 dv_c/dt = i_f - s i_L,
-  L di_L/dt = s v_c - 2 V_f - R_L i_L - u,  u = R_on i_L (switch on) or
-  v_o + V_fd (switch off: the boost diode conducts, i_L flows into the link);
-- ``OVERLAP`` (filter only, bridge commutation while i_L > 0 at a v_c zero
-  crossing: both diagonals conduct, C2 is clamped at v_c = 0 until one
-  diagonal's current (i_L +- i_f)/2 reaches zero, i.e. |i_f| = i_L);
-- ``BLOCK`` (i_L = 0 exactly: DCM or the rectifier's non-conducting interval;
-  left when |v_c| - 2 V_f - u_off reaches 0 from below, u_off = 0 with the
-  switch on, v_o + V_fd with it off).
-Without the filter the bridge input is the grid itself: s = sign(v_g),
-commutation is instantaneous at the grid zero crossing (a segment boundary).
-
-Integration: every piece between events is a linear circuit with the grid
-voltage taken at the piece's midpoint and the output voltage v_o held (the
-DC-link voltage predicted at the middle of the plant segment, as
-:meth:`DcLink.segment_voltages` does). The pieces are integrated with the
-implicit midpoint rule, solved in closed form (a scalar elimination, no
-numpy), so the discrete energy balance closes to round-off: with mid values
-(i_f, v_c, i_L) every stored-energy change 1/2 L (i1^2 - i0^2) equals
-h x (power at the mid values), hence
-    grid input = stored change + losses + energy delivered to the link
-exactly, piece by piece. Pieces end at
-- PWM edges (carrier phase-locked to sim time, known in advance),
-- grid zero crossings (no filter), ``max_step`` (filter: resolves the
-  L_f-C2 resonance, 35.6 kHz for 20 uH / 1 uF),
-- located events: i_L reaching 0 (DCM), v_c reaching 0 with i_L > 0
-  (overlap start), |i_f| reaching i_L (overlap end), the bridge becoming
-  forward biased, i_L reaching the over-current limit (switch opened there).
-Events are located on the piece's own (rational in h) trajectory: closed
-form without the filter, bracketed Illinois iteration with it; the state is
-snapped onto the event surface (i_L = 0.0 exactly, v_c = 0.0 exactly) and the
-tiny snapped energy is booked as a loss so the ledger stays closed.
-
-PWM: carrier of ``pwm_frequency`` locked to sim time (period boundaries at
-multiples of 1/f_pwm). ``triangle`` (default): the switch is on while the
-carrier (0 at a period boundary, 1 at mid-period) is below the duty, i.e.
-on for [0, d T/2] and [T - d T/2, T]: a sample at the period boundary sits
-in the middle of the on-time and reads the average current in CCM.
-``sawtooth``: on for [0, d T).
-
-Protections (000 §3.3): i_L above ``over_current_limit`` (located inside the
-piece while the switch is on) or v_o above ``over_voltage_limit`` (checked
-with the link voltage of each advance) open the boost switch and raise the
-flags (PlantState PROTECTION_BOOST_OVER_CURRENT = 2 / _OVER_VOLTAGE = 4).
-Not latched (default): a flag clears at the next PWM period boundary once its
-quantity is back at or below the limit (cycle by cycle); latched: it stays
-until :meth:`FrontEnd.reset_protection`.
-
-PlantCore wiring (DcLink in ``current_fed`` mode), per plant segment [t, t+T]:
-    vp, vm = dc.segment_voltages(T)          # also for the inverter
-    dc.source_current = fe.advance(t, T, vp) / T
-    ... dc.draw(q_p, q_m, T, t)
-apply_duty -> fe.set_duty(duty, enable) (duty 0 / enable false in the safe state);
-pfc_sample -> PfcSample(step, time, *fe.measurement(), dc.positive); energy:
-input = fe.energy.grid, losses += fe.energy.losses, stored += fe.stored_energy()
-(the link's own ``energy_source`` is then internal: not an input).
-Supply impedance (``line_inductance``/``line_resistance``, default 0 = stiff
-grid) sits in series with L1 + L2 (C1 stays at the ideal source: an
-approximation); without the filter it is moved to the DC side of the bridge.
+Circuit, equations, events, PWM, protections and the PlantCore wiring:
+docs/models.md "Boost PFC front end".
 """
 from __future__ import annotations
 

@@ -1,22 +1,13 @@
 """Six- or four-switch voltage-source inverter with free-wheeling diodes (000 ch. II/IV, 001).
 
 Each leg is driven by its own two gates (SW1/SW2 = a, SW3/SW4 = b, SW5/SW6 = c).
-Leg codes: UPPER (upper switch on), LOWER, OFF (both off) and MIDPOINT (the
-four-switch inverter's phase tied to the split-capacitor midpoint; its gates
-are ignored). Both switches of a leg on would short the link: the gate
-driver's interlock turns both off instead (reported as applied = off), and the
-plant records it as a shoot-through fault (:meth:`Inverter.shoot_through_legs`).
-
-Device model (001 Tables III/IV): a conducting switch drops V_CE + R_on |i|,
-a conducting diode V_d + R_on |i|; which one conducts follows the current
-sign. At zero current a leg with a non-zero blocking band is a true open
-phase: it carries no current while its floating terminal voltage
-v_n + e_x stays inside the band, and starts conducting (diode or switch
-threshold) once it leaves it:
-  both off: [-V_d, V_P + V_d]; upper on: [V_P - V_CE, V_P + V_d];
-  lower on: [-V_d, V_CE]; an ideal switched leg (V_CE = V_d = 0) always conducts.
-The resistive part R_on i is held at its segment-start value within an
-integration segment (a constant source, so energy accounting stays exact).
+Leg codes: UPPER, LOWER, OFF (both off) and MIDPOINT (the four-switch inverter's
+phase tied to the split-capacitor midpoint; its gates are ignored). Both switches
+of a leg on: the interlock turns both off and the plant records a shoot-through
+fault (:meth:`Inverter.shoot_through_legs`). Devices drop V_CE or V_d + R_on |i|
+(001 Tables III/IV); at zero current a leg is a true open phase while its floating
+terminal voltage stays inside its blocking band. Bands and the segment model:
+docs/models.md "Inverter".
 """
 from __future__ import annotations
 

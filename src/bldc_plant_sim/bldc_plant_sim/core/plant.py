@@ -1,27 +1,12 @@
 """PlantCore: motor + inverter + DC link + load + sensors + protection, stepped per base tick.
 
-Integration (docs/architecture.md "The plant"): between events the circuit is linear with
-constant sources. Over a segment of length T the back-EMFs are held at the
-segment's mid angle (predicted with the last acceleration), device drops at
-their segment-start values and the DC-link voltages at their start values;
-every conducting phase then follows the exact exponential
-
-    i_x(t) = i_ss + (i_x0 - i_ss) exp(-t R/(L - M)),  i_ss = (u_x - v_n)/R,
-
-(v_n = mean of u over the conducting phases, see :mod:`.inverter`), one
-segment per inner step when nothing happens. Events inside a step are
-located analytically on that exponential and the step is split there:
-- a diode (or a threshold device) current reaching zero: the phase becomes a
-  true open phase (current exactly 0.0) until it is forward-biased again;
-- a phase current reaching the peak-current trip level: all switches open
-  at that instant and stay open until reset;
-- the end of the inverter dead time after a gate change.
-
-Energies are integrated with the exact integrals of i and i^2 over each
-segment: source (DC link), copper R int i^2, device sum v_f int i, friction,
-load work; stored = (L - M)/2 sum i^2 + capacitors + J w^2 / 2. The balance
-input = stored - stored_0 + losses + mechanical output then closes to the
-error of the mid-segment EMF prediction (second order in the step).
+Between events the circuit is linear with constant sources (back-EMFs at the
+segment's mid angle, device drops and DC-link voltages at their start values),
+so every conducting phase follows an exact exponential. Diode current zeros,
+the peak-current trip and the end of a dead time are located analytically on it
+and the step is split there. Energies use the exact integrals of i and i^2, so
+the balance closes to the mid-segment EMF prediction's error (second order).
+Derivation: docs/models.md "Integration of a base tick".
 
 The arithmetic runs in compiled kernels (:mod:`.plant_kernel`, one call per base tick
 without the front end); this class keeps the API, the event log and the fault record.

@@ -5,35 +5,9 @@ Every metric takes the flat arrays dict of a run (:mod:`drive_analysis.arrays`):
 ``'pfc/status.<field>'``; plus keyword options; it returns a float (NaN when
 the window holds no data). Options ``t_start`` / ``t_end`` [s] restrict a
 metric to the samples with t_start <= t <= t_end (default: the whole run).
-
-Line-side metrics use :mod:`drive_common.signals` over the LAST whole
-line cycles of the window (``cycles`` limits how many; the record must be
-evenly sampled -- the plant state is recorded every DTC sample, 25 us, so 3
-line cycles of 60 Hz are exactly 2000 samples). The voltage is the grid
-source voltage ``grid_voltage`` (behind the supply impedance) and the current
-``grid_current`` (the line current including the EMI filter's C1).
-
-``line_power_factor``      PF = P / (V_rms I_rms) (distortion and displacement).
-``line_current_thd_pct``   THD of the line current, harmonics 2..40, in % of the fundamental.
-``line_displacement_factor``  cos of the angle between the fundamentals.
-``line_current_rms_A`` / ``line_voltage_rms_V`` / ``line_real_power_W``
-``mean_output_voltage_V``  mean boost output (= DC-link) voltage over the window.
-``output_voltage_ripple_pp_V``  its peak-to-peak over the window.
-``max_output_voltage_V`` / ``min_output_voltage_V``  extremes over the window.
-``output_recovery_time_s`` option ``t_event`` (required), ``reference`` (80 V), ``band``
-    (2 V): the output voltage averaged over a moving half line cycle (removes the
-    120 Hz ripple) is compared with the reference; the result is the time from
-    t_event to the last averaged sample outside the band (0 if never outside;
-    NaN if still outside at the end of the window: not recovered).
-``output_voltage_deviation_V``  option ``t_event`` (else t_start), ``reference``: largest
-    |averaged v_o - reference| after t_event (the dip or overshoot of a step).
-Boost protections: ``protection_tripped`` / ``trip_time_s`` of the two-phase module with
-``bit`` 2 (over-current), 4 (over-voltage) or 6 (either).
-``boost_switch_enabled_fraction``  fraction of the window's samples with the boost
-    switch enabled after protections (0 = held off: the safe state of the front end).
-``peak_inductor_current_A``  largest boost inductor current in the window.
-``final_time_s``  sim time of the last record (the run continued to its end).
-``line_current_mean_A``  dc component of the line current over whole cycles.
+Line-side metrics use :mod:`drive_common.signals` over the last whole line
+cycles of the window (evenly sampled records). Each metric's definition:
+docs/reference/metrics.md "Boost PFC".
 """
 from __future__ import annotations
 

@@ -2,25 +2,9 @@
 
 Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`) plus keyword
 options and returns a float (NaN when the window holds no data); ``t_start`` /
-``t_end`` [s] restrict it to a window.
-
-``high_frequency_torque_ripple_pct_rated``
-    Standard deviation of (T_true - its moving average over ``window``
-    [s], default 1 ms) in % of rated torque: the switching ripple.
-``low_frequency_torque_ripple_pct_rated``
-    Peak-to-peak of the moving average over ``window`` (default 1 ms,
-    many switching periods but well below a 60-degree commutation
-    interval) of T_true within the window, in % of rated torque: the
-    commutation-rate torque oscillation that eq. (2.16) with an encoder is
-    meant to suppress (000 Fig. 2.10).
-``torque_ripple_factor_median_period_percent``
-    001 eq. (40), TRF = T_pk-pk / T_rated * 100 %, with T_pk-pk the MEDIAN over
-    the electrical periods in the window of each period's max - min (robust
-    against a single outlier sample). T = the plant's electromagnetic torque
-    (``signal='plant'``, default) or the controller's estimate (``'estimate'``),
-    optionally smoothed by a moving average over ``smoothing`` [s] (a torque
-    transducer's bandwidth; 0 = raw samples). The whole-window variant
-    (max - min over the window) is ``summary.torque_ripple_factor_window_percent``.
+``t_end`` [s] restrict it to a window. The switching ripple (high frequency), the
+commutation ripple (low frequency) and 001's torque ripple factor over the
+median electrical period; definitions: docs/reference/metrics.md "Torque ripple".
 """
 from __future__ import annotations
 

@@ -1,72 +1,13 @@
 """Metrics of the three-phase DTC results (000 ch. V, 001 Tables IX-X), pure numpy.
 
 Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground truth as
-``'plant/state.<field>'`` (one row per recorded plant sample, vector fields
-as (N, 3) arrays) and controller internals as ``'dtc/status.<field>'`` (one
-row per controller sample), plus keyword options, and returns a float (NaN
-when the window holds no data). Controller and plant rows are paired by
-their ``step`` (the status of step k and the plant state at t_k). Options
-``t_start`` / ``t_end`` [s] restrict a metric to a time window (default:
-the whole run). Angles are electrical. Torque ripple
-(001 eq. (40)): :mod:`drive_analysis.metrics.ripple`.
-
-The names below are the ``metric:`` keys of the scenarios' checks (the
-registry refuses a name defined in two metric modules).
-
-000 ch. V (sensorless DTIFC, Figs. 5.5-5.8, 5.11)
-    ``angle_error_rms_deg``: RMS of wrap(theta_est - theta_true) [electrical
-    deg], theta_est = ``dtc/status.rotor_angle_estimate`` (eq. 5.38),
-    theta_true = ``plant/state.rotor_angle``; start-up excluded with t_start.
-    ``angle_error_max_deg``: largest |wrap(theta_est - theta_true)| [deg].
-    ``d_current_mean_A`` / ``d_current_positive_fraction``: mean of i_d and the
-    fraction of samples with i_d > i_d* (0.5 = oscillating symmetrically
-    around the reference). ``source='controller'`` (default) takes the
-    controller's i_d (Park at its estimated angle, as 000 Fig. 5.11 plots),
-    ``source='plant'`` the true phase currents at the true angle.
-    ``q_current_mean_A``: mean of the controller's i_q.
-    ``estimated_torque_mean_N_m``: DC torque of the controller's estimate
-    (the plant's, the estimation error and the mean speed: the two-phase
-    module's ``mean_torque_N_m``, ``torque_estimation_rms_error_pct_rated``,
-    ``mean_speed_rad_s``).
-    ``torque_tracking_error_N_m``: mean of (T_true - T*).
-    ``speed_estimate_error_pct``: mean of the sensorless electrical speed
-    estimate over p * the true mechanical speed, minus 1, in % (``pole_pairs``).
-    ``flux_locus_mean_radius_Wb``: mean of the locus radius over an integer
-    set of angle bins (``bins``, default 72 over 360 deg): the radius is
-    averaged per bin of the flux angle first, so a slowly turning locus is
-    not weighted by the time spent per angle.
-    ``flux_locus_radius_variation``: (max - min) / mean of that binned radius
-    profile: 0 for a circle; the 12-fold (dodecagon) shape of 000 Fig. 5.5
-    gives a clearly non-zero value.
-    ``flux_locus_dominant_order``: the harmonic order (per turn of the flux
-    angle) with the largest amplitude in that profile (12 = dodecagon).
-    ``flux_locus_shape_correlation``: Pearson correlation of the binned
-    radius profiles of window ``a`` and window ``b`` (each [t0, t1]) after
-    removing each profile's mean: 1 = same shape (000 Fig. 5.6).
-    ``flux_locus_radius_ratio``: mean binned radius of window ``b`` / window ``a``.
-    ``source`` for the locus metrics: ``'controller'`` (estimated flux,
-    default) or ``'plant'`` (true stator flux, the Clarke of
-    ``plant/state.flux_linkage``).
-
-001 Tables IX-X (FSTP / SSTP DTC of the PM BLAC machine)
-    ``phase_current_fundamental_A``: peak amplitude of the fundamental of the
-    true phase current ``phase`` ('a', 'b', 'c') over the largest whole number
-    of electrical periods in the window (single-bin DFT at the electrical
-    frequency, taken from the mean plant speed times ``pole_pairs`` unless
-    ``frequency`` [Hz] is given). 001 Table IX lists peak values (2.2 A is
-    the rated peak: 0.3 N m / (1.5 * 0.0928 Wb)). A scenario's ``metrics``
-    key is the function name, so the per-phase values are
-    ``phase_a_current_fundamental_A`` / ``_b_`` / ``_c_`` (same options).
-    ``current_imbalance``: (max - min) / mean of the three fundamentals.
-    ``current_thd_percent``: 001 eq. (39), THD = sqrt(mean over phases of
-    THD_x^2), THD_x = sqrt(sum_{n=2}^{N} X_n^2) / X_1 with the integer
-    harmonics n up to ``max_order`` (default 50, well below the 10 kHz
-    Nyquist limit of the 50 us samples; the switching noise between the
-    harmonics is not counted, as in a harmonic analyser). Each phase is
-    analysed by an FFT over the whole-period window.
-    ``estimated_torque_mean_N_m``: the DC predicted torque of 001 Table X.
-    ``predicted_minus_actual_torque_pct``: 100 * (mean T_est - mean T_true) /
-    mean T_true: the offset of the predicted torque over the actual one.
+``'plant/state.<field>'`` and controller internals as ``'dtc/status.<field>'``,
+plus keyword options, and returns a float (NaN when the window holds no data).
+Controller and plant rows are paired by their ``step``; ``t_start`` / ``t_end``
+[s] restrict a metric to a time window. Angles are electrical. The names are
+the ``metric:`` keys of the scenarios' checks (the registry refuses a name
+defined in two metric modules); each definition: docs/reference/metrics.md
+"Three-phase DTC". Torque ripple: :mod:`drive_analysis.metrics.ripple`.
 """
 from __future__ import annotations
 

@@ -1,66 +1,13 @@
 """Metrics of the two-phase BLDC DTC results (000 ch. II and IV), pure numpy.
 
-Every metric takes the arrays dict of
-the flat arrays dict (:mod:`drive_analysis.arrays`) -- plant ground truth
-as ``'plant/state.<field>'`` (one row per recorded plant tick, the last row
-is the final state) and controller internals as ``'dtc/status.<field>'``
-(one row per controller sample) -- plus keyword options, and returns a
-float (NaN when the window holds no data). Controller and plant rows are
-paired by their ``step`` (the status of step k and the plant state at t_k).
-Options ``t_start`` / ``t_end`` [s] restrict a metric to a time window
-(default: the whole run); windows and pairing: :mod:`drive_analysis.arrays`.
-Rated torque: ``RATED_TORQUE_000`` (000 App. A). The torque ripple metrics
-are in :mod:`drive_analysis.metrics.ripple`.
-
-Definitions (the names are the ``metric:`` keys of the scenarios' checks):
-
-``torque_estimation_rms_error_pct_rated``
-    RMS over the window of (T_est - T_true) at the controller samples, in %
-    of rated torque; T_est = ``dtc/status.torque_estimate`` (eq. 2.16 / 4.1
-    from the back-EMF table and the sensed currents), T_true =
-    ``plant/state.electromagnetic_torque`` at the same instant t_k.
-``mean_torque_N_m``
-    Mean of the plant's true electromagnetic torque over the window [N m].
-``rise_time_s``
-    Torque response to the largest step of T* inside the window: time from
-    the step (first controller sample with the new reference) to the first
-    sample at which ``signal`` (default the true torque) reaches
-    T*_before + ``fraction`` (default 0.9) * (T*_after - T*_before). With
-    hysteresis DTC the switching ripple is comparable to the step, so a
-    10-90 % definition on the raw torque is meaningless; this 0-90 %
-    response time is what the seeds call "fast torque response".
-    Option ``smoothing`` [s] (default 0): the signal is first replaced by its
-    trailing moving average over that time, for bands so wide (four-switch,
-    0.05 N m) that the raw ripple crosses the 90 % level before the step has
-    acted; the average adds up to about 0.9 * smoothing to the result.
-``phase_c_current_rms_sectors_2_5_A`` / ``phase_c_current_rms_other_sectors_A``
-    RMS of the plant's phase-c current over the controller samples whose
-    sector (``dtc/status.sector``) is II or V (four-switch: phase-torque
-    control, i_c should stay near zero, 000 Fig. 4.13) / in I, III, IV, VI.
-``peak_phase_current_A``
-    Largest |i_x| of the true phase currents in the window [A].
-``protection_tripped``
-    1.0 if a plant protection of ``bit`` (PlantState PROTECTION_*: 1 = motor
-    peak current, the default; 2 = boost over-current, 4 = over-voltage,
-    6 = either boost protection) was set at any recorded sample in the
-    window, else 0.0.
-``trip_time_s``
-    Sim time of the first recorded sample with a protection of ``bit`` set (NaN if none).
-``mean_speed_rad_s``
-    Mean mechanical speed [rad/s] over the window.
-``flux_dip_depth_Wb``
-    Depth of the commutation dips of the open-loop estimated stator flux
-    magnitude |psi_s| (``dtc/status.flux_magnitude``): the window is cut
-    into the intervals of constant sector (60 electrical degrees, one
-    commutation each); per complete interval depth = max |psi_s| - min
-    |psi_s|; the metric is the median over the intervals [Wb].
-``flux_dip_depth_ratio``
-    flux_dip_depth_Wb over the ``loaded`` window (t0, t1) divided by the
-    same over the ``unloaded`` window (000 Figs. 2.4 vs 2.5: the dips
-    deepen with load).
-``torque_tracking_rms_error_pct_rated``
-    RMS of (T_true - T*) over the window in % of rated torque (loss of
-    torque control shows as a large value).
+Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground
+truth as ``'plant/state.<field>'`` and controller internals as
+``'dtc/status.<field>'``, plus keyword options, and returns a float (NaN when the
+window holds no data). Controller and plant rows are paired by their ``step``;
+``t_start`` / ``t_end`` [s] restrict a metric to a time window. Rated torque:
+``RATED_TORQUE_000`` (000 App. A). The names are the ``metric:`` keys of the
+scenarios' checks; each definition: docs/reference/metrics.md "Two-phase BLDC
+DTC". Torque ripple: :mod:`drive_analysis.metrics.ripple`.
 """
 from __future__ import annotations
 

@@ -1,22 +1,10 @@
 """Line-to-line transforms and torque of 000 ch. V (eqs. 5.10, 5.13, 5.15, 5.32, 5.33).
 
 Inputs are the ba-ca pair x_ba = x_b - x_a, x_ca = x_c - x_a (what can be
-measured without the neutral).
-
-* (5.10) Line-to-line Clarke, amplitude-invariant (same as the project's Clarke
-  for a zero-sequence-free set): alpha = -(x_ba + x_ca)/3,
-  beta = (x_ba - x_ca)/sqrt(3) -- :func:`line_to_line_clarke`.
-* (5.13) inverse: x_a = -(x_ba + x_ca)/3, x_b = (2 x_ba - x_ca)/3, x_c = (2 x_ca - x_ba)/3.
-* (5.15) Line-to-line Park. The seed's eq. (5.4) puts q *lagging* d
-  (q_seed = alpha sin(theta) - beta cos(theta) = -q); the project's Park has
-  q leading d, so the q row of (5.15) changes sign:
-  d = 2/3 [ sin(theta - pi/6) x_ba - sin(theta + pi/6) x_ca]
-  q = 2/3 [ cos(theta - pi/6) x_ba - cos(theta + pi/6) x_ca].
-  (The d row is printed correctly.)
-* (5.32) T = 3P/4 (k_q i_q + k_d i_d), P poles -> 3/2 p (k_d i_d + k_q i_q)
-  with p pole pairs; the q sign convention cancels in the product.
-* (5.33) / (B.8) T = P/6 [(2 k_ba - k_ca) i_ba + (2 k_ca - k_ba) i_ca]
-  = p/3 [...]; equals p * sum(k_x i_x) whenever i_a + i_b + i_c = 0.
+measured without the neutral): the line-to-line Clarke (5.10) and its inverse
+(5.13), the line-to-line Park (5.15, its q row sign-changed: the seed's q lags
+d, the project's leads) and the torque (5.32, 5.33). Formulas and the sign
+conventions: docs/models.md "Line-to-line transforms".
 """
 from __future__ import annotations
 

@@ -1,29 +1,13 @@
 """Stator flux estimators for the three-phase modes (000 eqs. 1.22-1.23, 5.36-5.38; 001 eqs. 8-9, 15-16).
 
-All voltage-model estimators integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
-(000 eqs. 1.22-1.23: the voltage applied over the previous sample and the
-trapezoidal current) and share the interface of
-:class:`flux_estimator.VoltageModelFluxEstimator` (``reset``, ``update``,
-``psi_alpha``/``psi_beta``, ``magnitude``, ``angle``), which *is* the pure
-integrator here (:data:`PureIntegrator`).
-
-* :class:`LowPassIntegrator`: d psi/dt = x - w_c psi (001: w_c = 5 rad/s instead
-  of a pure integrator). For a sinusoid at w_e its output is the true flux
-  times j w_e/(j w_e + w_c): gain |w_e|/sqrt(w_e^2 + w_c^2), phase lead
-  atan(w_c/w_e); :func:`compensate_low_pass` undoes it, psi = y (1 - j w_c/w_e).
-* :class:`HuWuIntegrator`: Hu & Wu's modified integrator with an amplitude
-  limiter in polar coordinates (000 Fig. 5.3, ref. [83], w_c = 20 rad/s):
-  y = x/(s + w_c) + w_c/(s + w_c) z, z = y limited to amplitude L, i.e.
-  d y/dt = x - w_c (y - z): a pure integrator while |y| <= L, a leak towards
-  the circle of radius L beyond it, which removes offsets and drift.
-  L = the rotor-flux amplitude (:func:`line_to_line.trapezoid_rotor_flux` for the seed's
-  formula and its correction; the modes take max |psi_r| of the back-EMF table).
-* :class:`CurrentModelFlux`: 001 eqs. (8)-(9), psi = L_s i + psi_r(theta_e), with
-  psi_r = psi_m (cos, sin) or, for non-sinusoidal machines, the table integral.
-* :func:`rotor_angle`: 000 eq. (5.38), theta_e = atan2(psi_beta - L i_beta, psi_alpha - L i_alpha).
-
-Discretisation: exact for constant x over a sample in the pure part;
-the leak terms use (1 - exp(-w_c T_s)).
+The voltage-model estimators integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
+and share the interface of :class:`flux_estimator.VoltageModelFluxEstimator`, the
+pure integrator here (:data:`PureIntegrator`): :class:`LowPassIntegrator` (001,
+undone by :func:`compensate_low_pass`) and :class:`HuWuIntegrator` (000 Fig. 5.3,
+amplitude limiter). :class:`CurrentModelFlux` is 001 eqs. (8)-(9);
+:func:`rotor_angle` is 000 eq. (5.38). Discretisation: exact for constant x over a
+sample; the leak terms use (1 - exp(-w_c T_s)). Equations: docs/models.md
+"Stator flux estimators".
 """
 from __future__ import annotations
 

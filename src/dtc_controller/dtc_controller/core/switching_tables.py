@@ -1,29 +1,13 @@
 """Switching tables derived in code from the vector geometry and the seeds' stated rules.
 
-Sectors: six 60-deg sectors, sector i centred at (i - 1) * 60 deg, so sector 1
-is [-30, 30) deg (000 Table III: Mode I = 0-30 and 330-360 deg, the sector in
-which phase a's back-EMF crosses zero; the same sectors as Table I's theta(1..6)).
-
-Rules (000 ch. I Fig. 1.9 and ch. II/IV text):
-* tau = +1 must turn the stator flux in the commanded direction (``rotation``:
-  +1 CCW, -1 CW), tau = -1 against it: the sign of the vector's tangential
-  component at the sector centre is rotation * tau;
-* phi = +1 must increase the flux amplitude (positive radial component at
-  the centre), phi = -1 decrease it, phi = 0 (no flux control, the row used in
-  normal two-phase operation) leave it unchanged at the centre (zero radial
-  component);
-* only the vectors of the mode's conduction (two-phase) are candidates; among
-  several candidates the largest tangential component wins.
-
-000 Table II (six-switch) and Table IV (four-switch) follow: phi = 0 row:
-tau = +1 -> V(i+1), tau = -1 -> V(i-2) (CCW); the CW table is the mirror.
-
-Table V (four-switch, sectors II and V, phase c on the midpoint): legs a and b
-are switched independently by their own phase-torque comparators. The phase
-torque is T_ex = p k_x(theta) i_x; raising leg x's terminal raises di_x/dt
-(coefficient 2/3 with the midpoint phase), so tau_ex = +1 (increase T_ex in the
-commanded direction) puts leg x HIGH when rotation * sign(k_x) > 0, else LOW;
-"the logic inverts for CW" follows from the rotation factor.
+Six 60-deg sectors, sector i centred at (i - 1) * 60 deg (sector 1 = [-30, 30) deg).
+tau = +1 turns the stator flux in the commanded direction, phi = +1/-1/0
+raises, lowers or keeps its amplitude at the sector centre; among the mode's
+candidate vectors the largest tangential component wins. This reproduces 000
+Tables II and IV (phi = 0 row: tau = +1 -> V(i+1), tau = -1 -> V(i-2), CCW; CW
+mirrored) and Table V (four-switch sectors II and V, legs a and b by their own
+phase-torque comparators). Rules in full: docs/models.md "Two-phase switching
+tables".
 """
 from __future__ import annotations
 

@@ -1,29 +1,12 @@
 """Three-phase conduction switching tables, derived from the circuit and the seeds' rules.
 
-Six-switch (000 Table I, PMSM; 000 Table VI, BLDC DTIFC): vectors from
-:func:`vectors.three_phase_six_switch_vectors` (V1(100) at 0 deg, numbered
-CCW, code = S_a S_b S_c), six 60-deg sectors theta(i) centred on V_i
-(sector 1 = [-30, 30) deg, :func:`switching_tables.sector_of_angle`).
-Rule of 000 Fig. 1.9 (text typos corrected: "V_{i+2} and V_{i+2}" is
-V_{i+2} and V_{i-2}; the second "applying V_{i+1}" is V_{i+2}):
-phi = +1, tau = +1 -> V_{i+1}; phi = +1, tau = -1 -> V_{i-1};
-phi = -1, tau = +1 -> V_{i+2}; phi = -1, tau = -1 -> V_{i-2} (CCW).
-The printed tables keep the right vector *indices* but misprint most switch
-codes (e.g. V6(110), V1(110), V4(110)); the code is fixed by the index
-(:data:`PRINTED_000_TABLE_I` lists what was printed). Table VI is Table I
-with tau/phi in {+1, -1} instead of {1, 0}. The derivation (vector
-tangential/radial signs at the sector centre, helper
-:func:`switching_tables.derive_flux_table`) reproduces the corrected table;
-CW uses the mirror (tau = +1 turns the flux in the commanded direction).
-
-Four-switch three-phase, 001 (phase a on the split-capacitor midpoint):
-four vectors with legs b, c complementary, code S_B S_C:
-V1(00) = V_dc/3 at 0 deg, V2(10) = V_dc/sqrt(3) at 90 deg, V3(11) at 180 deg,
-V4(01) at 270 deg (001 Table I, consistent with the circuit). Four 90-deg
-sectors, sector I = [0, 90) deg (the only placement for which 001 Table II
-obeys the rules; Fig. 3 is not in the OCR text). 001 Table II rows
-(d|psi|, dT) = (1,1): V_{i+1}; (1,0): V_i; (0,1): V_{i+2}; (0,0): V_{i+3},
-reproduced by the same derivation with the sector centres at 45 + 90 (i-1) deg.
+Six-switch (000 Table I, PMSM; Table VI, BLDC DTIFC): six 60-deg sectors centred
+on V_i, the rule of 000 Fig. 1.9 with its text typos corrected; the printed
+tables misprint most switch codes (:data:`PRINTED_000_TABLE_I`), the vector index
+fixes them. Four-switch three-phase (001 Tables I-II, phase a on the midpoint):
+four vectors, four 90-deg sectors with sector I = [0, 90) deg. Both come from
+the same derivation (:func:`switching_tables.derive_flux_table`); CW mirrors CCW.
+Derivation and corrections: docs/models.md "Three-phase switching tables".
 """
 from __future__ import annotations
 

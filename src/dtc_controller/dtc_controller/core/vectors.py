@@ -1,21 +1,12 @@
 """Inverter voltage space vectors derived from the circuit (000 Appendices C and D, Table I).
 
-A vector is a switch tuple ``(SW1..SW6)`` (SW1/SW2 = phase a upper/lower,
-SW3/SW4 = b, SW5/SW6 = c). Each phase leg is then HIGH (upper on:
-terminal at the positive rail, V_dc), LOW (lower on: 0 V), OPEN (both off)
-or MIDPOINT (four-switch inverter: the phase is wired to the split-capacitor
-midpoint, terminal at v_mid; its switch entries are ignored). Voltages are
-relative to the negative rail.
-
-Phase voltages of the Y-connected motor with equal phase impedances: the
-conducting phases (terminal defined) carry currents that sum to zero, so
-``v_n = (sum_cond v_xN + sum_open e_x) / n_cond`` (using sum e = 0), and
-``v_xn = v_xN - v_n`` for conducting phases, ``v_xn = e_x`` for open ones
-(zero current). The *ideal* vector takes the open-phase back-EMF as zero and
-a balanced midpoint (v_mid = V_dc/2); alpha/beta by the amplitude-invariant
-Clarke transform. So, e.g., six-switch two-phase V1 (SW1, SW6 on: a+, c-)
-is V_dc/sqrt(3) at 30 deg; the seed's Appendix C lists the same angles with
-another scaling (and V2beta = V_dc/2 is a typo there for V_dc).
+A vector is a switch tuple ``(SW1..SW6)``; each leg is then HIGH, LOW, OPEN or
+MIDPOINT (four-switch inverter: the phase on the split-capacitor midpoint).
+Phase voltages of the Y-connected motor follow from the conducting phases'
+currents summing to zero; the *ideal* vector takes the open-phase back-EMF as
+zero and a balanced midpoint, alpha/beta by the amplitude-invariant Clarke
+transform (six-switch two-phase V1 = V_dc/sqrt(3) at 30 deg). Derivation and the
+seed's Appendix C typo: docs/models.md "Voltage space vectors".
 """
 from __future__ import annotations
 

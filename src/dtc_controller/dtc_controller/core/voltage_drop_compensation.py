@@ -1,26 +1,12 @@
 """Inverter voltage-drop compensation for the voltage-model flux estimator (001 sec. III, Tables III-VI).
 
-Device model of one switched leg (001 eq. 20, Tables III/IV): terminal voltage
-above the negative rail ``v_x0 = S_x V_dc - v_fx - R_on i_x`` with the forward
-drop v_fx of Table III (current i_x > 0 flows into the motor):
-S = 1, i > 0: IGBT, +V_CE;  S = 1, i < 0: upper diode, -V_d;
-S = 0, i > 0: lower diode, +V_d;  S = 0, i < 0: IGBT, -V_CE;  i = 0: 0.
-The midpoint-connected phase (phase a in 001) has no device and no drop.
-
-The correction added to the ideal alpha/beta voltage is therefore the
-(amplitude-invariant) Clarke transform of (-v_fx - R_on i_x) over the switched
-legs. With phase a on the midpoint:
-  v_falpha = (v_fb + v_fc)/3,  v_fbeta = -(v_fb - v_fc)/sqrt(3)   (001 eqs. 33-34)
-  R_on terms: -R_on i_alpha/3 and -R_on i_beta.
-001 eqs. (26) and (37) print "+R_on i_alpha/3": a sign typo -- the b and c
-drops give alpha = (R_on i_b + R_on i_c)/3 = -R_on i_a/3 and i_alpha = i_a
-(the circuit test pins this). Eqs. (27)/(38) (-R_on i_beta) are right.
-Six-switch: all three legs drop, giving -R_on i_alpha/beta (001 eqs. 24-25).
-
-Schemes: 'none'; 'simple' = Table V (V_CE = V_d = V_f, only the current signs,
-no R_on term); 'proposed' = Table VI (V_CE and V_d by switch state and current
-sign) plus the R_on terms of eqs. (37)-(38). Tables V and VI as printed agree
-with these formulas (pinned by tests). Values change at runtime (attributes).
+The correction added to the ideal alpha/beta voltage is the Clarke transform of
+the switched legs' drops (-v_fx - R_on i_x), v_fx by switch state and current sign
+(001 eq. 20, Table III); the midpoint phase has no device. 001 eqs. (26) and (37)
+print the R_on alpha term with a wrong sign (the circuit test pins this).
+Schemes: 'none'; 'simple' = Table V (one drop, current signs only); 'proposed' =
+Table VI plus the R_on terms of eqs. (37)-(38). Values change at runtime
+(attributes). Derivation: docs/models.md "Inverter voltage-drop compensation".
 """
 from __future__ import annotations
 

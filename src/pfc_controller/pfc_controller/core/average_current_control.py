@@ -1,56 +1,16 @@
 """Per-unit average current control of the boost PFC with input-voltage feed-forward (000 ch. III).
 
-One :meth:`PfcCore.update` per controller sample T_s (12.5 us = 80 kHz):
+One :meth:`PfcCore.update` per controller sample: per-unit rectified input A, its
+line-period average V_dc(pu), C = 4 / (pi V_dc(pu) K_m)^2, the voltage PI output
+B, I_ref(pu) = K_m A B C (eq. 3.1) and the current PI to the duty. B is the
+per-unit power demand (the voltage loop does not change with the line); the PIs
+are TI's series ``pid_reg3``; ``current_loop_output_scale`` and
+``duty_feedforward`` are our additions. How the per-unit system combines and why:
+docs/models.md "Per-unit average current control".
 
-* A = v_in / V_max                          per-unit rectified input (eq. 3.2 base)
-* V_dc(pu) = (1/T) int_T A dt               line-period average (3.2)
-* C = 4 / (pi V_dc(pu) K_m)^2               = V_inv(pu)^2 (3.3)-(3.5), K_m = V_max/V_min (3.6)
-* B = G_v(V_ref(pu) - V_o(pu))              voltage PI, V_o(pu) = v_o / V_o,base, B in [0, B_max]
-* I_ref(pu) = K_m A B C                     (3.1); I_ref = I_ref(pu) * I_base  [A]
-* d = G_i(I_ref(pu) - I_in(pu))             current PI -> duty (limits [0, d_max])
-
-Interpretation of the per-unit system (the seed's OCR text only gives the
-formulas; this is how they combine, checked by the averaged-model test):
-
-1. For a sinusoidal line of peak V_p, A = (V_p/V_max)|sin wt| and
-   V_dc(pu) = 2 V_p / (pi V_max), so K_m A C = (V_min / V_p)|sin wt| and
-   I_ref = B I_base (V_min / V_p)|sin wt|. The average input power is
-   P_in = B * V_min I_base / 2, independent of the line amplitude: B is the
-   per-unit power demand with base P_base = V_min I_base / 2, and B = 1
-   (the limit) is the rated power drawn at the minimum line, which is what
-   K_m in (3.1)/(3.6) is for. The loop gain from B to V_o, and so the
-   voltage-loop dynamics, does not change with the line voltage.
-2. Bases: A on V_max (eq. 3.2), V_o on ``output_voltage_base`` (160 V:
-   twice V_o*, above the 140 V trip, like a sensor full scale), I_in and
-   I_ref on ``current_base`` (10 A, above the 8 A trip).
-3. The PIs are the series form of TI's F281x ``pid_reg3`` (the seed's
-   eZdsp F2812 platform): u = K_p e + x, x += K_i K_p e, K_i = T_s / T_i.
-   At 80 kHz this puts the current-PI zero at K_ii / T_s = 2.5 krad/s
-   (398 Hz) and the voltage-PI zero at 1.1 krad/s; read as a parallel PI
-   (x += K_i e) the current loop would be integral-dominated (zero above
-   Nyquist) and ring, which the averaged-model test rejects.
-4. K_pi = 0.005 per unit is two orders too small to act on the duty
-   directly (crossover K_pi V_o / (L I_base) = 40 rad/s at 10 A base); the
-   seed's fixed-point scaling between the current-PI output and the PWM
-   compare value is not printed. ``current_loop_output_scale`` (default
-   125) is that scaling: d = d_ff + 125 u, which puts the current-loop
-   crossover 125 K_pi V_o / (L I_base) = 5 krad/s at twice the PI zero
-   (about 60 deg phase margin) for L = 1 mH, V_o = 80 V.
-5. ``duty_feedforward`` adds d_ff = 1 - v_in / v_o (averaged boost model) so
-   the PI supplies only the inductor-voltage correction (not in the seed; it
-   can be switched off).
-6. With a resistive load the voltage loop is integral action on the load
-   pole 2/(R C): crossover about K_pv K_iv/T_s * V_min I_base/(2 C V_o V_o,base)
-   / (2/(R C)), 10-16 Hz for 59-92 ohm, so the 120 Hz output ripple barely
-   modulates B and the line current stays sinusoidal. A constant-power load
-   removes that pole and would need a larger K_pv (not checked here).
-
-Protection (seed 3.3): an inductor current above ``over_current_limit`` or an
-output voltage above ``over_voltage_limit`` raises its flag; while a flag is
-present the duty is held at 0 (the plant opens the switch itself), the
-current PI is reset and the voltage PI is frozen. ``enable`` false holds the
-duty at 0 with enable false and resets both loops; on enable the reference
-ramps from the measured v_o to V_o* at ``voltage_reference_ramp_rate``.
+Protection (000 3.3): over-current or over-voltage holds the duty at 0, resets
+the current PI and freezes the voltage PI; ``enable`` false holds the duty at 0
+and resets both loops; on enable the reference ramps from the measured v_o.
 """
 from __future__ import annotations
 

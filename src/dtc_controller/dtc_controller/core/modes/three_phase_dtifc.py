@@ -1,24 +1,13 @@
 """Direct torque and indirect flux control of a BLDC motor, three-phase conduction (000 ch. V).
 
 ``three_phase_dtifc``, six switches, sensorless (default) or encoder variant
-(``three_phase.position_source``). Per sample k:
-* stator flux by the Hu-Wu modified integrator with amplitude limiter (000
-  Fig. 5.3, eqs. 5.36-5.37, w_c = 20 rad/s); limit = the rotor-flux amplitude,
-  max |psi_r(theta)| of the back-EMF table (for an ideal trapezoid 7 pi k_LL/36;
-  the seed's 2 pi k_LL/(3 sqrt 3) is the peak-to-peak swing, see
-  :func:`line_to_line.trapezoid_rotor_flux`);
-* start-up: rotor locked at ``three_phase.initial_angle`` (0 = phase a) with the
-  matching stator flux psi_r(theta_0) from the table (000 sec. 5.3.3), or at the
-  encoder angle in the encoder variant;
-* rotor angle by eq. (5.38) theta_e = atan2(psi_beta - L i_beta, psi_alpha - L i_alpha)
-  (or the encoder); electrical speed = filtered derivative of that angle;
-* i_d, i_q by Park at theta_e (identical to the line-to-line Park (5.15) of
-  i_ba, i_ca -- :mod:`line_to_line`, tested), k_d, k_q from the table, torque by
-  eq. (5.32) T = 3/2 p (k_d i_d + k_q i_q);
-* torque hysteresis (tau) and d-current hysteresis (phi = +1 when i_d* - i_d > band:
-  raising i_d raises |psi_s| = |L i + psi_r|, eq. 5.26), i_d* = 0 in the constant-torque
-  region, negative for field weakening (000 Fig. 5.6);
-* sector theta(1..6) of the estimated stator flux, 000 Table VI (corrected, derived).
+(``three_phase.position_source``). Per sample: stator flux by the Hu-Wu
+integrator limited to the rotor-flux amplitude of the back-EMF table (000 Fig.
+5.3); rotor angle by eq. (5.38) (or the encoder) and its filtered derivative;
+i_d, i_q by Park, torque by eq. (5.32); torque and d-current hysteresis (i_d* < 0
+for field weakening); the sector of the estimated flux and 000 Table VI
+(corrected, derived). Start-up locks the rotor at ``three_phase.initial_angle``
+with the matching stator flux. Details: docs/models.md "Three-phase DTIFC mode".
 """
 from __future__ import annotations
 

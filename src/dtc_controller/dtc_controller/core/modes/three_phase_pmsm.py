@@ -1,20 +1,12 @@
 """Classical three-phase DTC (000 ch. I, Table I corrected; 001 eqs. 8-16) and the shared three-phase pipeline.
 
-:class:`ThreePhaseBase` holds what the three three-phase modes share, per sample k:
-phase currents (one missing sensor reconstructed) -> alpha/beta (amplitude-invariant
-Clarke); applied voltage of sample k-1 from its switch state, the measured DC link
-and midpoint (:func:`vectors.voltage_coefficients` of each vector, tabulated once) plus the
-inverter voltage-drop correction (:mod:`voltage_drop_compensation`); stator flux by
-a voltage model (pure 000 eqs. 1.22-1.23, low-pass 001, Hu-Wu 000 Fig. 5.3) or the
-current model (001 eqs. 8-9); rotor angle from the encoder or eq. (5.38); electrical
-speed (encoder, or the filtered derivative of the estimated angle); torque reference
-(parameter or speed PI).
-
-:class:`ThreePhasePmsmMode` (``three_phase_pmsm``, six switches): torque by 001 eq. (10)
-T = 3/2 p (psi_alpha i_beta - psi_beta i_alpha) (000 eq. 1.25 prints the opposite sign:
-typo), flux magnitude/angle by eqs. (1.24)/(11)-(12), two-level torque and flux
-hysteresis (eqs. 1.17-1.20 / 13-14 with -1 for "0"), sector theta(1..6) of the
-stator flux, 000 Table I as derived in :mod:`three_phase_tables`.
+:class:`ThreePhaseBase` holds what the three-phase modes share per sample:
+currents -> alpha/beta, the applied voltage of the previous sample (plus the
+inverter voltage-drop correction), stator flux by a voltage or the current model,
+rotor angle and speed, torque reference. :class:`ThreePhasePmsmMode`
+(``three_phase_pmsm``): torque by 001 eq. (10) (000 eq. 1.25 prints the opposite
+sign), two-level torque and flux hysteresis and 000 Table I as derived in
+:mod:`three_phase_tables`. In full: docs/models.md "Classical three-phase DTC".
 """
 from __future__ import annotations
 
