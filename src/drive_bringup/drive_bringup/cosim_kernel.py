@@ -23,7 +23,7 @@ from dtc_controller.core.modes import three_phase_kernel as K3
 from dtc_controller.core.modes import two_phase_kernel as K2
 from dtc_controller.core.modes.regulation import measure_values
 
-TWO_PHASE, THREE_PHASE = 2, 3
+CONSTANT, TWO_PHASE, THREE_PHASE = 0, 2, 3     # the controller: same gates always, DTC modes
 # per-record extras: measured encoder angle, measured speed, DTC due (0/1), applied leg code
 X_THETA, X_SPEED, X_DUE, X_LEGS, X_SIZE = range(5)
 # loop state (int64): leg code applied, commanded command, held command, records, events, ticks
@@ -56,7 +56,7 @@ def record(buf, lut, lut_psi, loop, k, due, theta, w, out, rec_step, rec_sv, rec
     rec_step[r] = k
     rec_sv[r, :] = buf[PK.B_SV:PK.B_RES]
     rec_x[r, X_THETA], rec_x[r, X_SPEED], rec_x[r, X_DUE], rec_x[r, X_LEGS] = theta, w, due, loop[L_LEGS]
-    if due:
+    if due and rec_out.shape[1]:
         rec_out[r, :] = out[:rec_out.shape[1]]
     loop[L_RECORDS] = r + 1
 
@@ -92,8 +92,10 @@ def run_chunk(n, k0, sched, consts, loop, buf, lut, lut_psi, ev, scfg, kind, dtc
         k = k0 + j
         due = dtc_ticks > 0 and k % dtc_ticks == 0
         if due:
-            theta, w = dtc_sample(kind, scfg, buf, dtc, enc_offset, out, noise)
-            vector = int(out[0])
+            vector = 0
+            if kind != CONSTANT:
+                theta, w = dtc_sample(kind, scfg, buf, dtc, enc_offset, out, noise)
+                vector = int(out[0])
             if delay:
                 loop[L_CMD], loop[L_HELD] = loop[L_HELD], vector
             else:

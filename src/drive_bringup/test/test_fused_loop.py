@@ -168,3 +168,20 @@ def test_fused_loop_interpreted_equals_compiled(tmp_path):
         assert differing({k.split(':', 2)[2]: v for k, v in compiled.items() if ':fused:' in k and k.startswith(name)},
                          {k.split(':', 2)[2]: v for k, v in compiled.items()
                           if ':per_sample:' in k and k.startswith(name)}) == []
+
+
+def test_constant_gates_fused_equal_per_sample():
+    """A controller with constant_gates (FixedGateCore) runs in the loop without its calls."""
+    from bldc_plant_sim.parameters import plant_params
+    from drive_testing.fixed_commands import FixedGateCore
+    params = plant_params('ozturk_bldc', **{'base_tick': 25e-6, 'dtc_period': 50e-6, 'load.mode': 'viscous',
+                                            'load.viscous': 0.004, 'computation_delay': True})
+    runs, loop = [], CountingLoop(chunk_records=100)
+    for fused in (loop, None):
+        plant = PlantCore(params)
+        cosim = CoSimulation(plant, FixedGateCore(), fused=fused)
+        runs.append((cosim.run(0.01), plant.events))
+    (a, ev_a), (b, ev_b) = runs
+    assert loop.fused == 400 and len(b) == 401 and ev_a == ev_b
+    assert np.ptp(b.array('mechanical_speed')) > 1.0 and b.commands[2][0].switch_on == FixedGateCore.switch_on
+    assert_same_trajectory(a, b)
