@@ -43,8 +43,8 @@ class _Rows:
         for name in _LISTS:
             getattr(self, name).pop()
 
-    def lists(self) -> dict:
-        return {name: getattr(self, name) for name in _LISTS}
+    def list_of(self, name: str) -> list:
+        return getattr(self, name)
 
     def column(self, name: str) -> np.ndarray | None:
         return None
@@ -70,16 +70,22 @@ class RecordBlock:
     def pop(self) -> None:
         self.n -= 1
 
-    def lists(self) -> dict:
-        n, extras = self.n, self.extras
+    def list_of(self, name: str) -> list:
+        """One of the Trajectory lists (_LISTS) over this block's records."""
+        n = self.n
         steps = self.steps_[:n].tolist()
-        due = self.due[:n].tolist()
-        sv = self.sv[:n].tolist()
-        status = [self.status(k, r) if d else None for r, (k, d) in enumerate(zip(steps, due))]
-        gates = [self.gate(k, r) if d else None for r, (k, d) in enumerate(zip(steps, due))]
-        return {'steps': steps, 'times': [k * self.base_tick for k in steps],
-                'states': [state_sample(k, v, a, extras) for k, v, a in zip(steps, sv, self.applied)],
-                'dtc_status': status, 'pfc_status': [None] * n, 'commands': [(g, None) for g in gates]}
+        if name == 'steps':
+            return steps
+        if name == 'times':
+            return [k * self.base_tick for k in steps]
+        if name == 'states':
+            extras = self.extras
+            return [state_sample(k, v, a, extras) for k, v, a in zip(steps, self.sv[:n].tolist(), self.applied)]
+        if name == 'pfc_status':
+            return [None] * n
+        build = self.status if name == 'dtc_status' else self.gate
+        seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
+        return seq if name == 'dtc_status' else [(g, None) for g in seq]
 
     def column(self, name: str) -> np.ndarray | None:
         """One PlantState field as a float array without building objects (None: not held here)."""
@@ -139,12 +145,11 @@ class Trajectory:
 
     def _get(self, name: str) -> list:
         if self._lists is None:
-            merged = {n: [] for n in _LISTS}
-            for part in self._parts:
-                for n, seq in part.lists().items():
-                    merged[n].extend(seq)
-            self._lists = merged
-        return self._lists[name]
+            self._lists = {}
+        seq = self._lists.get(name)
+        if seq is None:
+            seq = self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
+        return seq
 
     steps = property(lambda self: self._get('steps'))
     times = property(lambda self: self._get('times'))
@@ -159,7 +164,7 @@ class Trajectory:
         for part in self._parts:
             col = part.column(name) if len(part) else None
             if col is None:
-                col = np.array([getattr(s, name) for s in part.lists()['states'][:len(part)]], dtype=float)
+                col = np.array([getattr(s, name) for s in part.list_of('states')[:len(part)]], dtype=float)
             cols.append(col)
         return np.concatenate(cols) if cols else np.array([], dtype=float)
 
