@@ -185,3 +185,14 @@ def test_constant_gates_fused_equal_per_sample():
     assert loop.fused == 400 and len(b) == 401 and ev_a == ev_b
     assert np.ptp(b.array('mechanical_speed')) > 1.0 and b.commands[2][0].switch_on == FixedGateCore.switch_on
     assert_same_trajectory(a, b)
+
+
+@requires_jit()
+def test_plant_event_between_chunks_equal_per_sample():
+    """A scripted plant change (load step at 0.3 s): the run's final record of the first part is
+    replaced by the next chunk's first record, as on the per-sample path."""
+    sc = scenario('two_phase_six_switch_flux_locus', 0.302)
+    fused, per_sample, loop = run_both(sc)
+    assert loop.python == 0 and loop.fused == per_sample.final_step
+    assert_same_trajectory(fused.trajectory, per_sample.trajectory)
+    assert differing(fused.arrays(), per_sample.arrays()) == []

@@ -161,8 +161,8 @@ class Trajectory:
     def array(self, name: str) -> np.ndarray:
         """numpy array of one PlantState field over the records (tuples become columns)."""
         cols = []
-        for part in self._parts:
-            col = part.column(name) if len(part) else None
+        for part in (p for p in self._parts if len(p)):
+            col = part.column(name)
             if col is None:
                 col = np.array([getattr(s, name) for s in part.list_of('states')[:len(part)]], dtype=float)
             cols.append(col)
@@ -170,8 +170,8 @@ class Trajectory:
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Every PlantState field as an array, plus 'step' and 'time'."""
-        times = [np.array(p.times) if isinstance(p, _Rows) else p.steps_[:p.n] * p.base_tick
-                 for p in self._parts]
+        times = [np.array(p.times[:len(p)]) if isinstance(p, _Rows) else p.steps_[:p.n] * p.base_tick
+                 for p in self._parts if len(p)]
         out = {'step': None, 'time': np.concatenate(times) if times else np.array([])}
         for f in fields(PlantStateSample):
             out[f.name] = self.array(f.name)
