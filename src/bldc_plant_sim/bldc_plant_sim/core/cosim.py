@@ -11,7 +11,9 @@ one; the plant advances one tick. DTC commands are
 
 The result is a :class:`Trajectory`: per recorded tick the step, time, plant
 ground truth (PlantStateSample) and the statuses the controllers returned at
-that tick, comparable sample for sample with a recorded ROS run.
+that tick, comparable sample for sample with a recorded ROS run. A ``fused``
+runner (drive_bringup.fused) may run stretches of ticks in one compiled call;
+its records come as :class:`RecordBlock` arrays, objects built when read.
 """
 from __future__ import annotations
 
