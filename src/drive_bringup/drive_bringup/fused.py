@@ -135,9 +135,12 @@ class _ModeRun:
 
     def status_builder(self, out, theta, speed):
         mode, rotation = self.mode, self.mode.rotation
+        rows = []
 
         def status(step, r):
-            return mode.status_of(step, rotation, out[r].tolist(), float(theta[r]), float(speed[r]))
+            if not rows:                    # the block's outputs as Python floats, once
+                rows.extend((out.tolist(), theta.tolist(), speed.tolist()))
+            return mode.status_of(step, rotation, rows[0][r], rows[1][r], rows[2][r])
         return status
 
     def after(self) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, fields
+from operator import attrgetter
 from pathlib import Path
 
 import numpy as np
@@ -73,10 +74,10 @@ class HeadlessResult:
             if not statuses:
                 continue
             out[f'{which}/status.time'] = np.array([t for t, s in zip(times, seq) if s is not None], dtype=float)
-            for f in fields(statuses[0]):
+            names = [f.name for f in fields(statuses[0])]
+            for name, column in zip(names, zip(*map(attrgetter(*names), statuses))):
                 try:
-                    out[f'{which}/status.{f.name}'] = np.array([getattr(s, f.name) for s in statuses],
-                                                               dtype=float)
+                    out[f'{which}/status.{name}'] = np.array(column, dtype=float)
                 except (TypeError, ValueError):
                     continue  # strings (mode name)
         return out
