@@ -8,9 +8,9 @@ lockstep") without leaving compiled code: at a DTC-due tick the sensors
 :func:`~dtc_controller.core.modes.three_phase_kernel.three_phase_step`), the latch (held one
 sample with ``computation_delay``), the record every ``record_every`` ticks
 (:func:`~bldc_plant_sim.core.plant_kernel.state_values`) and the plant's tick
-(:func:`~bldc_plant_sim.core.plant_kernel.advance_tick`). The same functions as the
-per-sample path, so the trajectories are bit-identical. A peak-current trip ends the chunk
-after its tick (Python records the fault); located events are returned for the event log.
+(:func:`~bldc_plant_sim.core.plant_kernel.advance_legs`, advance_tick's body). The same
+functions as the per-sample path, so the trajectories are bit-identical. A peak-current trip
+ends the chunk after its tick (Python records the fault); located events are returned.
 """
 from __future__ import annotations
 
@@ -88,6 +88,8 @@ def run_chunk(n, k0, sched, consts, loop, buf, lut, lut_psi, ev, scfg, kind, dtc
     tick, level, off_code, safe, enc_offset = consts[0], consts[1], int(consts[2]), consts[3], consts[4]
     noise = np.zeros(6)
     theta = w = np.nan
+    legs, target = PK.legs_of_code(loop[L_LEGS]), np.empty(3, np.int64)
+    all_off = PK.legs_of_code(off_code)
     for j in range(n):
         k = k0 + j
         due = dtc_ticks > 0 and k % dtc_ticks == 0
@@ -102,9 +104,9 @@ def run_chunk(n, k0, sched, consts, loop, buf, lut, lut_psi, ev, scfg, kind, dtc
                 loop[L_CMD] = vector
         if every and k % every == 0:
             record(buf, lut, lut_psi, loop, k, due, theta, w, out, rec_step, rec_sv, rec_x, rec_out)
-        target = off_code if safe else cmd_codes[loop[L_CMD]]
-        n_ev, code = PK.advance_tick(buf, lut, ev, k * tick, level, loop[L_LEGS], target, off_code)
-        loop[L_LEGS] = code
+        PK.legs_into(off_code if safe else cmd_codes[loop[L_CMD]], target)
+        n_ev = PK.advance_legs(buf, lut, ev, k * tick, level, legs, target, all_off)
+        loop[L_LEGS] = PK.code_of(legs)
         loop[L_TICKS] = j + 1
         if n_ev and keep_events(ev, n_ev, k, events, loop):
             break

@@ -594,7 +594,7 @@ class PlantCore:
         buf = self._buf
         T = K.segment_circuit(buf, self._lut, T, nominal, locate, self._code(self._legs),
                               self._trip_level())
-        te, vp, q_p, q_m, kind, q, draw = self._res.tolist()
+        te, vp, q_p, q_m, kind, q, draw = self._res[:K.RS_SIZE].tolist()
         if draw:
             self.dc.source_current = self.fe.advance(self.time + self._elapsed, T, vp) / T
         K.segment_finish(buf, T)
