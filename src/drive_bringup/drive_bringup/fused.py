@@ -1,11 +1,14 @@
 """Runs a headless co-simulation in compiled chunks (:mod:`.cosim_kernel`) where it applies.
 
 :class:`FusedDtcLoop` is the ``fused`` runner of :class:`bldc_plant_sim.core.cosim.CoSimulation`
-for the DTC core with a compiled mode, no front end and no PFC, noise-free sensors and no
-shoot-through vector; a pending DTC reconfiguration is applied by the per-sample path first
-(it acts at the next DTC sample). Everything else (user controllers, the front end) runs per
-sample. The trajectory is bit-identical to the per-sample path; records are kept as arrays
-(:class:`~bldc_plant_sim.core.cosim.RecordBlock`) and objects built only when read.
+for the DTC core with a compiled mode, or a controller answering every sample with the same
+gates (``constant_gates``, e.g. FixedGateCore); without front end or PFC, with noise-free
+sensors and no shoot-through command. A pending DTC reconfiguration is applied by the
+per-sample path first (it acts at the next DTC sample). Everything else (user controllers,
+the front end) runs per sample. The trajectory is bit-identical to the per-sample path;
+records are kept as arrays (:class:`~bldc_plant_sim.core.cosim.RecordBlock`), objects built
+only when read. It works on the plant's and the schedule's internals (buffers, leg codes,
+the held command) as their own per-sample code does.
 """
 from __future__ import annotations
 
