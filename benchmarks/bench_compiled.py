@@ -15,8 +15,8 @@ Each figure is measured in a subprocess twice, compiled (warm cache) and with
   ``pfc_no_load_fig_3_5`` (plant with grid, bridge and boost + DTC + PFC cores), the whole
   ``run_headless`` with its set-up (files read, cores built): goal >= 1x real time;
 * the headless loop alone (time inside ``CoSimulation.run``, the fused compiled loop of
-  drive_bringup.fused) of the default scenario run for 0.5 s: goal >= 600k samples/s with
-  every sample recorded (its default) and without recording;
+  drive_bringup.fused) of the default scenario run for 0.5 s: goal >= 300k samples/s with
+  every sample recorded (its default), >= 600k samples/s (20x real time) without recording;
 * cold start (empty cache: import, compile, first sample): goal <= 30 s; warm start
   (cached machine code): goal <= 3 s.
 """
@@ -145,7 +145,7 @@ def main() -> None:
             ('headless fstp_voltage_model_proposed_compensation [x real time]', 'fstp_real_time', '>= 1'),
             ('headless three_phase_dtifc_sensorless [x real time]', 'dtifc_real_time', '>= 1'),
             ('headless pfc_no_load_fig_3_5 [x real time]', 'pfc_real_time', '>= 1'),
-            ('headless loop, default scenario, every sample recorded [samples/s]', 'loop_recorded', '>= 600k'),
+            ('headless loop, default scenario, every sample recorded [samples/s]', 'loop_recorded', '>= 300k'),
             ('headless loop, default scenario, no recording [samples/s]', 'loop_unrecorded', '>= 600k')]
     print(f"{'figure':66s} {'compiled':>10s} {'interpreted':>12s} {'goal':>8s}")
     for label, key, goal in rows:
