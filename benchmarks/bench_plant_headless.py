@@ -9,6 +9,9 @@ bldc_plant_sim.core.cosim.CoSimulation by trivial controller cores:
                 into a viscous load (diode free-wheeling and extinction events).
 Target: >= 40 000 samples per wall second on one core without per-sample
 recording; the recorded variant (plant/state every sample) is printed too.
+'fixed' runs again in the fused compiled loop (drive_bringup.fused: FixedGateCore's
+constant_gates, no per-sample Python): goal >= 2M samples/s; the chopper is a Python
+controller and stays on the per-sample path.
 Each case is run --repeats times and the best time is reported (the machine
 may be shared); samples per CPU second are printed beside the wall figure.
 
@@ -25,17 +28,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'src' / 'bldc_plant
 from bldc_plant_sim.core.cosim import CoSimulation  # noqa: E402
 from bldc_plant_sim.core.plant import PlantCore  # noqa: E402
 from bldc_plant_sim.parameters import plant_params  # noqa: E402
+from drive_bringup.fused import FusedDtcLoop  # noqa: E402
 from drive_testing.fixed_commands import FixedGateCore  # noqa: E402
 from plant_test_helpers import SixStepChopper  # noqa: E402
 from timing import best_of  # benchmarks/timing.py
 
 
 def bench(name: str, params: dict, make_ctrl, duration: float, record_every: int,
-          repeats: int) -> float:
+          repeats: int, fused: bool = False) -> float:
     """Best of `repeats` runs (wall clock and process CPU time); returns samples per wall second."""
     def setup():
         plant = PlantCore(params)
-        return plant, CoSimulation(plant, make_ctrl(plant), record_every=record_every)
+        return plant, CoSimulation(plant, make_ctrl(plant), record_every=record_every,
+                                   fused=FusedDtcLoop() if fused else None)
 
     steps = PlantCore(params).step_of(duration)
     best_wall, best_cpu, (plant, _) = best_of(repeats, setup, lambda objs: objs[1].run(steps=steps))
@@ -67,8 +72,15 @@ def main() -> int:
         bench('six-step chopper, state recorded', chop,
               lambda p: SixStepChopper(p.motor.backemf, 3, 4), args.duration, 1, args.repeats),
     ]
+    bench('(warm-up of the fused loop)', fixed, lambda p: FixedGateCore(), 0.01, 0, 1, fused=True)
+    fused = [bench('fixed gates, fused, no recording', fixed, lambda p: FixedGateCore(), args.duration, 0,
+                   args.repeats, fused=True),
+             bench('fixed gates, fused, state recorded', fixed, lambda p: FixedGateCore(), args.duration, 1,
+                   args.repeats, fused=True)]
     print(f'headless loop, plant + trivial controller: {min(rates[:2]):.0f} samples/s '
           f'(target >= 40000)')
+    print(f'fused loop, plant + constant gates: {fused[0]:.0f} samples/s unrecorded, {fused[1]:.0f} '
+          'recorded (goal >= 2M)')
     return 0
 
 

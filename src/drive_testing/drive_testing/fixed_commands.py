@@ -20,6 +20,11 @@ class FixedGateCore:
     def update(self, sample: DriveSample):
         return GateSample(step=sample.step, topology=self.topology, switch_on=self.switch_on), None
 
+    @property
+    def constant_gates(self) -> tuple:
+        """The gates of every answer (a fused headless loop may skip the calls: drive_bringup.fused)."""
+        return self.switch_on
+
     def reconfigure(self, params: dict) -> None:
         self.switch_on = tuple(bool(s) for s in params['switch_on'])
         self.topology = int(params['topology'])

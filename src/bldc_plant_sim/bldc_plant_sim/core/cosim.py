@@ -11,42 +11,170 @@ one; the plant advances one tick. DTC commands are
 
 The result is a :class:`Trajectory`: per recorded tick the step, time, plant
 ground truth (PlantStateSample) and the statuses the controllers returned at
-that tick, comparable sample for sample with a recorded ROS run.
+that tick, comparable sample for sample with a recorded ROS run. A ``fused``
+runner (drive_bringup.fused) may run stretches of ticks in one compiled call;
+its records come as :class:`RecordBlock` arrays, objects built when read.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import fields
 from typing import Any, Callable
 
 import numpy as np
 
 from .lockstep import LockstepSchedule, ticks_of
-from .plant import PlantCore, PlantStateSample
+from .plant import PlantCore, PlantStateSample, state_sample, sv_slots
+
+_SV_SLOTS = sv_slots()
 
 
-@dataclass
-class Trajectory:
-    """Per-sample records of a headless run."""
+_LISTS = ('steps', 'times', 'states', 'dtc_status', 'pfc_status', 'commands')
 
-    steps: list = field(default_factory=list)
-    times: list = field(default_factory=list)
-    states: list = field(default_factory=list)        # PlantStateSample at t_k
-    dtc_status: list = field(default_factory=list)    # status returned at t_k (None if not due)
-    pfc_status: list = field(default_factory=list)
-    commands: list = field(default_factory=list)      # (gate command, duty command) returned at t_k
-    end_state: str = 'ended normally'                 # how the run ended (core/faults.py wording)
-    fault_kinds: tuple = ()                           # fault kind labels recorded during the run
+
+class _Rows:
+    """Records of the per-sample path: one object per field and record."""
+
+    def __init__(self) -> None:
+        for name in _LISTS:
+            setattr(self, name, [])
 
     def __len__(self) -> int:
         return len(self.steps)
 
+    def pop(self) -> None:
+        for name in _LISTS:
+            getattr(self, name).pop()
+
+    def list_of(self, name: str) -> list:
+        return getattr(self, name)
+
+    def column(self, name: str) -> np.ndarray | None:
+        return None
+
+
+class RecordBlock:
+    """Records of compiled ticks as arrays; objects are built only when asked for.
+
+    steps: ticks; sv: (n, SV_SIZE) plant_kernel.state_values rows; applied: switch tuple of each
+    record; extras: PlantCore.state_extras() of the block (constant: a fault ends a block);
+    due: DTC due per record; status(step, row) -> DtcStatusSample of a due record; gate(step, row)
+    -> the GateSample the DTC returned.
+    """
+
+    def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate) -> None:
+        self.steps_, self.base_tick, self.sv, self.applied, self.extras = steps, base_tick, sv, applied, extras
+        self.due, self.status, self.gate = due, status, gate
+        self.n = len(steps)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def pop(self) -> None:
+        self.n -= 1
+
+    def list_of(self, name: str) -> list:
+        """One of the Trajectory lists (_LISTS) over this block's records."""
+        n = self.n
+        steps = self.steps_[:n].tolist()
+        if name == 'steps':
+            return steps
+        if name == 'times':
+            return [k * self.base_tick for k in steps]
+        if name == 'states':
+            extras = self.extras
+            return [state_sample(k, v, a, extras) for k, v, a in zip(steps, self.sv[:n].tolist(), self.applied)]
+        if name == 'pfc_status':
+            return [None] * n
+        build = self.status if name == 'dtc_status' else self.gate
+        seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
+        return seq if name == 'dtc_status' else [(g, None) for g in seq]
+
+    def column(self, name: str) -> np.ndarray | None:
+        """One PlantState field as a float array without building objects (None: not held here)."""
+        n = self.n
+        if name == 'step':
+            return self.steps_[:n].astype(float)
+        if name == 'applied_switch_on':
+            return np.array(self.applied[:n], dtype=float).reshape(n, -1)
+        slot = _SV_SLOTS.get(name)
+        if isinstance(slot, tuple):
+            return self.sv[:n, slot[0]:slot[0] + slot[1]].copy()
+        if slot is not None:
+            return self.sv[:n, slot].copy()
+        value = np.asarray(self.extras[name], dtype=float)
+        return np.broadcast_to(value, (n, *value.shape)).copy()
+
+
+class Trajectory:
+    """Per-sample records of a headless run (parts: per-sample rows and compiled blocks).
+
+    steps, times, states (PlantStateSample at t_k), dtc_status / pfc_status (status returned
+    at t_k, None if not due), commands ((gate, duty) returned at t_k) are lists built on first
+    use; end_state (core/faults.py wording) and fault_kinds say how the run ended.
+    """
+
+    def __init__(self) -> None:
+        self._parts: list = []
+        self._lists: dict | None = None
+        self.end_state = 'ended normally'
+        self.fault_kinds: tuple = ()
+
+    def __len__(self) -> int:
+        return sum(len(p) for p in self._parts)
+
+    def _rows(self) -> _Rows:
+        """The part per-sample records go to."""
+        if not self._parts or not isinstance(self._parts[-1], _Rows):
+            self._parts.append(_Rows())
+        self._lists = None
+        return self._parts[-1]
+
+    def add_block(self, block: RecordBlock) -> None:
+        if len(block):
+            self._parts.append(block)
+            self._lists = None
+
+    def pop_last_if(self, step: int) -> None:
+        """Drop the last record if it is of tick step (the final record of a previous run())."""
+        parts = [p for p in self._parts if len(p)]
+        if parts and self._last_step(parts[-1]) == step:
+            parts[-1].pop()
+            self._lists = None
+
+    @staticmethod
+    def _last_step(part) -> int:
+        return part.steps[-1] if isinstance(part, _Rows) else int(part.steps_[part.n - 1])
+
+    def _get(self, name: str) -> list:
+        if self._lists is None:
+            self._lists = {}
+        seq = self._lists.get(name)
+        if seq is None:
+            seq = self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
+        return seq
+
+    steps = property(lambda self: self._get('steps'))
+    times = property(lambda self: self._get('times'))
+    states = property(lambda self: self._get('states'))
+    dtc_status = property(lambda self: self._get('dtc_status'))
+    pfc_status = property(lambda self: self._get('pfc_status'))
+    commands = property(lambda self: self._get('commands'))
+
     def array(self, name: str) -> np.ndarray:
         """numpy array of one PlantState field over the records (tuples become columns)."""
-        return np.array([getattr(s, name) for s in self.states], dtype=float)
+        cols = []
+        for part in (p for p in self._parts if len(p)):
+            col = part.column(name)
+            if col is None:
+                col = np.array([getattr(s, name) for s in part.list_of('states')[:len(part)]], dtype=float)
+            cols.append(col)
+        return np.concatenate(cols) if cols else np.array([], dtype=float)
 
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Every PlantState field as an array, plus 'step' and 'time'."""
-        out = {'step': np.array(self.steps), 'time': np.array(self.times)}
+        times = [np.array(p.times[:len(p)]) if isinstance(p, _Rows) else p.steps_[:p.n] * p.base_tick
+                 for p in self._parts if len(p)]
+        out = {'step': None, 'time': np.concatenate(times) if times else np.array([])}
         for f in fields(PlantStateSample):
             out[f.name] = self.array(f.name)
         return out
@@ -60,12 +188,17 @@ class CoSimulation:
         plant's base tick (default: the plant's dtc_period / pfc_period).
     computation_delay: apply each command one controller sample late.
     record_every: record plant state every this many ticks (0 = never).
-    on_tick: optional callable(cosim) run before each tick (scripted events).
+    on_tick: optional callable(cosim) run before each tick (scripted events), or before every
+        on_tick_every-th tick (then the fused loop may run the ticks between).
+    fused: optional runner of compiled chunks, ``fused.chunk(cosim, steps) -> ticks done``
+        (0: not applicable now, the tick runs on the per-sample path; e.g.
+        drive_bringup.fused.FusedDtcLoop); same trajectory as the per-sample path.
     """
 
     def __init__(self, plant: PlantCore, dtc=None, pfc=None, *, dtc_period: float | None = None,
                  pfc_period: float | None = None, computation_delay: bool | None = None,
-                 record_every: int = 1, on_tick: Callable[['CoSimulation'], Any] | None = None) -> None:
+                 record_every: int = 1, on_tick: Callable[['CoSimulation'], Any] | None = None,
+                 on_tick_every: int = 1, fused=None) -> None:
         self.plant = plant
         self.dtc, self.pfc = dtc, pfc
         p = plant.params
@@ -78,15 +211,15 @@ class CoSimulation:
         self.schedule = LockstepSchedule(dtc_ticks, pfc_ticks, 1, bool(delay))
         self.record_every = int(record_every)
         self.on_tick = on_tick
+        self.on_tick_every = max(1, int(on_tick_every))
+        self.fused = fused
         self.trajectory = Trajectory()
         self._counts_start = list(plant.faults.counts)   # the trajectory's end state counts from here
 
     def _record(self, dtc_status, pfc_status, commands) -> None:
         plant = self.plant
-        tr = self.trajectory
-        if tr.steps and tr.steps[-1] == plant.step:   # final record of a previous run()
-            for seq in (tr.steps, tr.times, tr.states, tr.dtc_status, tr.pfc_status, tr.commands):
-                seq.pop()
+        self.trajectory.pop_last_if(plant.step)   # final record of a previous run()
+        tr = self.trajectory._rows()
         tr.steps.append(plant.step)
         tr.times.append(plant.time)
         tr.states.append(plant.state())
@@ -96,11 +229,15 @@ class CoSimulation:
 
     def tick(self) -> None:
         """One base tick: sample, ask due controllers, latch, advance."""
+        if self.on_tick is not None:
+            self.on_tick(self)
+        self._tick_body()
+
+    def _tick_body(self) -> None:
+        """tick() after the on_tick hook."""
         plant = self.plant
         sched = self.schedule
         k = plant.step
-        if self.on_tick is not None:
-            self.on_tick(self)
         dtc_due, pfc_due = sched.due(k)
         dtc_status = pfc_status = gate = duty = None
         if dtc_due:
@@ -127,13 +264,31 @@ class CoSimulation:
             if duration is None:
                 raise ValueError('give duration or steps')
             steps = plant.step_of(plant.time + duration) - plant.step
-        tick = self.tick
-        for _ in range(int(steps)):
-            tick()
+        if self.fused is None:
+            for _ in range(int(steps)):
+                self.tick()
+        else:
+            self._run_fused(int(steps))
         if self.record_every:
             self._record(None, None, (None, None))
         self._judge_end()
         return self.trajectory
+
+    def _run_fused(self, steps: int) -> None:
+        """steps ticks in compiled chunks where the runner applies; on_tick before every
+        on_tick_every-th tick (each tick when on_tick_every is 1)."""
+        done = 0
+        hook, every = self.on_tick, self.on_tick_every
+        while done < steps:
+            k = self.plant.step
+            if hook is not None and (every == 1 or k % every == 0):
+                hook(self)
+            n = steps - done if hook is None or every == 1 else min(steps - done, every - k % every)
+            ran = self.fused.chunk(self, n) if every > 1 or hook is None else 0
+            if ran == 0:
+                self._tick_body()
+                ran = 1
+            done += ran
 
     def _judge_end(self) -> None:
         """The trajectory's end state, as the plant node says it for a run (same core record)."""

@@ -83,9 +83,10 @@ class Inverter:
         (:func:`resolve_legs`, compiled).
         """
         cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
+        band, floating = np.zeros((3, 4)), np.zeros(3, np.int64)
         vn = resolve_legs(np.asarray(legs, np.int64), np.asarray(i, np.float64),
                           np.asarray(e, np.float64), vp, vm, self.v_ce, self.v_d, self.r_on,
-                          cond, u, rail)
+                          cond, u, rail, band, floating)
         return [bool(c) for c in cond], u.tolist(), vn, rail.tolist()
 
 
@@ -124,14 +125,15 @@ def _leg_start(code, ix, ex, vp, vm, vce, vd, ron, fl):
 
 
 @njit
-def resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail):
-    """Conduction state (cond, u, rail written in place; returns v_n) of Inverter.resolve.
+def resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail, band, floating):
+    """Conduction state (cond, u, rail written in place; returns v_n) of Inverter.resolve;
+    band (3 x 4, zeros) and floating (3, zeros) are the caller's scratch.
 
     Conducting phases obey (L - M) di_x/dt = u_x - v_n - R i_x with v_n = mean of u over the
     conducting phases (sum of currents is zero); open legs join, most forward-biased first.
     """
-    band = np.zeros((3, 4))            # lo, hi, rail_lo, rail_hi of each open leg
-    floating = np.zeros(3, np.int64)   # 1: leg x is open at zero current (in leg order)
+    # band: lo, hi, rail_lo, rail_hi of each open leg; floating: 1 while leg x is open at zero
+    # current (in leg order)
     for x in range(3):
         c, ux, r = _leg_start(legs[x], i[x], e[x], vp, vm, vce, vd, ron, band[x])
         cond[x], u[x], rail[x] = c, ux, r

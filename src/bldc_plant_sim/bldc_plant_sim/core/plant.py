@@ -14,7 +14,7 @@ without the front end); this class keeps the API, the event log and the fault re
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -77,6 +77,35 @@ class PlantStateSample:
     fault_counts: tuple = (0,) * len(FaultKind)
     first_fault_kind: int = 0
     first_fault_time: float = NAN
+
+
+def state_sample(step: int, sv, applied: tuple, extras: dict) -> PlantStateSample:
+    """A PlantStateSample from plant_kernel.state_values' values (SV_* order), the applied
+    switches and PlantCore.state_extras()."""
+    (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
+     friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv
+    return PlantStateSample(
+        step=step, phase_current=(i0, i1, i2), back_emf=(e0, e1, e2), flux_linkage=(f0, f1, f2),
+        terminal_voltage=(v0, v1, v2), neutral_voltage=vn, electromagnetic_torque=te,
+        load_torque=t_load, rotor_angle=rotor, mechanical_angle=theta_m, mechanical_speed=omega,
+        dc_link_voltage=vp, upper_capacitor_voltage=vu, lower_capacitor_voltage=vl,
+        applied_switch_on=applied, energy_dc_source=e_src, energy_copper_loss=copper,
+        energy_device_loss=device, energy_friction_loss=friction, energy_mechanical_output=mech,
+        energy_stored=stored, **extras)
+
+
+def sv_slots() -> dict:
+    """{PlantState field: SV_* slot or (first slot, width)} read off state_sample itself (the fields
+    it fills from the state values: all differ from the defaults, which are 0 or NaN, with values
+    0, 1, 2, ...)."""
+    probe = state_sample(0, [float(n) for n in range(K.SV_SIZE)], (), {})
+    default = PlantStateSample(0)
+    out = {}
+    for f in fields(PlantStateSample):
+        value = getattr(probe, f.name)
+        if f.name != 'applied_switch_on' and value == value and value != getattr(default, f.name):
+            out[f.name] = (int(value[0]), len(value)) if isinstance(value, tuple) else int(value)
+    return out
 
 
 class EnergyLedger:
@@ -430,38 +459,30 @@ class PlantCore:
     def state(self) -> PlantStateSample:
         """Ground truth at t_k (numeric fields: plant_kernel.state_values; terminal voltages with
         the legs applied at the end of [t_k - T_s, t_k))."""
-        sv = self._sv
         K.state_values(self._buf, self._lut, self._lut_psi, self._code(self._legs))
-        (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
-         friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv.tolist()
+        sv = self._sv.tolist()
         fe = self.fe
         if fe is not None:
-            grid_v, grid_i = fe.grid_voltage(self.time), fe.grid_current
-            rect_v, ind_i = fe.rectified_voltage, fe.i_L
-            boost_duty, boost_on = fe.applied_duty, fe.switch_enabled
-            e_grid, e_src, e_fe = fe.energy.grid, 0.0, fe.energy.losses
-            stored += fe.stored_energy()
+            sv[K.SV_STORED] += fe.stored_energy()
+            sv[K.SV_ES] = 0.0
+        return state_sample(self.step, sv, self._applied, self.state_extras())
+
+    def state_extras(self) -> dict:
+        """PlantState's fields that the kernels do not hold: front end, protection, faults."""
+        fe = self.fe
+        if fe is not None:
+            front = dict(grid_voltage=fe.grid_voltage(self.time), grid_current=fe.grid_current,
+                         rectified_voltage=fe.rectified_voltage, inductor_current=fe.i_L,
+                         boost_duty=fe.applied_duty, boost_switch_enabled=fe.switch_enabled,
+                         energy_grid_input=fe.energy.grid, energy_front_end_loss=fe.energy.losses)
         else:
-            grid_v = grid_i = rect_v = ind_i = NAN
-            boost_duty, boost_on = 0.0, False
-            e_grid, e_fe = 0.0, 0.0
+            front = dict(grid_voltage=NAN, grid_current=NAN, rectified_voltage=NAN, inductor_current=NAN,
+                         boost_duty=0.0, boost_switch_enabled=False, energy_grid_input=0.0,
+                         energy_front_end_loss=0.0)
         faults = self.faults
-        return PlantStateSample(
-            step=self.step, phase_current=(i0, i1, i2), back_emf=(e0, e1, e2), flux_linkage=(f0, f1, f2),
-            terminal_voltage=(v0, v1, v2), neutral_voltage=vn, electromagnetic_torque=te,
-            load_torque=t_load, rotor_angle=rotor, mechanical_angle=theta_m,
-            mechanical_speed=omega, dc_link_voltage=vp,
-            upper_capacitor_voltage=vu, lower_capacitor_voltage=vl,
-            grid_voltage=grid_v, grid_current=grid_i, rectified_voltage=rect_v,
-            inductor_current=ind_i,
-            applied_switch_on=self._applied, boost_duty=boost_duty, boost_switch_enabled=boost_on,
-            protection=self.protection, safe_state=self.in_safe_state,
-            energy_grid_input=e_grid, energy_dc_source=e_src,
-            energy_copper_loss=copper, energy_device_loss=device, energy_front_end_loss=e_fe,
-            energy_friction_loss=friction, energy_mechanical_output=mech,
-            energy_stored=stored,
-            fault_count=faults.total, fault_counts=tuple(faults.counts),
-            first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
+        return dict(front, protection=self.protection, safe_state=self.in_safe_state,
+                    fault_count=faults.total, fault_counts=tuple(faults.counts),
+                    first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
@@ -483,19 +504,36 @@ class PlantCore:
         if self.fe is None:
             n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
                                         self._code(self._legs), self._code(legs), self._off_code)
-            legs = self._legs_of_code.get(code)
-            self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
-            if n_ev:
-                for row in self._ev[:min(n_ev, len(self._ev))].tolist():
-                    self._record_event(row[0], int(row[1]), int(row[2]), row[3])
+            self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
         else:
             self._advance_with_front_end(legs)
+            self.finish_ticks(self.step + 1)
+
+    def finish_ticks(self, step: int, code: int | None = None, events=()) -> None:
+        """After compiled ticks up to tick step: the applied legs (leg code code), the located
+        events (when, kind, phase, current[, tick]) acted on and logged in order, the clock."""
+        if code is not None:
+            legs = self._legs_of_code.get(code)
+            self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
+        last = self.step
+        for row in events:
+            self.step = int(row[4]) if len(row) > 4 else last
+            self._record_event(row[0], int(row[1]), int(row[2]), row[3])
+        self.step = last
         applied = self._switches_of.get(self._legs)
         if applied is None:
             applied = self._switches_of[self._legs] = self.inverter.switches(self._legs)
         self._applied = applied
-        self.step += 1
-        self.time = self.step * self.base_tick
+        self.step = step
+        self.time = step * self.base_tick
+
+    def commanded_code(self, switch_on: tuple | None = None) -> int:
+        """Leg code of a gate command (None: of the one latched now); shoot-through is not checked."""
+        if switch_on is None:
+            return self._code(self._commanded)
+        memo = self._legs_of.get(switch_on)
+        legs = memo[0] if memo is not None else self.inverter.legs(switch_on)
+        return self._code(legs)
 
     def _advance_with_front_end(self, legs: tuple) -> None:
         """advance_tick's schedule from Python: the front end is advanced between a segment's
@@ -541,7 +579,7 @@ class PlantCore:
         buf = self._buf
         T = K.segment_circuit(buf, self._lut, T, nominal, locate, self._code(self._legs),
                               self._trip_level())
-        te, vp, q_p, q_m, kind, q, draw = self._res.tolist()
+        te, vp, q_p, q_m, kind, q, draw = self._res[:K.RS_SIZE].tolist()
         if draw:
             self.dc.source_current = self.fe.advance(self.time + self._elapsed, T, vp) / T
         K.segment_finish(buf, T)

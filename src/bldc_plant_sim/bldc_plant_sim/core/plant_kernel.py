@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from drive_common.compiled import njit
+from drive_common.compiled import interpreted, njit
 
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, resolve_legs
 from .link_kernel import (CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_SIZE, DC_VL, DC_VU, IDEAL, LD_SIZE,
@@ -45,9 +45,14 @@ B_LOAD = B_DC + DC_SIZE
 B_PRM = B_LOAD + LD_SIZE
 B_SV = B_PRM + PR_SIZE
 B_RES = B_SV + SV_SIZE
-B_SIZE = B_RES + 7
-# res slots (one segment's results for the interpreted caller)
+# res slots (one segment's results for the interpreted caller), then the kernels' scratch
+# arrays (W_*: EMF constants, EMFs, leg voltages, conduction and rail flags, steady-state
+# and end currents, charges, the open legs' bands and flags), so a tick allocates nothing
 RS_TE, RS_VP, RS_QP, RS_QM, RS_KIND, RS_Q, RS_DRAW = range(7)
+RS_SIZE = 7
+W_K, W_E, W_U, W_COND, W_RAIL, W_ISS, W_I1, W_QINT, W_FLOAT = range(RS_SIZE, RS_SIZE + 27, 3)
+W_BAND = RS_SIZE + 27
+B_SIZE = B_RES + W_BAND + 12
 EV_NONE, EV_ZERO, EV_TRIP, EV_LIMIT = 0, 1, 2, 3
 MAX_EVENTS_PER_STEP = 64
 
@@ -171,8 +176,9 @@ def conducting_segment(T, nominal, locate, legs, st, dcx, prm, level, cond, u, v
     R, tau = prm[PR_R], prm[PR_TAU]
     a = prm[PR_AH] if nominal else math.exp(-T / tau)
     n_cond = cond[0] + cond[1] + cond[2]
-    iss = np.empty(3)
-    i1 = np.zeros(3)
+    iss = res[W_ISS:W_ISS + 3]
+    i1 = res[W_I1:W_I1 + 3]
+    i1[:] = 0.0
     for q in range(3):
         iss[q] = (u[q] - vn) / R
         if cond[q]:
@@ -189,7 +195,8 @@ def conducting_segment(T, nominal, locate, legs, st, dcx, prm, level, cond, u, v
             i1[phase] = 0.0
             if n_cond == 2:
                 i1[:] = 0.0
-    q_int = np.zeros(3)
+    q_int = res[W_QINT:W_QINT + 3]
+    q_int[:] = 0.0
     copper, dev, q_p, q_m = segment_integrals(T, a, st, prm, cond, iss, u, e, rail, vp, vm, q_int)
     keep_star_point(i1, cond, n_cond)
     st[ST_CU] += copper
@@ -207,22 +214,44 @@ def conducting_segment(T, nominal, locate, legs, st, dcx, prm, level, cond, u, v
 
 
 @njit
+def scratch_flags(res):
+    """cond, u, rail (conduction flag, leg voltage, rail of each phase) in res's scratch, zeroed."""
+    cond, u, rail = res[W_COND:W_COND + 3], res[W_U:W_U + 3], res[W_RAIL:W_RAIL + 3]
+    cond[:] = 0.0
+    u[:] = 0.0
+    rail[:] = 0.0
+    return cond, u, rail
+
+
+@njit
+def scratch_bands(res):
+    """resolve_legs' band (3 x 4) and floating flags in res's scratch, zeroed."""
+    band = res[W_BAND:W_BAND + 12].reshape(3, 4)
+    floating = res[W_FLOAT:W_FLOAT + 3]
+    band[:] = 0.0
+    floating[:] = 0.0
+    return band, floating
+
+
+@njit
 def segment_electric(T, nominal, locate, legs, st, dcx, prm, lut, level, res):
     """The circuit part of one segment of at most T [s]: returns the time integrated; res holds
     the average torque, V_P, the charges drawn from P / M, the event and whether the soft link
     is to be drawn from (RS_* slots)."""
     ka, kb, kc, we = emf_at_mid(st, prm, lut, T)
-    k = np.array((ka, kb, kc))
-    e = np.array((we * ka, we * kb, we * kc))
+    k, e = res[W_K:W_K + 3], res[W_E:W_E + 3]
+    k[0], k[1], k[2] = ka, kb, kc
+    e[0], e[1], e[2] = we * ka, we * kb, we * kc
     i = st[ST_I:ST_I + 3]
     dc_mode = int(prm[PR_DC])
     vp, vm = link_voltages(dcx, dc_mode, T)
-    cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
+    cond, u, rail = scratch_flags(res)
     vce, vd, ron = prm[PR_VCE], prm[PR_VD], prm[PR_RON]
-    vn = resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail)
+    band, floating = scratch_bands(res)
+    vn = resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail, band, floating)
     if dc_mode == CURRENT_FED and cond[0] + cond[1] + cond[2] >= 2:
         vp, vm = corrected_link_voltages(T, nominal, st, dcx, prm, cond, u, vn, rail)
-        vn = resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail)
+        vn = resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail, band, floating)
     res[RS_VP] = vp
     if cond[0] + cond[1] + cond[2] >= 2:
         return conducting_segment(T, nominal, locate, legs, st, dcx, prm, level, cond, u, vn, rail,
@@ -315,18 +344,27 @@ def dead_time_split(dead, h, n):
     return k, dead / k, k * h - dead
 
 
-def leg_code(legs) -> int:
+@njit
+def code_of(legs):
     """Three leg codes (-1..2) as one int: (l_a + 1) | (l_b + 1) << 2 | (l_c + 1) << 4."""
     return (legs[0] + 1) | (legs[1] + 1) << 2 | (legs[2] + 1) << 4
 
 
+leg_code = interpreted(code_of)   # for Python callers with a tuple: no dispatch
+
+
 @njit
-def legs_of_code(code):
-    """The leg codes of leg_code(legs) as an int64 array."""
-    legs = np.empty(3, np.int64)
+def legs_into(code, legs):
+    """The leg codes of code_of(legs) written into the int64 array legs (returned)."""
     for x in range(3):
         legs[x] = ((code >> (2 * x)) & 3) - 1
     return legs
+
+
+@njit
+def legs_of_code(code):
+    """The leg codes of code_of(legs) as a new int64 array."""
+    return legs_into(code, np.empty(3, np.int64))
 
 
 @njit
@@ -335,10 +373,16 @@ def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code):
     the applied legs move to the target through the dead time. Returns (number of events logged
     in ev (when, kind, phase, current), leg code applied at the end)."""
     legs = legs_of_code(legs_code)
-    n_ev = _advance(legs, legs_of_code(target_code), legs_of_code(off_code), time,
-                    buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM], buf[B_PRM:B_SV], lut, level,
-                    buf[B_RES:B_SIZE], ev)
-    return n_ev, (legs[0] + 1) | (legs[1] + 1) << 2 | (legs[2] + 1) << 4
+    n_ev = advance_legs(buf, lut, ev, time, level, legs, legs_of_code(target_code), legs_of_code(off_code))
+    return n_ev, code_of(legs)
+
+
+@njit
+def advance_legs(buf, lut, ev, time, level, legs, target, all_off):
+    """advance_tick on leg arrays (legs updated in place; a caller looping over ticks keeps
+    them): returns the number of events logged in ev."""
+    return _advance(legs, target, all_off, time, buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM],
+                    buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE], ev)
 
 
 @njit
@@ -398,11 +442,14 @@ def state_values(buf, lut, lut_psi, legs_code):
     table_at(lut, prm, theta_e, out, SV_PSI)          # k_abc, scratch
     k0, k1, k2 = out[SV_PSI], out[SV_PSI + 1], out[SV_PSI + 2]
     we = p * st[ST_W]
-    e = np.array((we * k0, we * k1, we * k2))
+    res = buf[B_RES:B_SIZE]
+    e = res[W_E:W_E + 3]
+    e[0], e[1], e[2] = we * k0, we * k1, we * k2
     i = st[ST_I:ST_I + 3]
-    cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
+    cond, u, rail = scratch_flags(res)
+    band, floating = scratch_bands(res)
     vn = resolve_legs(legs, i, e, dcx[DC_VU] + dcx[DC_VL], dcx[DC_VL], prm[PR_VCE], prm[PR_VD],
-                      prm[PR_RON], cond, u, rail)
+                      prm[PR_RON], cond, u, rail, band, floating)
     table_at(lut_psi, prm, theta_e, out, SV_PSI)
     lm = prm[PR_LM]
     for x in range(3):

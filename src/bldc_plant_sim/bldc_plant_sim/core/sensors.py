@@ -7,6 +7,8 @@ so a run is reproducible sample for sample. The quadrature encoder counts
 4 * pulses per mechanical turn (index aligned with theta_m = 0); its angle is
 the electrical angle of the count, plus ``encoder_offset``. Halls read the
 back-EMF shape's hall table (H_x = 1 while the fundamental of k_x is positive).
+The arithmetic is the compiled :func:`sense` on a settings array (``SC_*`` slots), shared
+by the per-sample path and the fused headless loop.
 """
 from __future__ import annotations
 
@@ -14,11 +16,52 @@ import math
 
 import numpy as np
 
+from drive_common.compiled import njit
 from drive_common.samples import DriveSample
 
 TWO_PI = 2.0 * math.pi
 NAN = math.nan
 _BLOCK = 4096
+
+
+# settings array slots (Sensors.cfg)
+(SC_GA, SC_GB, SC_GC, SC_OA, SC_OB, SC_OC, SC_THREE, SC_VGAIN, SC_VOFF, SC_CPR, SC_POLES, SC_ENC_OFF,
+ SC_I_NOISE, SC_V_NOISE, SC_W_NOISE, SC_SIZE) = range(16)
+
+
+@njit
+def encoder_count(theta_m, counts_per_rev):
+    """Quadrature count at theta_m [rad] (index at theta_m = 0)."""
+    return math.floor(theta_m * counts_per_rev / TWO_PI)
+
+
+@njit
+def sense(cfg, i0, i1, i2, v_dc, v_mid, theta_m, omega_m, r):
+    """(i_a, i_b, i_c, v_dc, v_mid, speed, count, encoder angle) measured (module doc); r holds
+    the standard normals of this sample in draw order (only those a nonzero noise uses)."""
+    n, j = cfg[SC_I_NOISE], 0
+    three = cfg[SC_THREE] != 0.0
+    if n > 0.0:
+        ia = cfg[SC_GA] * i0 + cfg[SC_OA] + n * r[0]
+        ib = cfg[SC_GB] * i1 + cfg[SC_OB] + n * r[1]
+        ic = cfg[SC_GC] * i2 + cfg[SC_OC] + n * r[2] if three else NAN
+        j = 3 if three else 2
+    else:
+        ia = cfg[SC_GA] * i0 + cfg[SC_OA]
+        ib = cfg[SC_GB] * i1 + cfg[SC_OB]
+        ic = cfg[SC_GC] * i2 + cfg[SC_OC] if three else NAN
+    vg, vo = cfg[SC_VGAIN], cfg[SC_VOFF]
+    vdc = vg * v_dc + vo
+    vm = vg * v_mid + vo
+    if cfg[SC_V_NOISE] > 0.0:
+        vdc += cfg[SC_V_NOISE] * r[j]
+        vm += cfg[SC_V_NOISE] * r[j + 1]
+        j += 2
+    w = omega_m + cfg[SC_W_NOISE] * r[j] if cfg[SC_W_NOISE] > 0.0 else omega_m
+    cpr = cfg[SC_CPR]
+    count = encoder_count(theta_m, cpr)
+    angle = (cfg[SC_POLES] * count * TWO_PI / cpr + cfg[SC_ENC_OFF]) % TWO_PI
+    return ia, ib, ic, vdc, vm, w, count, angle
 
 
 class Sensors:
@@ -28,6 +71,8 @@ class Sensors:
         self._rng = np.random.default_rng(int(p['sensors.seed']))
         self._buf: list[float] = []
         self._pos = 0
+        self.cfg = np.zeros(SC_SIZE)
+        self._r = np.zeros(6)
         self.configure(p)
 
     def configure(self, p: dict) -> None:
@@ -41,6 +86,11 @@ class Sensors:
         self.v_noise = p['sensors.voltage_noise']
         self.w_noise = p['sensors.speed_noise']
         self.encoder_offset = p['sensors.encoder_offset']
+        self.cfg[:] = (*self.i_gain, *self.i_offset, self.current_count == 3, self.v_gain, self.v_offset,
+                       self.counts_per_rev, self.pole_pairs, self.encoder_offset, self.i_noise,
+                       self.v_noise, self.w_noise)
+        self.draws = ((3 if self.current_count == 3 else 2) * (self.i_noise > 0.0)
+                      + 2 * (self.v_noise > 0.0) + (self.w_noise > 0.0))   # normals per sample
 
     def _randn(self) -> float:
         if self._pos >= len(self._buf):
@@ -50,27 +100,13 @@ class Sensors:
         return self._buf[self._pos - 1]
 
     def encoder_count(self, theta_m: float) -> int:
-        return math.floor(theta_m * self.counts_per_rev / TWO_PI)
+        return int(encoder_count(theta_m, self.counts_per_rev))
 
     def sample(self, step: int, time: float, i, v_dc: float, v_mid: float, theta_m: float,
                theta_m0_count: int, omega_m: float, hall: int) -> DriveSample:
-        g, o = self.i_gain, self.i_offset
-        n = self.i_noise
-        if n > 0.0:
-            ia = g[0] * i[0] + o[0] + n * self._randn()
-            ib = g[1] * i[1] + o[1] + n * self._randn()
-            ic = g[2] * i[2] + o[2] + n * self._randn() if self.current_count == 3 else NAN
-        else:
-            ia = g[0] * i[0] + o[0]
-            ib = g[1] * i[1] + o[1]
-            ic = g[2] * i[2] + o[2] if self.current_count == 3 else NAN
-        vg, vo = self.v_gain, self.v_offset
-        vdc = vg * v_dc + vo
-        vm = vg * v_mid + vo
-        if self.v_noise > 0.0:
-            vdc += self.v_noise * self._randn()
-            vm += self.v_noise * self._randn()
-        w = omega_m + self.w_noise * self._randn() if self.w_noise > 0.0 else omega_m
-        count = self.encoder_count(theta_m)
-        angle = (self.pole_pairs * count * TWO_PI / self.counts_per_rev + self.encoder_offset) % TWO_PI
-        return DriveSample(step, time, (ia, ib, ic), vdc, vm, count - theta_m0_count, angle, hall, w)
+        r = self._r
+        for j in range(self.draws):
+            r[j] = self._randn()
+        ia, ib, ic, vdc, vm, w, count, angle = sense(self.cfg, i[0], i[1], i[2], v_dc, v_mid, theta_m,
+                                                     omega_m, r)
+        return DriveSample(step, time, (ia, ib, ic), vdc, vm, int(count) - theta_m0_count, angle, hall, w)

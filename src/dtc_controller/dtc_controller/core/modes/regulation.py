@@ -15,6 +15,7 @@ applied switch state for the next sample's voltage model.
 """
 from __future__ import annotations
 
+from drive_common.compiled import njit
 from drive_common.signals import TWO_PI, clarke
 
 from ..hysteresis import TwoLevelHysteresis
@@ -24,6 +25,7 @@ from ..status import NAN
 _ALL_OFF = (False,) * 6
 
 
+@njit
 def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, float, float]:
     """Phase currents [A] with at most one NaN (missing sensor) filled from i_a + i_b + i_c = 0.
 
@@ -40,6 +42,24 @@ def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, flo
             raise ValueError('at least two phase currents are NaN: cannot reconstruct')
         return i_a, -i_a - i_c, i_c
     return i_a, i_b, -i_a - i_b
+
+
+_clarke = njit(clarke)
+
+
+@njit
+def measure_values(i_a, i_b, i_c, encoder_angle, encoder_offset, v_dc, v_mid):
+    """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of one measurement: one missing
+    current reconstructed, Clarke, the encoder offset added, a missing midpoint taken as v_dc / 2."""
+    if not (i_a == i_a and i_b == i_b and i_c == i_c):
+        i_a, i_b, i_c = reconstruct_currents(i_a, i_b, i_c)
+    theta = encoder_angle
+    if encoder_offset:
+        theta = (theta + encoder_offset) % TWO_PI
+    if v_mid != v_mid:
+        v_mid = 0.5 * v_dc
+    i_al, i_be = _clarke(i_a, i_b, i_c)
+    return i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid
 
 
 class DtcMode:
@@ -106,19 +126,11 @@ class DtcMode:
                                 params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
 
     def measure(self, s):
-        """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample."""
+        """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample (:func:`measure_values`)."""
         i_a, i_b, i_c = s.phase_current
-        if not (i_a == i_a and i_b == i_b and i_c == i_c):
-            i_a, i_b, i_c = reconstruct_currents(i_a, i_b, i_c)
-        theta = s.encoder_angle
-        if self.encoder_offset:
-            theta = (theta + self.encoder_offset) % TWO_PI
-        v_dc = s.dc_link_voltage
-        v_mid = s.midpoint_voltage
         self._speed_m = s.mechanical_speed
-        if v_mid != v_mid:
-            v_mid = 0.5 * v_dc
-        return (i_a, i_b, i_c, *clarke(i_a, i_b, i_c), theta, v_dc, v_mid)
+        return measure_values(i_a, i_b, i_c, s.encoder_angle, self.encoder_offset, s.dc_link_voltage,
+                              s.midpoint_voltage)
 
     def torque_reference_now(self, speed_m: float) -> tuple[float, float]:
         """(T* [N m], speed reference or NaN); speed_m [rad/s] is the speed the loop regulates."""

@@ -138,18 +138,31 @@ class ThreePhaseBase(DtcMode):
         K.three_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._upper,
                            self._select_now, i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid,
                            s.mechanical_speed, self._out)
+        status = self.status_of(s.step, self.rotation, self._out.tolist(), theta_enc, s.mechanical_speed)
+        self.after_fused()
+        return status.switch_on, status
+
+    def status_of(self, step: int, rotation: int, out: list, theta_enc: float,
+                  speed_m: float) -> DtcStatusSample:
+        """The DtcStatusSample of one kernel output (three_phase_kernel O_*) and the measured speed."""
         (vector, t_ref, speed_ref, torque, psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta,
-         w_e, sector, tau, phi, d_state) = self._out.tolist()
+         w_e, sector, tau, phi, d_state) = out
         vec = self.vectors[int(vector)]
-        sw = vec.switch_on
-        self._started = True
-        self._prev_switch = sw
-        self.omega_e = float(self._st[K.S_OMEGA_E])
-        status = DtcStatusSample(
-            s.step, self.name, self.rotation, speed_ref, s.mechanical_speed, t_ref, torque, NAN, NAN,
+        return DtcStatusSample(
+            step, self.name, rotation, speed_ref, speed_m, t_ref, torque, NAN, NAN,
             psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta, w_e, int(sector), int(tau),
-            int(phi), int(d_state), vec.index, sw)
-        return sw, status
+            int(phi), int(d_state), vec.index, vec.switch_on)
+
+    def fused_arrays(self) -> tuple:
+        """(kind 3, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""
+        return 3, self._prm, self._st, self._tab, self._coef, self._legs, self._select_now, None, self._upper
+
+    def after_fused(self) -> None:
+        """The Python-side memory of the last sample, from the kernel's state (once started)."""
+        if self._st[K.S_STARTED]:
+            self._started = True
+            self._prev_switch = self.vectors[int(self._st[K.S_PREV_VECTOR])].switch_on
+            self.omega_e = float(self._st[K.S_OMEGA_E])
 
 
 class ThreePhasePmsmMode(ThreePhaseBase):

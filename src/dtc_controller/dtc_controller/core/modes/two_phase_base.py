@@ -89,12 +89,22 @@ class TwoPhaseModeBase(DtcMode):
         K.two_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._select_now,
                          self._split_now, i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m,
                          self._out)
+        status = self.status_of(s.step, self.rotation, self._out.tolist(), theta, speed_m)
+        return status.switch_on, status
+
+    def status_of(self, step: int, rotation: int, out: list, theta: float, speed_m: float) -> DtcStatusSample:
+        """The DtcStatusSample of one kernel output (two_phase_kernel O_*), measured angle and speed."""
         (vector, t_ref, speed_ref, torque, t_a, t_b, psi_al, psi_be, psi_mag, flux_ref, i_d, i_q,
-         sector, tau, phi) = self._out.tolist()
+         sector, tau, phi) = out
         vec = self.vectors[int(vector)]
-        sw = vec.switch_on
-        status = DtcStatusSample(
-            s.step, self.name, self.rotation, speed_ref, speed_m, t_ref, torque, t_a, t_b,
+        return DtcStatusSample(
+            step, self.name, rotation, speed_ref, speed_m, t_ref, torque, t_a, t_b,
             psi_al, psi_be, psi_mag, flux_ref, NAN, i_d, i_q, theta, NAN, int(sector), int(tau),
-            int(phi), 0, vec.index, sw)
-        return sw, status
+            int(phi), 0, vec.index, vec.switch_on)
+
+    def fused_arrays(self) -> tuple:
+        """(kind 2, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""
+        return 2, self._prm, self._st, self._tab, self._coef, self._legs, self._select_now, self._split_now, None
+
+    def after_fused(self) -> None:
+        """Nothing kept outside the kernel's arrays."""

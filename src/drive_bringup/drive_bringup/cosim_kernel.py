@@ -1,0 +1,114 @@
+"""The fused lockstep loop: plant + compiled DTC mode for many base ticks in one compiled call.
+
+The tick of :meth:`bldc_plant_sim.core.cosim.CoSimulation.tick` (docs/architecture.md "Time and
+lockstep") without leaving compiled code: at a DTC-due tick the sensors
+(:func:`~bldc_plant_sim.core.sensors.sense`, noise-free), the mode's measurement
+(:func:`~dtc_controller.core.modes.regulation.measure_values`) and sample
+(:func:`~dtc_controller.core.modes.two_phase_kernel.two_phase_step` /
+:func:`~dtc_controller.core.modes.three_phase_kernel.three_phase_step`), the latch (held one
+sample with ``computation_delay``), the record every ``record_every`` ticks
+(:func:`~bldc_plant_sim.core.plant_kernel.state_values`) and the plant's tick
+(:func:`~bldc_plant_sim.core.plant_kernel.advance_legs`, advance_tick's body). The same
+functions as the per-sample path, so the trajectories are bit-identical. A peak-current trip
+ends the chunk after its tick (Python records the fault); located events are returned.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from bldc_plant_sim.core import plant_kernel as PK
+from bldc_plant_sim.core.sensors import sense
+from drive_common.compiled import njit
+from dtc_controller.core.modes import three_phase_kernel as K3
+from dtc_controller.core.modes import two_phase_kernel as K2
+from dtc_controller.core.modes.regulation import measure_values
+
+CONSTANT, TWO_PHASE, THREE_PHASE = 0, 2, 3     # the controller: same gates always, DTC modes
+# per-record extras: measured encoder angle, measured speed, DTC due (0/1), applied leg code
+X_THETA, X_SPEED, X_DUE, X_LEGS, X_SIZE = range(5)
+# loop state (int64): leg code applied, commanded command, held command, records, events, ticks
+L_LEGS, L_CMD, L_HELD, L_RECORDS, L_EVENTS, L_TICKS, L_SIZE = range(7)
+
+
+@njit
+def dtc_sample(kind, scfg, buf, dtc, enc_offset, out, noise):
+    """Sensors, measurement and one DTC sample of the mode arrays dtc; returns (theta, speed)."""
+    prm, st, tab, coef, legs, select, split, upper = dtc
+    i0, i1, i2 = buf[PK.B_ST + PK.ST_I], buf[PK.B_ST + PK.ST_I + 1], buf[PK.B_ST + PK.ST_I + 2]
+    v_up, v_lo = buf[PK.B_DC + PK.DC_VU], buf[PK.B_DC + PK.DC_VL]
+    ia, ib, ic, vdc, vm, w, count, angle = sense(scfg, i0, i1, i2, v_up + v_lo, v_lo,
+                                                 buf[PK.B_ST + PK.ST_TH], buf[PK.B_ST + PK.ST_W], noise)
+    i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid = measure_values(ia, ib, ic, angle, enc_offset, vdc, vm)
+    if kind == TWO_PHASE:
+        K2.two_phase_step(prm, st, tab, coef, legs, select, split, i_a, i_b, i_c, i_al, i_be, theta,
+                          v_dc, v_mid, w, out)
+    else:
+        K3.three_phase_step(prm, st, tab, coef, legs, upper, select, i_a, i_b, i_c, i_al, i_be, theta,
+                            v_dc, v_mid, w, out)
+    return theta, w
+
+
+@njit
+def record(buf, lut, lut_psi, loop, k, due, theta, w, out, rec_step, rec_sv, rec_x, rec_out):
+    """One record at tick k: state values, the DTC output (if due) and the extras (X_*)."""
+    r = loop[L_RECORDS]
+    PK.state_values(buf, lut, lut_psi, loop[L_LEGS])
+    rec_step[r] = k
+    rec_sv[r, :] = buf[PK.B_SV:PK.B_RES]
+    rec_x[r, X_THETA], rec_x[r, X_SPEED], rec_x[r, X_DUE], rec_x[r, X_LEGS] = theta, w, due, loop[L_LEGS]
+    if due and rec_out.shape[1]:
+        rec_out[r, :] = out[:rec_out.shape[1]]
+    loop[L_RECORDS] = r + 1
+
+
+@njit
+def keep_events(ev, n_ev, k, events, loop):
+    """Append a tick's located events (when, kind, phase, current) with the tick to events;
+    True when one is a trip."""
+    tripped = False
+    n = loop[L_EVENTS]
+    for e in range(min(n_ev, ev.shape[0])):
+        events[n, :4] = ev[e]
+        events[n, 4] = k
+        n += 1
+        tripped = tripped or int(ev[e, 1]) == PK.EV_TRIP
+    loop[L_EVENTS] = n
+    return tripped
+
+
+@njit
+def run_chunk(n, k0, sched, consts, loop, buf, lut, lut_psi, ev, scfg, kind, dtc, out, cmd_codes,
+              rec_step, rec_sv, rec_x, rec_out, events):
+    """Up to n base ticks from tick k0 (module doc). sched: dtc_ticks, computation_delay,
+    record_every; consts: tick [s], trip level [A], all-off leg code, safe (0/1), encoder offset;
+    loop (L_*) in/out; cmd_codes: commanded leg code of each command (mode vectors, then the
+    command held at the start). Stops early after a trip or when the record / event buffers
+    might not hold one more tick."""
+    dtc_ticks, delay, every = sched[0], sched[1], sched[2]
+    tick, level, off_code, safe, enc_offset = consts[0], consts[1], int(consts[2]), consts[3], consts[4]
+    noise = np.zeros(6)
+    theta = w = np.nan
+    legs, target = PK.legs_of_code(loop[L_LEGS]), np.empty(3, np.int64)
+    all_off = PK.legs_of_code(off_code)
+    for j in range(n):
+        k = k0 + j
+        due = dtc_ticks > 0 and k % dtc_ticks == 0
+        if due:
+            vector = 0
+            if kind != CONSTANT:
+                theta, w = dtc_sample(kind, scfg, buf, dtc, enc_offset, out, noise)
+                vector = int(out[0])
+            if delay:
+                loop[L_CMD], loop[L_HELD] = loop[L_HELD], vector
+            else:
+                loop[L_CMD] = vector
+        if every and k % every == 0:
+            record(buf, lut, lut_psi, loop, k, due, theta, w, out, rec_step, rec_sv, rec_x, rec_out)
+        PK.legs_into(off_code if safe else cmd_codes[loop[L_CMD]], target)
+        n_ev = PK.advance_legs(buf, lut, ev, k * tick, level, legs, target, all_off)
+        loop[L_LEGS] = PK.code_of(legs)
+        loop[L_TICKS] = j + 1
+        if n_ev and keep_events(ev, n_ev, k, events, loop):
+            break
+        if loop[L_RECORDS] >= rec_step.shape[0] or loop[L_EVENTS] + ev.shape[0] > events.shape[0]:
+            break

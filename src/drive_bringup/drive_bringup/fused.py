@@ -1,0 +1,169 @@
+"""Runs a headless co-simulation in compiled chunks (:mod:`.cosim_kernel`) where it applies.
+
+:class:`FusedDtcLoop` is the ``fused`` runner of :class:`bldc_plant_sim.core.cosim.CoSimulation`
+for the DTC core with a compiled mode, or a controller answering every sample with the same
+gates (``constant_gates``, e.g. FixedGateCore); without front end or PFC, with noise-free
+sensors and no shoot-through command. A pending DTC reconfiguration is applied by the
+per-sample path first (it acts at the next DTC sample). Everything else (user controllers,
+the front end) runs per sample. The trajectory is bit-identical to the per-sample path;
+records are kept as arrays (:class:`~bldc_plant_sim.core.cosim.RecordBlock`), objects built
+only when read. It works on the plant's and the schedule's internals (buffers, leg codes,
+the held command) as their own per-sample code does.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from bldc_plant_sim.core import plant_kernel as PK
+from bldc_plant_sim.core.cosim import RecordBlock
+from bldc_plant_sim.core.lockstep import ControllerKind
+from drive_common.samples import GateSample
+from dtc_controller.core.controller import DtcCore
+
+from . import cosim_kernel as F
+
+CHUNK_RECORDS = 16384      # records per chunk (a block's arrays)
+
+
+class FusedDtcLoop:
+    """``chunk(cosim, steps)``: up to steps ticks compiled, or 0 when the tick needs Python."""
+
+    def __init__(self, chunk_records: int = CHUNK_RECORDS) -> None:
+        self.chunk_records = int(chunk_records)
+        self._events = None
+
+    @staticmethod
+    def controller(cosim):
+        """The controller of cosim as the loop runs it (_ModeRun / _ConstantRun), or None."""
+        plant, dtc = cosim.plant, cosim.dtc
+        if (cosim.pfc is not None or plant.fe is not None or plant.sensors.draws
+                or cosim.schedule.pfc_ticks or getattr(dtc, 'topology', None) != plant.topology):
+            return None
+        if type(dtc) is DtcCore and dtc._pending is None and hasattr(dtc.mode, 'fused_arrays'):
+            run = _ModeRun(dtc.mode)
+        elif getattr(dtc, 'constant_gates', None) is not None:
+            run = _ConstantRun(tuple(dtc.constant_gates))
+        else:
+            return None
+        commands = [*run.commands, cosim.schedule._held[ControllerKind.GATE]]
+        return None if any(plant.inverter.shoot_through_legs(sw) for sw in commands) else run
+
+    def chunk(self, cosim, steps: int) -> int:
+        """Run up to steps ticks in one compiled call; the ticks done (0: not applicable)."""
+        run = self.controller(cosim) if steps > 0 else None
+        if run is None:
+            return 0
+        plant, sched = cosim.plant, cosim.schedule
+        every = cosim.record_every
+        n_rec = min(self.chunk_records, steps // every + 1) if every else 1
+        ev_rows = len(plant._ev)
+        if self._events is None or len(self._events) < 4 * ev_rows:
+            self._events = np.zeros((max(4096, 4 * ev_rows), 5))
+        held = sched._held[ControllerKind.GATE]
+        cmd_codes = np.array([plant.commanded_code(sw) for sw in run.commands]
+                             + [plant.commanded_code(held), plant.commanded_code()], dtype=np.int64)
+        loop = np.zeros(F.L_SIZE, dtype=np.int64)
+        nc = len(run.commands)
+        loop[F.L_LEGS], loop[F.L_CMD], loop[F.L_HELD] = plant._code(plant._legs), nc + 1, nc
+        out = np.zeros(max(run.out_size, 18))
+        rec_step = np.zeros(n_rec, np.int64)
+        rec_sv = np.zeros((n_rec, PK.SV_SIZE))
+        rec_x = np.zeros((n_rec, F.X_SIZE))
+        rec_out = np.zeros((n_rec, run.out_size))
+        consts = np.array([plant.base_tick, plant._trip_level(), plant._off_code,
+                           float(plant.in_safe_state), run.encoder_offset])
+        extras, applied0, k0 = plant.state_extras(), plant._applied, plant.step
+        F.run_chunk(steps, k0, np.array([sched.dtc_ticks, sched.computation_delay, every], np.int64),
+                    consts, loop, plant._buf, plant._lut, plant._lut_psi, plant._ev, plant.sensors.cfg,
+                    run.kind, run.arrays, out, cmd_codes, rec_step, rec_sv, rec_x, rec_out, self._events)
+        self._finish(cosim, run, loop, held)
+        n = int(loop[F.L_RECORDS])
+        if n:
+            self._add_block(cosim, run, rec_step[:n], rec_sv[:n], rec_x[:n], rec_out[:n], extras, applied0, k0)
+        return int(loop[F.L_TICKS])
+
+    def _finish(self, cosim, run, loop, held) -> None:
+        """The plant, the latch and the controller as the per-sample path leaves them."""
+        plant, sched = cosim.plant, cosim.schedule
+        commands = [*run.commands, held]
+        h = int(loop[F.L_HELD])
+        sched._held[ControllerKind.GATE] = commands[h]
+        c = int(loop[F.L_CMD])
+        if c < len(commands):
+            plant.apply_gates(commands[c])
+        plant.finish_ticks(plant.step + int(loop[F.L_TICKS]), int(loop[F.L_LEGS]),
+                           self._events[:int(loop[F.L_EVENTS])].tolist())
+        run.after()
+
+    @staticmethod
+    def _add_block(cosim, run, steps, sv, x, out, extras, applied0, k0) -> None:
+        """The chunk's records as a RecordBlock of the trajectory."""
+        plant = cosim.plant
+        switches = {}
+        applied = []
+        for r, code in enumerate(x[:, F.X_LEGS].astype(np.int64).tolist()):
+            if r == 0 and steps[0] == k0:
+                applied.append(applied0)
+                continue
+            sw = switches.get(code)
+            if sw is None:
+                sw = switches[code] = plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
+            applied.append(sw)
+        status, topology = run.status_builder(out, x[:, F.X_THETA], x[:, F.X_SPEED]), plant.topology
+        commands = run.commands
+
+        def gate(step, r):
+            return GateSample(step, topology, commands[int(out[r, 0])] if out.shape[1] else commands[0])
+
+        cosim.trajectory.pop_last_if(int(steps[0]))
+        cosim.trajectory.add_block(RecordBlock(steps, plant.base_tick, sv, applied, extras,
+                                               x[:, F.X_DUE] != 0.0, status, gate))
+
+
+_NO_SPLIT, _NO_UPPER = np.zeros((1, 1, 1), np.int64), np.zeros((1, 1), np.int64)
+
+
+class _ModeRun:
+    """A compiled DTC mode in the loop: its arrays, vectors as commands, status from the outputs."""
+
+    def __init__(self, mode) -> None:
+        self.mode = mode
+        kind, prm, st, tab, coef, legs, select, split, upper = mode.fused_arrays()
+        self.kind = kind
+        self.arrays = (prm, st, tab, coef, legs, select, _NO_SPLIT if split is None else split,
+                       _NO_UPPER if upper is None else upper)
+        self.commands = [v.switch_on for v in mode.vectors]
+        self.out_size = len(mode._out)
+        self.encoder_offset = mode.encoder_offset
+
+    def status_builder(self, out, theta, speed):
+        mode, rotation = self.mode, self.mode.rotation
+        rows = []
+
+        def status(step, r):
+            if not rows:                    # the block's outputs as Python floats, once
+                rows.extend((out.tolist(), theta.tolist(), speed.tolist()))
+            return mode.status_of(step, rotation, rows[0][r], rows[1][r], rows[2][r])
+        return status
+
+    def after(self) -> None:
+        self.mode.after_fused()
+
+
+class _ConstantRun:
+    """A controller answering every sample with the same gates and no status."""
+
+    kind = F.CONSTANT
+    arrays = (np.zeros(1), np.zeros(1), np.zeros((1, 1)), np.zeros((1, 1)), _NO_UPPER, _NO_SPLIT,
+              _NO_SPLIT, _NO_UPPER)
+    out_size = 0
+    encoder_offset = 0.0
+
+    def __init__(self, switch_on: tuple) -> None:
+        self.commands = [switch_on]
+
+    def status_builder(self, out, theta, speed):
+        return lambda step, r: None
+
+    def after(self) -> None:
+        pass
