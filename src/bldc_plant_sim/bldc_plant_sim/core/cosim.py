@@ -5,9 +5,8 @@ Same schedule as the plant node (docs/architecture.md "Time and lockstep",
 controller due at k (k % N == 0) gets its sample and answers
 ``update(sample) -> (command, status)``; the command is latched (one
 controller sample late with ``computation_delay``) and held until the next
-one; the plant advances one tick. DTC commands are
-:class:`drive_common.samples.GateSample`, PFC commands
-:class:`drive_common.samples.DutySample`.
+one; the plant advances one tick. Commands: :class:`drive_common.samples.GateSample`
+(DTC) and :class:`drive_common.samples.DutySample` (PFC).
 
 The result is a :class:`Trajectory`: per recorded tick the step, time, plant
 ground truth (PlantStateSample) and the statuses the controllers returned at
