@@ -9,9 +9,10 @@ once closed, ``metadata.yaml``. The MCAP file has profile ``ros2``, one
 metadata record written first (which clock the times are on) and a
 ``rosbag2`` metadata record holding the serialized metadata at the end.
 Messages are appended to chunks of ``chunk_size`` bytes that are compressed
-and streamed to disk, so memory stays bounded; :meth:`BagWriter.flush` closes
-the current chunk and fsyncs, so a crash loses only what came after it
-(``drive_logger.bag_reindex`` turns such a file into a complete bag).
+and streamed to disk, so memory stays bounded; :meth:`BagWriter.flush` puts
+the open chunk on disk as it stands and fsyncs, so a crash loses only what
+came after it (``drive_logger.bag_reindex`` turns such a file into a complete
+bag), while chunks are still cut by size only.
 
 No rclpy here: message data are the exact CDR bytes the caller took from a
 raw subscription.
@@ -20,12 +21,15 @@ from __future__ import annotations
 
 import os
 import threading
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
-from mcap.writer import CompressionType, Writer
+from mcap.data_stream import RecordBuilder
+from mcap.records import Chunk
+from mcap.writer import CompressionType, Writer, lz4, zstandard
 
 from drive_logger import qos_yaml
 from drive_logger.message_definitions import (NODE_STAMP, SAMPLE_STAMP, TypeDefinition, cdr_stamp_ns,
@@ -38,6 +42,9 @@ LOG_TIME_SOURCES = ('sim', 'wall')
 LOG_TIME_RECORD = 'drive_logger'
 """Name of the MCAP metadata record, written first, that says which clock the log times are on."""
 COMPRESSION = {'none': CompressionType.NONE, 'lz4': CompressionType.LZ4, 'zstd': CompressionType.ZSTD}
+_COMPRESS = {'none': ('', bytes), 'lz4': ('lz4', lambda data: lz4.frame.compress(data)),
+             'zstd': ('zstd', lambda data: zstandard.compress(data))}
+"""The chunk record's compression name and function, as mcap's writer does it."""
 
 
 class BagWriteError(RuntimeError):
@@ -195,17 +202,21 @@ class BagWriter:
         }
 
     def flush(self, sync_in_background: bool = False) -> None:
-        """Close the current chunk (with its message indexes), write it and fsync the file.
+        """Put the open chunk on disk as it stands and fsync the file; the chunk stays open.
 
-        After a crash everything written before the last flush is salvageable
-        (a killed process: at once; a power cut: once the fsync is done).
+        It is written after the closed chunks, where the chunk in its final
+        form (cut at ``chunk_size``) or the end of the file overwrites it, so
+        the finished file does not depend on when flushes came. After a crash
+        everything written before the last flush is salvageable (a killed
+        process: at once; a power cut: once the fsync is done), unless the
+        crash cuts that overwrite (a few ms): then the open chunk is lost.
         With ``sync_in_background`` the fsync runs on a helper thread, so a
         slow disk does not stall the caller (the recorder's take loop, whose
         publishers' queues are short).
         """
         if self.closed:
             return
-        self._writer.flush()
+        self._write_open_chunk()
         if not sync_in_background:
             os.fsync(self._stream.fileno())
             return
@@ -213,6 +224,22 @@ class BagWriter:
             self._syncer = threading.Thread(target=self._sync_loop, name='bag fsync', daemon=True)
             self._syncer.start()
         self._sync_wanted.set()
+
+    def _write_open_chunk(self) -> None:
+        builder = self._writer._Writer__chunk_builder    # mcap's writer keeps its open chunk private
+        if not builder.num_messages:
+            return
+        data = builder.record_writer._buffer.getvalue()
+        name, compress = _COMPRESS[self.compression]
+        record = RecordBuilder()
+        Chunk(compression=name, data=compress(data), message_start_time=builder.message_start_time,
+              message_end_time=builder.message_end_time, uncompressed_crc=zlib.crc32(data),
+              uncompressed_size=len(data)).write(record)
+        end = self._stream.tell()
+        self._stream.write(record.end())
+        self._stream.truncate()
+        self._stream.flush()
+        self._stream.seek(end)      # where mcap's writer goes on
 
     def _sync_loop(self) -> None:
         while True:
@@ -234,6 +261,7 @@ class BagWriter:
         serialized = yaml.safe_dump(self.metadata(), default_flow_style=False, sort_keys=False)
         self._writer.add_metadata('rosbag2', {'serialized_metadata': serialized, 'ROS_DISTRO': self.ros_distro})
         self._writer.finish()
+        self._stream.truncate()     # what is left of a longer open chunk flushed before
         self._stream.flush()
         os.fsync(self._stream.fileno())
         self._stream.close()

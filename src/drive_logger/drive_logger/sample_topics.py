@@ -13,20 +13,17 @@ export) or the first sample at or after each multiple of ``period`` of sim
 time (:class:`drive_common.telemetry.Decimator`, the live topics' rule: the
 recorder's viewer topics).
 
-:func:`write_canonical` copies a complete MCAP data file into a
-:class:`drive_logger.bag_writer.BagWriter` in one total order, so the file
-depends only on the messages, never on their arrival: channels registered
-sorted by topic name, messages sorted by (log time, topic, arrival order
-within the topic, bytes), chunks
-cut by size only, offered QoS profiles deduplicated and sorted. The
-recorder writes its bag this way at the end (two recordings of one scenario
-are byte-identical files), adding the viewer topics on the way; the
-exporter (:mod:`drive_logger.export`) uses it for full-rate viewer bags.
+:class:`CanonicalWriter` writes a recording in one total order as it comes,
+with the viewer topics derived on the way, and :func:`write_canonical` copies
+a complete MCAP file so (the exporter's full-rate viewer bags): the file
+depends only on the messages, never on their arrival (channels registered at
+their first message, messages sorted by (log time, topic, order within the
+topic), chunks cut by size only, offered QoS profiles deduplicated and sorted), so two
+recordings of one scenario are byte-identical files.
 """
 from __future__ import annotations
 
 import heapq
-import os
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -34,7 +31,7 @@ from mcap.reader import make_reader
 
 from drive_common.telemetry import Decimator
 from drive_logger import qos_yaml
-from drive_logger.bag_writer import BagWriter, TopicRecord
+from drive_logger.bag_writer import BagWriteError, BagWriter, TopicRecord
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
 from drive_logger.message_definitions import TypeDefinition, type_definition
 
@@ -261,28 +258,103 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
             progress(read % 1000)
 
 
-def finish_canonical(writer: BagWriter, samples: SampleTopics | None = None) -> BagWriter:
-    """Finish writer's bag with its data file in canonical order (plus the topics of samples).
+class _Stream:
+    """A topic of a :class:`CanonicalWriter`: its channel once written, its latest log time if paced."""
 
-    The data file as written (arrival order, chunks cut at every flush: what
-    a crash leaves) is finished, copied in canonical order next to it and
-    renamed over it; then metadata.yaml is written. Returns the writer of
-    the canonical file (closed), whose topics and counts metadata.yaml holds.
+    __slots__ = ('name', 'definition', 'profiles', 'paced', 'latest', 'record', 'derived', 'block', 'taken')
+
+    def __init__(self, name: str, definition: TypeDefinition, profiles: list, paced: bool = False,
+                 block: str | None = None) -> None:
+        self.name, self.definition, self.profiles, self.paced = name, definition, profiles, paced
+        self.latest = -1            # log time of the latest message (paced topics)
+        self.record: TopicRecord | None = None
+        self.derived: set[str] = set()      # per-sample topics derived from this (block) topic
+        self.block = block                  # the block topic this per-sample topic is derived from
+        self.taken = 0                      # messages taken: the order of equal log times
+
+
+class CanonicalWriter:
+    """Write a recording into a :class:`BagWriter` in canonical order while it comes.
+
+    Messages wait in a heap until :meth:`flush` is given a watermark above
+    their log time; they are then written sorted by (log time, topic, order
+    taken within the topic), each channel registered at its first message. The caller promises that
+    no message logged below a watermark comes after it (the recorder's
+    paced topics each arrive in log-time order: :meth:`watermark`); a later
+    one is still written, out of order, and counted in ``late``. samples:
+    per-sample topics derived from the block topics on the way, except the
+    names in ``reserved`` (topics recorded under that name).
     """
-    writer.finish_data()
-    tmp = writer.data_file.with_name(writer.data_file.name + '.sorting')
-    out = BagWriter(writer.path, compression=writer.compression, chunk_size=writer.chunk_size,
-                    ros_distro=writer.ros_distro, log_time=writer.log_time, data_file=tmp,
-                    file_name=writer.file_name)
-    try:
-        write_canonical(writer.data_file, out, samples)
-    except BaseException:
-        out.finish_data()
-        tmp.unlink(missing_ok=True)
-        writer.write_metadata_yaml()      # the bag as recorded stays complete
-        raise
-    out.finish_data()
-    os.replace(tmp, writer.data_file)
-    out.data_file = writer.data_file
-    out.write_metadata_yaml()
-    return out
+
+    def __init__(self, writer: BagWriter, samples: SampleTopics | None = None, reserved: Iterable[str] = ()) -> None:
+        self.writer, self.samples, self.reserved = writer, samples, set(reserved)
+        self.streams: dict[str, _Stream] = {}
+        self.late = 0
+        self._pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, n, data, publish time)
+        self._written = -1          # log time of the latest message written
+
+    @property
+    def closed(self) -> bool:
+        return self.writer.closed
+
+    def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None,
+                  paced: bool = False) -> _Stream:
+        """Declare a topic (its channel is registered at its first message written); paced: see watermark."""
+        if name in self.streams:
+            raise BagWriteError(f'topic {name!r} registered twice')
+        stream = self.streams[name] = _Stream(name, definition, _sorted_profiles(qos_profiles or []), paced)
+        if self.samples is not None:
+            for topic, (type_name, _, _) in self.samples.topics_for([name]).items():
+                if topic not in self.reserved and topic not in self.streams:
+                    self.streams[topic] = _Stream(topic, type_definition(type_name), stream.profiles, block=name)
+                    stream.derived.add(topic)
+        return stream
+
+    def write(self, stream: _Stream, data: bytes, log_time: int, publish_time: int) -> None:
+        """Take one message (and the per-sample messages derived from it)."""
+        if stream.paced and log_time > stream.latest:
+            stream.latest = log_time
+        self._push(stream, log_time, data, publish_time)
+        if stream.derived:
+            for topic, log, publish, row in self.samples.derive(stream.name, data, log_time, publish_time,
+                                                               stream.derived):
+                self._push(self.streams[topic], log, row, publish)
+
+    def _push(self, stream: _Stream, log_time: int, data: bytes, publish_time: int) -> None:
+        heapq.heappush(self._pending, (log_time, stream.name, stream.taken, data, publish_time))
+        stream.taken += 1
+
+    def watermark(self, waiting: Iterable[str] = ()) -> int | None:
+        """The least latest log time of the paced topics (None: no paced topic, no bound); -1 while
+        a topic of ``waiting`` (paced, published, nothing taken yet) has sent nothing."""
+        if any(name not in self.streams for name in waiting):
+            return -1
+        times = [s.latest for s in self.streams.values() if s.paced]
+        return min(times) if times else None
+
+    def flush(self, watermark: int | None = None, sync_in_background: bool = False) -> None:
+        """Write the messages logged before watermark (None: all) in order, then flush the writer."""
+        pending = self._pending
+        while pending and (watermark is None or pending[0][0] < watermark):
+            log_time, name, _, data, publish_time = heapq.heappop(pending)
+            stream = self.streams[name]
+            if stream.record is None:
+                stream.record = self.writer.add_topic(name, stream.definition, stream.profiles)
+            if log_time < self._written:
+                self.late += 1
+            self._written = max(self._written, log_time)
+            self.writer.write(stream.record, data, log_time, publish_time)
+        self.writer.flush(sync_in_background)
+
+    def close(self, silent: dict[str, tuple[TypeDefinition, list]] | None = None) -> None:
+        """Write everything, register the topics without a message (silent: {name: (definition,
+        QoS profiles)} too), sorted by name, then finish the bag and write metadata.yaml."""
+        self.flush()
+        for name, (definition, profiles) in (silent or {}).items():
+            if name not in self.streams:
+                self.add_topic(name, definition, profiles)
+        for name in sorted(self.streams):
+            stream = self.streams[name]
+            if stream.record is None and stream.block is None:
+                stream.record = self.writer.add_topic(name, stream.definition, stream.profiles)
+        self.writer.close()

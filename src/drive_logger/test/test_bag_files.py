@@ -120,7 +120,7 @@ def test_corrupt_chunk_is_a_clear_error(tmp_path, measurement_factory):
 
 def _stamped_bag(path, measurement_factory, flushed, unflushed, chunk_size=1 << 20):
     """A sim-time bag: `flushed` messages flushed to disk, then `unflushed` more left in the open chunk
-    (the state a SIGKILL leaves). Returns (writer, published CDR bytes, size of the file at the flush)."""
+    (the state a SIGKILL leaves). Returns (writer, published CDR bytes, the file's bytes at the last flush)."""
     from drive_logger.message_definitions import cdr_stamp_ns
     writer = BagWriter(path, chunk_size=chunk_size)
     topic = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'),
@@ -132,8 +132,8 @@ def _stamped_bag(path, measurement_factory, flushed, unflushed, chunk_size=1 << 
         sent.append(data)
         if k + 1 == flushed // 2 or k + 1 == flushed:
             writer.flush()
-            size = writer.data_file.stat().st_size
-    return writer, sent, size
+            on_disk = writer.data_file.read_bytes()
+    return writer, sent, on_disk
 
 
 def test_sim_time_bag_metadata_and_summary_agree(tmp_path, measurement_factory):
@@ -172,13 +172,15 @@ def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path,
     import shutil
     from drive_logger.bag_reindex import main, reindex
     from drive_logger.message_definitions import cdr_stamp_ns
-    writer, sent, flushed_size = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
-    # The killed recorder's directory: the file as it was on disk, plus half of a chunk being written.
+    writer, sent, flushed = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
+    # The killed recorder's directory: the file as it was at the last flush, plus half of a record
+    # being written after it (the later file's bytes there: the open chunk, grown).
     writer.flush()
     data = (tmp_path / 'live' / 'live_0.mcap').read_bytes()
+    assert len(data) > len(flushed)
     bag = tmp_path / 'bag'
     bag.mkdir()
-    cut = data[:flushed_size + (len(data) - flushed_size) // 2]
+    cut = flushed + data[len(flushed):len(flushed) + (len(data) - len(flushed)) // 2]
     (bag / 'bag_0.mcap').write_bytes(cut)
     with pytest.raises(BagReadError, match='no MCAP footer'):
         BagReader(bag)

@@ -9,7 +9,7 @@ import pytest
 from drive_logger import export
 from drive_logger.bag_reader import BagReader
 from drive_logger.bag_writer import BagWriter
-from drive_logger.sample_topics import SampleTopics, finish_canonical
+from drive_logger.sample_topics import CanonicalWriter, SampleTopics
 from drive_common.cdr_padding import canonicalize
 from drive_logger.ros_types import message_class
 from drive_testing.block_bags import scenario_bags
@@ -31,47 +31,48 @@ def _by_topic(reader, topics):
     return out
 
 
-def _shuffled_copy(source, path, seed: int) -> BagWriter:
-    """The messages of source written as a recorder may receive them: each topic in its order,
-    the topics interleaved at random (equal log times in varying order), chunks cut often."""
+def _recorded(source, path, seed: int, samples=None) -> CanonicalWriter:
+    """The messages of source recorded as the recorder takes them: each topic in its order, the
+    topics interleaved at random (equal log times in varying order), flushed at random up to the
+    watermark of the paced topics; then closed."""
+    from drive_logger.graph_topics import is_paced
     reader = BagReader(source)
-    writer = BagWriter(path, chunk_size=4096)
+    bag = CanonicalWriter(BagWriter(path, chunk_size=4096), samples, reserved=reader.topics)
     streams = {}
     for msg in reader.messages():
         streams.setdefault(msg.topic, []).append(msg)
     from drive_logger.message_definitions import TypeDefinition
     records = {}
     rng = random.Random(seed)
-    names = list(streams)
-    rng.shuffle(names)
-    for topic in names:
-        info = reader.topics[topic]
-        records[topic] = writer.add_topic(topic, TypeDefinition(info.type, reader._schema_for(info.type).data.decode(),
-                                                                info.type_hash), info.qos_profiles)
+    paced = [t for t in streams if is_paced(reader.topics[t].type)]
     while streams:
         topic = rng.choice(sorted(streams))
         msg = streams[topic].pop(0)
         if not streams[topic]:
             del streams[topic]
-        writer.write(records[topic], msg.data, msg.log_time, msg.publish_time)
+        if topic not in records:
+            info = reader.topics[topic]
+            records[topic] = bag.add_topic(topic, TypeDefinition(info.type, reader._schema_for(info.type).data.decode(),
+                                                                 info.type_hash), info.qos_profiles, paced=topic in paced)
+        bag.write(records[topic], msg.data, msg.log_time, msg.publish_time)
         if rng.random() < 0.05:
-            writer.flush()
-    return writer
+            bag.flush(bag.watermark(paced))
+    bag.close()
+    return bag
 
 
-def test_canonical_bag_does_not_depend_on_arrival_order_and_adds_viewer_topics(bags, tmp_path):
+def test_recorded_bag_does_not_depend_on_arrival_order_or_flushes_and_adds_viewer_topics(bags, tmp_path):
     files = []
     for seed in (1, 2):
         # same bag name (the file names itself in its rosbag2 record)
-        writer = finish_canonical(_shuffled_copy(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed),
-                                  SampleTopics(1e-3))
-        files.append(writer.data_file.read_bytes())
+        bag = _recorded(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed, SampleTopics(1e-3))
+        assert bag.late == 0
+        files.append(bag.writer.data_file.read_bytes())
         assert (tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').exists()
     assert files[0] == files[1]
     meta = [(tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').read_text() for seed in (1, 2)]
     assert meta[0] == meta[1]
     reader = BagReader(tmp_path / 'run1' / 'bag')
-    assert list(reader.topics) == sorted(reader.topics)
     # the bag already held decimated /plant/state and /dtc/status: kept as they are, not derived twice
     assert reader.topics['/plant/state'].message_count == BagReader(bags['blocks']).topics['/plant/state'].message_count
     times = [m.log_time for m in reader.messages()]
@@ -87,7 +88,7 @@ def test_viewer_topics_are_derived_at_the_viewer_period(bags, tmp_path):
     from drive_logger.sample_topics import write_canonical
     write_canonical(source.files[0], writer, topics=without_live)
     writer.close()
-    out = finish_canonical(_shuffled_copy(tmp_path / 'src', tmp_path / 'viewer', 3), SampleTopics(1e-3))
+    out = _recorded(tmp_path / 'src', tmp_path / 'viewer', 3, SampleTopics(1e-3)).writer
     reader = BagReader(out.path)
     assert {'/plant/state', '/dtc/status'} <= set(reader.topics)
     states = [(m.log_time, deserialize_message(m.data, PlantState)) for m in reader.messages(['/plant/state'])]
