@@ -288,10 +288,9 @@ class RecorderNode(Node):
 
     def flush(self) -> None:
         """Write what every paced topic has passed (wall log times: all) and put it on disk."""
-        waiting = [t.name for t in list(self.topics.values())     # published, nothing taken yet
-                   if t.paced and t.record is None and self.count_publishers(t.name)]
         with self._lock:
-            watermark = self.bag.watermark(waiting) if self.sim_log is not None else None
+            watermark = (self.bag.watermark([t.name for t in self.topics.values() if t.paced])
+                         if self.sim_log is not None else None)
             self.bag.flush(watermark, sync_in_background=True)
 
     def finalize(self) -> None:

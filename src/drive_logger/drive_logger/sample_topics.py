@@ -258,6 +258,10 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
             progress(read % 1000)
 
 
+START_HOLD = 100_000_000
+"""ns of sim time a subscribed paced topic that has sent nothing holds the others' messages back."""
+
+
 class _Stream:
     """A topic of a :class:`CanonicalWriter`: its channel once written, its latest log time if paced."""
 
@@ -292,6 +296,7 @@ class CanonicalWriter:
         self.late = 0
         self._pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, n, data, publish time)
         self._written = -1          # log time of the latest message written
+        self._first = 1 << 63       # log time of the first paced message
 
     @property
     def closed(self) -> bool:
@@ -314,6 +319,7 @@ class CanonicalWriter:
         """Take one message (and the per-sample messages derived from it)."""
         if stream.paced and log_time > stream.latest:
             stream.latest = log_time
+            self._first = min(self._first, log_time)
         self._push(stream, log_time, data, publish_time)
         if stream.derived:
             for topic, log, publish, row in self.samples.derive(stream.name, data, log_time, publish_time,
@@ -324,13 +330,21 @@ class CanonicalWriter:
         heapq.heappush(self._pending, (log_time, stream.name, stream.taken, data, publish_time))
         stream.taken += 1
 
-    def watermark(self, waiting: Iterable[str] = ()) -> int | None:
-        """The least latest log time of the paced topics (None: no paced topic, no bound); -1 while
-        a topic of ``waiting`` (paced, published, nothing taken yet) has sent nothing."""
-        if any(name not in self.streams for name in waiting):
-            return -1
+    def watermark(self, expected: Iterable[str] = ()) -> int | None:
+        """The least latest log time of the paced topics (None: no paced topic, no bound).
+
+        A topic of ``expected`` (the paced topics subscribed to) that has sent
+        nothing yet holds it at -1 until the others have passed START_HOLD
+        beyond the first paced message (a block topic's first message comes
+        a block later than /clock's); one silent longer is taken as absent.
+        """
         times = [s.latest for s in self.streams.values() if s.paced]
-        return min(times) if times else None
+        if not times:
+            return -1 if expected else None
+        low = min(times)
+        if low - self._first < START_HOLD and any(name not in self.streams for name in expected):
+            return -1
+        return low
 
     def flush(self, watermark: int | None = None, sync_in_background: bool = False) -> None:
         """Write the messages logged before watermark (None: all) in order, then flush the writer."""
