@@ -166,3 +166,39 @@ def test_export_options_select_topics_time_and_every_nth(bags, tmp_path, capsys)
     errors = capsys.readouterr().err.strip().splitlines()
     assert len(errors) == 3 and all(line.startswith('export: ') for line in errors)
     assert 'already exists' in errors[0] and '--every' in errors[1] and 'does not exist' in errors[2]
+
+
+def test_watermark_waits_for_each_paced_topic_for_a_while_and_a_late_message_is_still_written(tmp_path):
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from drive_logger.message_definitions import type_definition
+    from drive_logger.sample_topics import START_HOLD
+
+    def clock(ns):
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(ns, 10**9)
+        return serialize_message(msg)
+    bag = CanonicalWriter(BagWriter(tmp_path / 'bag'))
+    definition = type_definition('rosgraph_msgs/msg/Clock')
+    expected = ['/a', '/b', '/silent']
+    assert bag.watermark(expected) == -1 and bag.watermark() is None    # nothing yet; nothing paced
+    a = bag.add_topic('/a', definition, paced=True)
+    for ns in range(0, START_HOLD // 2, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    b = bag.add_topic('/b', definition, paced=True)          # its first message comes later
+    bag.write(b, clock(0), 0, 0)
+    assert bag.watermark(expected) == -1                     # /silent may still come
+    for ns in range(START_HOLD // 2, 2 * START_HOLD, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    bag.write(b, clock(START_HOLD + 10**6), START_HOLD + 10**6, START_HOLD + 10**6)
+    assert bag.watermark(expected) == START_HOLD + 10**6     # /silent counts as absent now
+    bag.flush(bag.watermark(expected))
+    assert bag.writer.topics['/a'].message_count == START_HOLD // 10**6 + 1 and bag.late == 0
+    other = bag.add_topic('/other', definition)              # not paced: expected before the watermark
+    bag.write(other, clock(5), 5, 5)
+    bag.close()
+    assert bag.late == 1
+    reader = BagReader(tmp_path / 'bag')
+    assert [m.log_time for m in reader.messages(['/b'])] == [0, START_HOLD + 10**6]
+    assert [m.log_time for m in reader.messages(['/other'])] == [5]
+    assert reader.topics['/a'].message_count == 2 * START_HOLD // 10**6
