@@ -20,6 +20,7 @@ raw subscription.
 from __future__ import annotations
 
 import os
+import struct
 import threading
 import zlib
 from dataclasses import dataclass, field
@@ -45,6 +46,8 @@ COMPRESSION = {'none': CompressionType.NONE, 'lz4': CompressionType.LZ4, 'zstd':
 _COMPRESS = {'none': ('', bytes), 'lz4': ('lz4', lambda data: lz4.frame.compress(data)),
              'zstd': ('zstd', lambda data: zstandard.compress(data))}
 """The chunk record's compression name and function, as mcap's writer does it."""
+OPEN_CHUNK_SUFFIX = '.open-chunk'
+"""Beside the data file while recording: the offset (uint64) and record of the open chunk last flushed."""
 
 
 class BagWriteError(RuntimeError):
@@ -206,10 +209,12 @@ class BagWriter:
 
         It is written after the closed chunks, where the chunk in its final
         form (cut at ``chunk_size``) or the end of the file overwrites it, so
-        the finished file does not depend on when flushes came. After a crash
-        everything written before the last flush is salvageable (a killed
-        process: at once; a power cut: once the fsync is done), unless the
-        crash cuts that overwrite (a few ms): then the open chunk is lost.
+        the finished file does not depend on when flushes came. The same
+        record goes first to ``<data file>.open-chunk`` (atomically, with its
+        offset), which a reader of a cut file takes where the file's intact
+        part ends at that offset (:func:`drive_logger.bag_reader.intact_records`).
+        So after a kill everything written before the last flush is
+        salvageable; after a power cut, once the fsync is done.
         With ``sync_in_background`` the fsync runs on a helper thread, so a
         slow disk does not stall the caller (the recorder's take loop, whose
         publishers' queues are short).
@@ -236,7 +241,12 @@ class BagWriter:
               message_end_time=builder.message_end_time, uncompressed_crc=zlib.crc32(data),
               uncompressed_size=len(data)).write(record)
         end = self._stream.tell()
-        self._stream.write(record.end())
+        chunk = record.end()
+        journal = self.data_file.with_name(self.data_file.name + OPEN_CHUNK_SUFFIX)
+        tmp = journal.with_name(journal.name + '.tmp')
+        tmp.write_bytes(struct.pack('<Q', end) + chunk)
+        os.replace(tmp, journal)
+        self._stream.write(chunk)
         self._stream.truncate()
         self._stream.flush()
         self._stream.seek(end)      # where mcap's writer goes on
@@ -265,6 +275,7 @@ class BagWriter:
         self._stream.flush()
         os.fsync(self._stream.fileno())
         self._stream.close()
+        self.data_file.with_name(self.data_file.name + OPEN_CHUNK_SUFFIX).unlink(missing_ok=True)
 
     def write_metadata_yaml(self) -> None:
         """Write metadata.yaml atomically (temporary file, then rename)."""

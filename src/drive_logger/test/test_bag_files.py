@@ -2,6 +2,7 @@
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -207,6 +208,29 @@ def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path,
     assert main([str(bag)]) == 0
     assert (bag / 'bag_0.mcap.orig.1').read_bytes() == cut
     assert [m.data for m in BagReader(bag).messages()] == sent[:200]
+
+
+def test_a_kill_cutting_the_open_chunk_rewrite_keeps_the_flushed_messages_from_beside_the_file(
+        tmp_path, measurement_factory):
+    import struct
+    from drive_logger.bag_reindex import reindex
+    writer, sent, flushed = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
+    writer.flush()                  # all 257 in the open chunk, rewritten in place
+    live = tmp_path / 'live' / 'live_0.mcap'
+    data, journal = live.read_bytes(), Path(f'{live}.open-chunk').read_bytes()
+    offset = struct.unpack_from('<Q', journal)[0]
+    assert data[offset:] == journal[8:] and offset < len(flushed)     # where the 200 were
+    for name, cut, kept in (('rewrite', data[:offset + (len(data) - offset) // 2], 257),   # cut in the rewrite
+                            ('after', flushed + b'\x06' + bytes(40), 200)):   # intact to a later cut: not used
+        bag = tmp_path / name
+        bag.mkdir()
+        (bag / 'bag_0.mcap').write_bytes(cut)
+        (bag / 'bag_0.mcap.open-chunk').write_bytes(journal)
+        assert [m.data for m in BagReader(bag, salvage=True).messages()] == sent[:kept], name
+        assert reindex(bag).message_count == kept
+        assert [m.data for m in BagReader(bag).messages()] == sent[:kept], name
+    writer.close()
+    assert not Path(f'{live}.open-chunk').exists()
 
 
 def test_reindex_of_a_malformed_bag_is_a_one_line_error(tmp_path, capsys):

@@ -52,8 +52,8 @@ def _recorded(source, path, seed: int, samples=None) -> CanonicalWriter:
             del streams[topic]
         if topic not in records:
             info = reader.topics[topic]
-            records[topic] = bag.add_topic(topic, TypeDefinition(info.type, reader._schema_for(info.type).data.decode(),
-                                                                 info.type_hash), info.qos_profiles, paced=topic in paced)
+            definition = TypeDefinition(info.type, reader._schema_for(info.type).data.decode(), info.type_hash)
+            records[topic] = bag.add_topic(topic, definition, info.qos_profiles, paced=topic in paced)
         bag.write(records[topic], msg.data, msg.log_time, msg.publish_time)
         if rng.random() < 0.05:
             bag.flush(bag.watermark(paced))
