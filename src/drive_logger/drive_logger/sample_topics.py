@@ -60,6 +60,7 @@ class SampleTopics:
         self.start_ns, self.end_ns = start_ns, end_ns
         self._decimators: dict[str, Decimator] = {}
         self._counters: dict[str, int] = {}
+        self._templates: dict = {}      # sample_cdr's templates, per layout
 
     def topics_for(self, block_topics: Iterable[str]) -> dict[str, tuple[str, str, int]]:
         """{per-sample topic: (type name, block topic, part)} derived from the given block topics."""
@@ -103,7 +104,7 @@ class SampleTopics:
             return
         names = BLOCK_TOPICS[block_topic][1]
         parts = [(p, names[p]) for p in self.parts if p < len(names) and (wanted is None or names[p] in wanted)]
-        rows = {part: sample_cdr(block, part, kept) for part, _ in parts}
+        rows = {part: sample_cdr(block, part, kept, self._templates) for part, _ in parts}
         for j, i in enumerate(kept):
             offset = stamps[i] - stamps[0]
             for part, topic in parts:
@@ -143,25 +144,32 @@ def _field_offsets(msg) -> tuple[dict[str, int], int]:
     return offsets, pos
 
 
-def sample_cdr(block, part: int, indices: list[int]) -> list[bytes]:
+def sample_cdr(block, part: int, indices: list[int], templates: dict | None = None) -> list[bytes]:
     """Canonical CDR of the per-sample messages of one part of a block, samples `indices`.
 
     All samples of a block share one layout (one frame_id, one mode string), so
     the first is serialized by rclpy (canonical_bytes: padding zeroed) as the
     template and the others get their values written at the fields' offsets,
     all samples at once: the bytes equal each message's own canonical
-    serialization (test_export), at a fraction of the cost.
+    serialization (test_export), at a fraction of the cost. templates: keep
+    the templates there for the next blocks of the same layout.
     """
     import numpy as np
     from rclpy.serialization import serialize_message
     from drive_common.cdr_padding import canonical_bytes
     from drive_common.telemetry_blocks import block_columns, expand, layout, sample_stamps_ns
 
-    first = next(expand(block, indices[:1]))[part]
-    template = canonical_bytes(first, serialize_message(first))
-    offsets, end = _field_offsets(first)
-    if template[1] != 1 or ENCAPSULATION + end != len(template):
-        raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(template)} bytes)')
+    lay = layout(type(block))
+    key = (type(block), part, block.header.frame_id, *(getattr(block, c.name) for c in lay.per_block))
+    cached = templates.get(key) if templates is not None else None
+    if cached is None:
+        first = next(expand(block, indices[:1]))[part]
+        cached = canonical_bytes(first, serialize_message(first)), _field_offsets(first)
+        if cached[0][1] != 1 or ENCAPSULATION + cached[1][1] != len(cached[0]):
+            raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(cached[0])} bytes)')
+        if templates is not None:
+            templates[key] = cached
+    template, (offsets, _) = cached
     rows = np.tile(np.frombuffer(template, dtype=np.uint8), (len(indices), 1))
     index = np.asarray(indices)
 
@@ -174,7 +182,7 @@ def sample_cdr(block, part: int, indices: list[int]) -> list[bytes]:
     put('header.stamp.nanosec', (stamps % 1_000_000_000).astype('<u4'))
     columns = block_columns(block)
     put('step', columns['step'][index].astype('<u8'))
-    for column in layout(type(block)).columns:
+    for column in lay.columns:
         if column.part == part:
             put(column.source, columns[column.name][index].astype(_CDR_DTYPES[column.element]))
     return [row.tobytes() for row in rows]
