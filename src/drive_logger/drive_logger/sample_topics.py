@@ -24,6 +24,7 @@ recordings of one scenario are byte-identical files.
 from __future__ import annotations
 
 import heapq
+import struct
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
@@ -170,6 +171,8 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
         if templates is not None:
             templates[key] = cached
     template, (offsets, _) = cached
+    if len(indices) <= FEW_SAMPLES:
+        return _packed_rows(block, part, indices, template, offsets)
     rows = np.tile(np.frombuffer(template, dtype=np.uint8), (len(indices), 1))
     index = np.asarray(indices)
 
@@ -186,6 +189,33 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
         if column.part == part:
             put(column.source, columns[column.name][index].astype(_CDR_DTYPES[column.element]))
     return [row.tobytes() for row in rows]
+
+
+FEW_SAMPLES = 8
+"""Up to this many samples of a block (the recorder's decimated viewer topics), sample_cdr packs each
+row with struct: fewer calls than numpy's per column, which pays off for many samples."""
+_STRUCT = {'double': 'd', 'float': 'f', 'int64': 'q', 'uint64': 'Q', 'int32': 'i', 'uint32': 'I', 'int16': 'h',
+           'uint16': 'H', 'int8': 'b', 'uint8': 'B', 'boolean': '?', 'octet': 'B', 'char': 'B'}
+
+
+def _packed_rows(block, part: int, indices: list[int], template: bytes, offsets: dict[str, int]) -> list[bytes]:
+    """sample_cdr's rows for a few samples, each value packed at its field's offset."""
+    from drive_common.telemetry_blocks import check_lengths, layout, sample_stamps_ns
+    lay = layout(type(block))
+    check_lengths(block, lay)
+    fields = [(ENCAPSULATION + offsets[c.source], f'<{c.width}{_STRUCT[c.element]}', getattr(block, c.name), c.width)
+              for c in lay.columns if c.part == part]
+    stamp_at, step_at = ENCAPSULATION + offsets['header.stamp.sec'], ENCAPSULATION + offsets['step']
+    stamps = sample_stamps_ns(block).tolist()
+    rows = []
+    for i in indices:
+        row = bytearray(template)
+        struct.pack_into('<iI', row, stamp_at, *divmod(stamps[i], 1_000_000_000))
+        struct.pack_into('<Q', row, step_at, block.first_step + i * block.step_stride)
+        for at, fmt, values, width in fields:
+            struct.pack_into(fmt, row, at, *values[i * width:(i + 1) * width])
+        rows.append(bytes(row))
+    return rows
 
 
 def _type_name(msg_class: type) -> str:
