@@ -304,6 +304,8 @@ class RecorderNode(Node):
         if self.bag.late:
             self.get_logger().warning(f'{self.bag.late} message(s) came after later ones had been written: '
                                       'the bag holds them out of log-time order')
+        if self.bag.underived:
+            self.get_logger().warning(f'{self.bag.underived} block(s) did not decode: no viewer messages from them')
         counts = {name: t.message_count for name, t in self.writer.topics.items()}
         self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
 

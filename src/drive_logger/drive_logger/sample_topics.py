@@ -325,13 +325,15 @@ class CanonicalWriter:
     paced topics each arrive in log-time order: :meth:`watermark`); a later
     one is still written, out of order, and counted in ``late``. samples:
     per-sample topics derived from the block topics on the way, except the
-    names in ``reserved`` (topics recorded under that name).
+    names in ``reserved`` (topics recorded under that name); a block that
+    does not decode is written without them and counted in ``underived``.
     """
 
     def __init__(self, writer: BagWriter, samples: SampleTopics | None = None, reserved: Iterable[str] = ()) -> None:
         self.writer, self.samples, self.reserved = writer, samples, set(reserved)
         self.streams: dict[str, _Stream] = {}
         self.late = 0
+        self.underived = 0          # blocks whose per-sample messages could not be derived
         self._pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, n, data, publish time)
         self._written = -1          # log time of the latest message written
         self._first = 1 << 63       # log time of the first paced message
@@ -359,10 +361,15 @@ class CanonicalWriter:
             stream.latest = log_time
             self._first = min(self._first, log_time)
         self._push(stream, log_time, data, publish_time)
-        if stream.derived:
-            for topic, log, publish, row in self.samples.derive(stream.name, data, log_time, publish_time,
-                                                               stream.derived):
-                self._push(self.streams[topic], log, row, publish)
+        if not stream.derived:
+            return
+        try:
+            rows = list(self.samples.derive(stream.name, data, log_time, publish_time, stream.derived))
+        except Exception:  # noqa: BLE001 - a block that does not decode (rclpy raises bare errors)
+            self.underived += 1
+            return
+        for topic, log, publish, row in rows:
+            self._push(self.streams[topic], log, row, publish)
 
     def _push(self, stream: _Stream, log_time: int, data: bytes, publish_time: int) -> None:
         heapq.heappush(self._pending, (log_time, stream.name, stream.taken, data, publish_time))

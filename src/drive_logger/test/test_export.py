@@ -66,7 +66,7 @@ def test_recorded_bag_does_not_depend_on_arrival_order_or_flushes_and_adds_viewe
     for seed in (1, 2):
         # same bag name (the file names itself in its rosbag2 record)
         bag = _recorded(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed, SampleTopics(1e-3))
-        assert bag.late == 0
+        assert bag.late == 0 and bag.underived == 0
         files.append(bag.writer.data_file.read_bytes())
         assert (tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').exists()
     assert files[0] == files[1]
@@ -202,3 +202,16 @@ def test_watermark_waits_for_each_paced_topic_for_a_while_and_a_late_message_is_
     assert [m.log_time for m in reader.messages(['/b'])] == [0, START_HOLD + 10**6]
     assert [m.log_time for m in reader.messages(['/other'])] == [5]
     assert reader.topics['/a'].message_count == 2 * START_HOLD // 10**6
+
+
+def test_a_block_that_does_not_decode_is_recorded_without_viewer_messages(bags, tmp_path):
+    from drive_logger.message_definitions import type_definition
+    block = next(BagReader(bags['blocks']).messages(['/plant/state_block']))
+    bag = CanonicalWriter(BagWriter(tmp_path / 'bag'), SampleTopics(1e-3))
+    stream = bag.add_topic('/plant/state_block', type_definition('dtc_msgs/msg/PlantStateBlock'), paced=True)
+    bag.write(stream, block.data[:40], 0, 0)                     # cut: does not decode
+    bag.write(stream, block.data, block.log_time, block.publish_time)
+    bag.close()
+    assert bag.underived == 1
+    reader = BagReader(tmp_path / 'bag')
+    assert reader.topics['/plant/state_block'].message_count == 2 and reader.topics['/plant/state'].message_count
