@@ -28,9 +28,13 @@ import struct
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
+import numpy as np
 from mcap.reader import make_reader
+from rclpy.serialization import deserialize_message, serialize_message
 
+from drive_common.cdr_padding import canonical_bytes
 from drive_common.telemetry import Decimator
+from drive_common.telemetry_blocks import block_columns, check_lengths, expand, layout, sample_stamps_ns
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriteError, BagWriter, TopicRecord
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
@@ -79,9 +83,6 @@ class SampleTopics:
     def derive(self, block_topic: str, data: bytes, log_time: int, publish_time: int,
                wanted: set[str] | None = None) -> Iterator[tuple[str, int, int, bytes]]:
         """(topic, log time, publish time, canonical CDR) of the kept samples of one block message."""
-        from rclpy.serialization import deserialize_message
-        from drive_common.telemetry_blocks import sample_stamps_ns
-
         block = deserialize_message(data, block_class(block_topic))
         if not block.count:
             return
@@ -155,11 +156,6 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
     serialization (test_export), at a fraction of the cost. templates: keep
     the templates there for the next blocks of the same layout.
     """
-    import numpy as np
-    from rclpy.serialization import serialize_message
-    from drive_common.cdr_padding import canonical_bytes
-    from drive_common.telemetry_blocks import block_columns, expand, layout, sample_stamps_ns
-
     lay = layout(type(block))
     key = (type(block), part, block.header.frame_id, *(getattr(block, c.name) for c in lay.per_block))
     cached = templates.get(key) if templates is not None else None
@@ -200,7 +196,6 @@ _STRUCT = {'double': 'd', 'float': 'f', 'int64': 'q', 'uint64': 'Q', 'int32': 'i
 
 def _packed_rows(block, part: int, indices: list[int], template: bytes, offsets: dict[str, int]) -> list[bytes]:
     """sample_cdr's rows for a few samples, each value packed at its field's offset."""
-    from drive_common.telemetry_blocks import check_lengths, layout, sample_stamps_ns
     lay = layout(type(block))
     check_lengths(block, lay)
     fields = [(ENCAPSULATION + offsets[c.source], f'<{c.width}{_STRUCT[c.element]}', getattr(block, c.name), c.width)
