@@ -14,12 +14,12 @@ time (:class:`drive_common.telemetry.Decimator`, the live topics' rule: the
 recorder's viewer topics).
 
 :class:`CanonicalWriter` writes a recording in one total order as it comes,
-with the viewer topics derived on the way, and :func:`write_canonical` copies
-a complete MCAP file so (the exporter's full-rate viewer bags): the file
-depends only on the messages, never on their arrival (channels registered at
-their first message, messages sorted by (log time, topic, order within the
-topic), chunks cut by size only, offered QoS profiles deduplicated and sorted), so two
-recordings of one scenario are byte-identical files.
+with the viewer topics derived on the way, and :func:`write_canonical`
+copies a complete MCAP file so (the exporter's full-rate viewer bags): the
+file depends only on the messages, never on their arrival (messages sorted
+by (log time, topic, order within the topic), chunks cut by size only,
+offered QoS profiles deduplicated and sorted), so two recordings of one
+scenario are byte-identical files.
 """
 from __future__ import annotations
 
