@@ -291,8 +291,8 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
             progress(read % 1000)
 
 
-START_HOLD = 100_000_000
-"""ns of sim time a subscribed paced topic that has sent nothing holds the others' messages back."""
+HOLD = 100_000_000
+"""ns of sim time a paced topic may fall behind the one furthest ahead and still hold the others back."""
 
 
 class _Stream:
@@ -373,18 +373,19 @@ class CanonicalWriter:
     def watermark(self, expected: Iterable[str] = ()) -> int | None:
         """The least latest log time of the paced topics (None: no paced topic, no bound).
 
-        A topic of ``expected`` (the paced topics subscribed to) that has sent
-        nothing yet holds it at -1 until the others have passed START_HOLD
-        beyond the first paced message (a block topic's first message comes
-        a block later than /clock's); one silent longer is taken as absent.
+        A paced topic more than HOLD behind the one furthest ahead (stalled)
+        does not count; one of ``expected`` (the paced topics subscribed to)
+        that has sent nothing holds it at -1 until the one furthest ahead is
+        HOLD past the first paced message (a block topic's first message
+        comes a block later than /clock's). Their later messages are late.
         """
         times = [s.latest for s in self.streams.values() if s.paced]
         if not times:
             return -1 if expected else None
-        low = min(times)
-        if low - self._first < START_HOLD and any(name not in self.streams for name in expected):
+        lead = max(times)
+        if lead - self._first <= HOLD and any(name not in self.streams for name in expected):
             return -1
-        return low
+        return min(t for t in times if t >= lead - HOLD)
 
     def flush(self, watermark: int | None = None, sync_in_background: bool = False) -> None:
         """Write the messages logged before watermark (None: all) in order, then flush the writer."""

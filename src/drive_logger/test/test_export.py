@@ -172,7 +172,7 @@ def test_watermark_waits_for_each_paced_topic_for_a_while_and_a_late_message_is_
     from rclpy.serialization import serialize_message
     from rosgraph_msgs.msg import Clock
     from drive_logger.message_definitions import type_definition
-    from drive_logger.sample_topics import START_HOLD
+    from drive_logger.sample_topics import HOLD
 
     def clock(ns):
         msg = Clock()
@@ -183,25 +183,28 @@ def test_watermark_waits_for_each_paced_topic_for_a_while_and_a_late_message_is_
     expected = ['/a', '/b', '/silent']
     assert bag.watermark(expected) == -1 and bag.watermark() is None    # nothing yet; nothing paced
     a = bag.add_topic('/a', definition, paced=True)
-    for ns in range(0, START_HOLD // 2, 10**6):
+    for ns in range(0, HOLD // 2, 10**6):
         bag.write(a, clock(ns), ns, ns)
     b = bag.add_topic('/b', definition, paced=True)          # its first message comes later
     bag.write(b, clock(0), 0, 0)
     assert bag.watermark(expected) == -1                     # /silent may still come
-    for ns in range(START_HOLD // 2, 2 * START_HOLD, 10**6):
+    for ns in range(HOLD // 2, 2 * HOLD, 10**6):
         bag.write(a, clock(ns), ns, ns)
-    bag.write(b, clock(START_HOLD + 10**6), START_HOLD + 10**6, START_HOLD + 10**6)
-    assert bag.watermark(expected) == START_HOLD + 10**6     # /silent counts as absent now
+    bag.write(b, clock(HOLD + 10**6), HOLD + 10**6, HOLD + 10**6)
+    assert bag.watermark(expected) == HOLD + 10**6     # /silent counts as absent now
     bag.flush(bag.watermark(expected))
-    assert bag.writer.topics['/a'].message_count == START_HOLD // 10**6 + 1 and bag.late == 0
+    assert bag.writer.topics['/a'].message_count == HOLD // 10**6 + 1 and bag.late == 0
+    for ns in range(2 * HOLD, 4 * HOLD, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    assert bag.watermark(expected) == 4 * HOLD - 10**6         # /b, stalled for longer than HOLD, does not count
     other = bag.add_topic('/other', definition)              # not paced: expected before the watermark
     bag.write(other, clock(5), 5, 5)
     bag.close()
     assert bag.late == 1
     reader = BagReader(tmp_path / 'bag')
-    assert [m.log_time for m in reader.messages(['/b'])] == [0, START_HOLD + 10**6]
+    assert [m.log_time for m in reader.messages(['/b'])] == [0, HOLD + 10**6]
     assert [m.log_time for m in reader.messages(['/other'])] == [5]
-    assert reader.topics['/a'].message_count == 2 * START_HOLD // 10**6
+    assert reader.topics['/a'].message_count == 4 * HOLD // 10**6
 
 
 def test_a_block_that_does_not_decode_is_recorded_without_viewer_messages(bags, tmp_path):
