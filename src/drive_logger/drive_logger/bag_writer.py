@@ -150,6 +150,7 @@ class BagWriter:
         self._syncer: threading.Thread | None = None
         self._sync_wanted = threading.Event()
         self._stop_syncing = False
+        self._flushed = (0, 0)          # (offset, size) of the open chunk last flushed
 
     def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None) -> TopicRecord:
         """Register a topic (channel, and its type's schema once); return its record."""
@@ -232,15 +233,16 @@ class BagWriter:
 
     def _write_open_chunk(self) -> None:
         builder = self._writer._Writer__chunk_builder    # mcap's writer keeps its open chunk private
-        if not builder.num_messages:
+        end = self._stream.tell()
+        if not builder.num_messages or self._flushed == (end, builder.count):   # nothing new (a hold)
             return
+        self._flushed = (end, builder.count)
         data = builder.record_writer._buffer.getvalue()
         name, compress = _COMPRESS[self.compression]
         record = RecordBuilder()
         Chunk(compression=name, data=compress(data), message_start_time=builder.message_start_time,
               message_end_time=builder.message_end_time, uncompressed_crc=zlib.crc32(data),
               uncompressed_size=len(data)).write(record)
-        end = self._stream.tell()
         chunk = record.end()
         journal = self.data_file.with_name(self.data_file.name + OPEN_CHUNK_SUFFIX)
         tmp = journal.with_name(journal.name + '.tmp')
@@ -298,7 +300,8 @@ class BagWriter:
 
 
 class SimTimeLog:
-    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; docs/architecture.md "Bags").
+    """Sim-time log times for a :class:`BagWriter` or the recorder's
+    :class:`drive_logger.sample_topics.CanonicalWriter` (``log_time='sim'``; docs/architecture.md "Bags").
 
     A message that carries its sample's sim time (kind SAMPLE_STAMP,
     :func:`message_definitions.sim_stamp_kind`) is written at once, logged and
