@@ -7,8 +7,9 @@ advanced (as bench_telemetry.py's recorder memory run), zstd chunks like a
 recorded bag. Then, each in its own process (peak RSS = the child's
 ru_maxrss):
 
-1. the recorder's end of recording: its data file rewritten in canonical
-   order with the 1 ms viewer topics (drive_logger.sample_topics.finish_canonical);
+1. the recorder's writing: the bag's messages through
+   drive_logger.sample_topics.CanonicalWriter (canonical order, 1 ms viewer
+   topics derived), flushed now and then, as the recorder does while recording;
 2. ``drive_logger export --to parquet`` (one row per sample);
 3. ``drive_logger export --to mcap`` (one message per sample; the slowest).
 
@@ -29,17 +30,27 @@ SCENARIO = 'two_phase_six_switch_nonideal_torque'
 SOURCE_SECONDS = 0.02      # s of sim time actually simulated; the rest repeats it
 GOAL_MB = 300.0
 
-FINISH = '''
+RECORD = '''
 import sys
 from drive_logger.bag_writer import BagWriter
 from drive_logger.bag_reader import BagReader
-from drive_logger.sample_topics import SampleTopics, finish_canonical
+from drive_logger.graph_topics import is_paced
+from drive_logger.message_definitions import TypeDefinition
+from drive_logger.sample_topics import CanonicalWriter, SampleTopics
 source = BagReader(sys.argv[1])
-writer = BagWriter(sys.argv[2], compression='zstd')
-from drive_logger.sample_topics import write_canonical
-write_canonical(source.files[0], writer)          # the recorder's data file, as recorded
-out = finish_canonical(writer, SampleTopics(1e-3))
-print(out.message_count)
+paced = [t for t, info in source.topics.items() if is_paced(info.type)]
+bag = CanonicalWriter(BagWriter(sys.argv[2], compression='zstd'), SampleTopics(1e-3), reserved=source.topics)
+streams = {}
+for n, m in enumerate(source.messages(), 1):      # as the recorder takes them, flushing now and then
+    if m.topic not in streams:
+        info = source.topics[m.topic]
+        definition = TypeDefinition(info.type, source._schema_for(info.type).data.decode(), info.type_hash)
+        streams[m.topic] = bag.add_topic(m.topic, definition, info.qos_profiles, paced=m.topic in paced)
+    bag.write(streams[m.topic], m.data, m.log_time, m.publish_time)
+    if n % 2000 == 0:
+        bag.flush(bag.watermark(paced))
+bag.close()
+print(bag.writer.message_count)
 '''
 
 
@@ -107,8 +118,8 @@ def main() -> int:
         size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6
         print(f'synthetic bag: {args.sim_seconds:g} s sim at 25 us, {samples} samples, {size:.0f} MB zstd '
               f'({time.perf_counter() - start:.0f} s to write)')
-        steps = [('recorder end: canonical order + 1 ms viewer topics',
-                  [sys.executable, '-c', FINISH, str(bag), str(Path(tmp) / 'canonical')]),
+        steps = [('recorder writing: canonical order + 1 ms viewer topics',
+                  [sys.executable, '-c', RECORD, str(bag), str(Path(tmp) / 'canonical')]),
                  ('export --to parquet', [sys.executable, '-m', 'drive_logger.export', str(bag), '--to', 'parquet',
                                           str(Path(tmp) / 'tables'), '--quiet'])]
         if not args.skip_mcap:

@@ -166,9 +166,7 @@ class GraphRunner:
             # safe state (/diagnostics, plant/state) so the bag shows what happened.
             time.sleep(self.scenario.node_parameters['plant']['command_timeout'] + 0.5)
         if recorder is not None:
-            # at stop the recorder rewrites its bag in canonical order: allow ~0.5 ms per plant sample
-            samples = self.scenario.duration / self.scenario.node_parameters['plant']['base_tick']
-            code = recorder.stop(timeout=60.0 + 5e-4 * samples)
+            code = recorder.stop(timeout=60.0)
             if code not in (0, None):
                 self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-2000:]}')
         for key, process in self.processes.items():

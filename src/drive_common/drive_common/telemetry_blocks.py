@@ -273,7 +273,8 @@ class BlockStream:
             self._publish(self._serialize(block))
 
 
-def _check_lengths(block, lay: BlockLayout) -> None:
+def check_lengths(block, lay: BlockLayout) -> None:
+    """ValueError unless every array of block holds count x width elements."""
     count = block.count
     for column in lay.columns:
         if len(getattr(block, column.name)) != count * column.width:
@@ -299,7 +300,7 @@ def block_columns(block) -> dict[str, np.ndarray]:
     whose arrays do not match its count.
     """
     lay = layout(type(block))
-    _check_lengths(block, lay)
+    check_lengths(block, lay)
     count = block.count
     index = np.arange(count, dtype=np.int64)
     ns = sample_stamps_ns(block)
@@ -327,7 +328,7 @@ def expand(block, indices=None) -> Iterator[tuple]:
     samples (ascending sample indexes in the block; None: every sample).
     """
     lay = layout(type(block))
-    _check_lengths(block, lay)
+    check_lengths(block, lay)
     count = block.count
     rows = list(range(count)) if indices is None else list(indices)
     stamps = sample_stamps_ns(block).tolist()

@@ -6,15 +6,16 @@ magic, lacks its footer (truncated, e.g. the recorder was killed) or has a
 corrupt record is a :class:`BagReadError` whose message names the file and the
 problem. With ``salvage=True`` the intact part is read instead: records are
 streamed from the start of the file up to the first damaged one (for a
-truncated file: every complete chunk; :func:`intact_records`, which
-``drive_logger.bag_reindex`` uses too).
+truncated file: every complete chunk, and the open chunk the writer flushed
+beside it; :func:`intact_records`, which ``drive_logger.bag_reindex`` uses too).
 """
 from __future__ import annotations
 
 import dataclasses
 import functools
-
+import io
 import os
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Iterator
@@ -27,7 +28,7 @@ from mcap.stream_reader import StreamReader
 from mcap_ros2.decoder import DecoderFactory
 
 from drive_logger import qos_yaml
-from drive_logger.bag_writer import LOG_TIME_RECORD
+from drive_logger.bag_writer import LOG_TIME_RECORD, OPEN_CHUNK_SUFFIX
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 SALVAGE_HINT = (' (to use the intact part: --salvage for analyze and compare_replay, '
@@ -86,13 +87,35 @@ def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
     before it and nothing of the cut one. What ended the intact part (a cut, a
     bad CRC, a corrupt record) is appended to problems, naming the file.
     """
+    end = stream.tell()
     try:
         for record in StreamReader(stream, validate_crcs=True).records:
             yield record
+            end = stream.tell()
     except Exception as exc:  # noqa: BLE001 - the intact part ends at the first damaged record
         why = ('the file ends inside a record (truncated)' if isinstance(exc, EndOfFile)
                else f'{type(exc).__name__}: {exc}')
         problems.append(f'{name!r}: intact part ends at byte {stream.tell()} ({why})')
+        yield from _open_chunk(stream, end, problems, name)
+
+
+def _open_chunk(stream, end: int, problems: list[str], name: str) -> Iterator[Any]:
+    """The records of the open chunk the writer put beside the file (OPEN_CHUNK_SUFFIX) if it
+    belongs where the intact part ends: a kill cut the chunk's overwrite in the file."""
+    try:
+        journal = Path(stream.name + OPEN_CHUNK_SUFFIX).read_bytes()
+    except (AttributeError, TypeError, OSError):
+        return
+    if len(journal) < 8 or struct.unpack_from('<Q', journal)[0] != end:
+        return
+    try:
+        for record in StreamReader(io.BytesIO(journal[8:]), skip_magic=True, validate_crcs=True).records:
+            yield record
+    except EndOfFile:
+        problems.append(f'{name!r}: the open chunk at byte {end} taken from '
+                        f'{Path(stream.name).name}{OPEN_CHUNK_SUFFIX}')
+    except Exception as exc:  # noqa: BLE001
+        problems.append(f'{name!r}: the open chunk beside it is damaged too ({type(exc).__name__}: {exc})')
 
 
 def log_time_record(records: Iterator[Any]) -> tuple[dict[str, str], list]:

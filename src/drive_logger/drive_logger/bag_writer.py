@@ -6,8 +6,9 @@ type, one ``cdr`` channel per topic (offered QoS and type hash in its metadata),
 messages at the log and publish times the caller gives (:data:`LOG_TIME_SOURCES`),
 a ``drive_logger`` metadata record first and the ``rosbag2`` one at the end.
 Chunks of ``chunk_size`` bytes are compressed and streamed to disk (bounded
-memory); :meth:`BagWriter.flush` closes the chunk and fsyncs, so a crash loses
-only what came after it (``drive_logger.bag_reindex`` completes such a file).
+memory); :meth:`BagWriter.flush` puts the open chunk on disk as it stands and
+fsyncs, so a crash loses only what came after it (``drive_logger.bag_reindex``
+completes such a file), while chunks are still cut by size only.
 
 No rclpy here: message data are the exact CDR bytes the caller took from a
 raw subscription.
@@ -15,13 +16,17 @@ raw subscription.
 from __future__ import annotations
 
 import os
+import struct
 import threading
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
-from mcap.writer import CompressionType, Writer
+from mcap.data_stream import RecordBuilder
+from mcap.records import Chunk
+from mcap.writer import CompressionType, Writer, lz4, zstandard
 
 from drive_logger import qos_yaml
 from drive_logger.message_definitions import (NODE_STAMP, SAMPLE_STAMP, TypeDefinition, cdr_stamp_ns,
@@ -34,6 +39,11 @@ LOG_TIME_SOURCES = ('sim', 'wall')
 LOG_TIME_RECORD = 'drive_logger'
 """Name of the MCAP metadata record, written first, that says which clock the log times are on."""
 COMPRESSION = {'none': CompressionType.NONE, 'lz4': CompressionType.LZ4, 'zstd': CompressionType.ZSTD}
+_COMPRESS = {'none': ('', bytes), 'lz4': ('lz4', lambda data: lz4.frame.compress(data)),
+             'zstd': ('zstd', lambda data: zstandard.compress(data))}
+"""The chunk record's compression name and function, as mcap's writer does it."""
+OPEN_CHUNK_SUFFIX = '.open-chunk'
+"""Beside the data file while recording: the offset (uint64) and record of the open chunk last flushed."""
 
 
 class BagWriteError(RuntimeError):
@@ -136,6 +146,7 @@ class BagWriter:
         self._syncer: threading.Thread | None = None
         self._sync_wanted = threading.Event()
         self._stop_syncing = False
+        self._flushed = (0, 0)          # (offset, size) of the open chunk last flushed
 
     def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None) -> TopicRecord:
         """Register a topic (channel, and its type's schema once); return its record."""
@@ -191,17 +202,23 @@ class BagWriter:
         }
 
     def flush(self, sync_in_background: bool = False) -> None:
-        """Close the current chunk (with its message indexes), write it and fsync the file.
+        """Put the open chunk on disk as it stands and fsync the file; the chunk stays open.
 
-        After a crash everything written before the last flush is salvageable
-        (a killed process: at once; a power cut: once the fsync is done).
+        It is written after the closed chunks, where the chunk in its final
+        form (cut at ``chunk_size``) or the end of the file overwrites it, so
+        the finished file does not depend on when flushes came. The same
+        record goes first to ``<data file>.open-chunk`` (atomically, with its
+        offset), which a reader of a cut file takes where the file's intact
+        part ends at that offset (:func:`drive_logger.bag_reader.intact_records`).
+        So after a kill everything written before the last flush is
+        salvageable; after a power cut, once the fsync is done.
         With ``sync_in_background`` the fsync runs on a helper thread, so a
         slow disk does not stall the caller (the recorder's take loop, whose
         publishers' queues are short).
         """
         if self.closed:
             return
-        self._writer.flush()
+        self._write_open_chunk()
         if not sync_in_background:
             os.fsync(self._stream.fileno())
             return
@@ -209,6 +226,28 @@ class BagWriter:
             self._syncer = threading.Thread(target=self._sync_loop, name='bag fsync', daemon=True)
             self._syncer.start()
         self._sync_wanted.set()
+
+    def _write_open_chunk(self) -> None:
+        builder = self._writer._Writer__chunk_builder    # mcap's writer keeps its open chunk private
+        end = self._stream.tell()
+        if not builder.num_messages or self._flushed == (end, builder.count):   # nothing new (a hold)
+            return
+        self._flushed = (end, builder.count)
+        data = builder.record_writer._buffer.getvalue()
+        name, compress = _COMPRESS[self.compression]
+        record = RecordBuilder()
+        Chunk(compression=name, data=compress(data), message_start_time=builder.message_start_time,
+              message_end_time=builder.message_end_time, uncompressed_crc=zlib.crc32(data),
+              uncompressed_size=len(data)).write(record)
+        chunk = record.end()
+        journal = self.data_file.with_name(self.data_file.name + OPEN_CHUNK_SUFFIX)
+        tmp = journal.with_name(journal.name + '.tmp')
+        tmp.write_bytes(struct.pack('<Q', end) + chunk)
+        os.replace(tmp, journal)
+        self._stream.write(chunk)
+        self._stream.truncate()
+        self._stream.flush()
+        self._stream.seek(end)      # where mcap's writer goes on
 
     def _sync_loop(self) -> None:
         while True:
@@ -230,9 +269,11 @@ class BagWriter:
         serialized = yaml.safe_dump(self.metadata(), default_flow_style=False, sort_keys=False)
         self._writer.add_metadata('rosbag2', {'serialized_metadata': serialized, 'ROS_DISTRO': self.ros_distro})
         self._writer.finish()
+        self._stream.truncate()     # what is left of a longer open chunk flushed before
         self._stream.flush()
         os.fsync(self._stream.fileno())
         self._stream.close()
+        self.data_file.with_name(self.data_file.name + OPEN_CHUNK_SUFFIX).unlink(missing_ok=True)
 
     def write_metadata_yaml(self) -> None:
         """Write metadata.yaml atomically (temporary file, then rename)."""
@@ -255,7 +296,8 @@ class BagWriter:
 
 
 class SimTimeLog:
-    """Sim-time log times for a :class:`BagWriter` (``log_time='sim'``; docs/architecture.md "Bags").
+    """Sim-time log times for a :class:`BagWriter` or the recorder's
+    :class:`drive_logger.sample_topics.CanonicalWriter` (``log_time='sim'``; docs/architecture.md "Bags").
 
     A message that carries its sample's sim time (kind SAMPLE_STAMP,
     :func:`message_definitions.sim_stamp_kind`) is written at once, logged and

@@ -54,6 +54,12 @@ publish (docs/architecture.md "Telemetry: blocks and live topics").
 """
 
 
+def is_paced(type_name: str) -> bool:
+    """True for the drive graph's stream types: every dtc_msgs message and /clock's Clock, which their
+    publisher sends in sim-time order through the run (a recorder orders its bag by them)."""
+    return type_name.startswith('dtc_msgs/') or type_name == 'rosgraph_msgs/msg/Clock'
+
+
 def known_type(name: str) -> str | None:
     """Type of a drive-graph (or optional) topic, matching relative or absolute names."""
     for table in (GRAPH_TOPIC_TYPES, OPTIONAL_TOPIC_TYPES):

@@ -1,18 +1,18 @@
 """Recorder node: record topics of the drive graph into a rosbag2-layout MCAP bag.
 
-Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw
-subscriptions hand over the CDR bytes, taken in the node's own wait loop
-(:class:`drive_common.lockstep_io.DirectCallbackGroup`; the executor serves only
-the parameter services). Blocks and lockstep messages are written as they come;
-any other message is brought to canonical CDR first
+Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw subscriptions
+hand over the CDR bytes, taken in the node's own wait loop (the executor serves
+only its services). Blocks and lockstep messages are written as they come; any
+other message is brought to canonical CDR first
 (:func:`drive_common.cdr_padding.canonicalize`). Subscriptions exist once the node
 logs ``recorder ready`` (:func:`drive_logger.readiness.wait_for_recorder`).
 Parameters: :data:`RECORDER_SCHEMA` (read-only; the node reference lists them).
 
-Stop with SIGINT or SIGTERM: queued messages are taken, the file is rewritten
-in canonical order with the viewer topics
-(:func:`drive_logger.sample_topics.finish_canonical`), metadata.yaml is written
-and it exits 0; a bad output or topic type is refused at start (exit 2).
+The bag is written in canonical order as it comes
+(:class:`drive_logger.sample_topics.CanonicalWriter`: two recordings of one scenario
+are byte-identical files). Stop with SIGINT or SIGTERM: queued messages are taken and
+written, metadata.yaml is written and it exits 0; a bad output or topic type is
+refused at start (exit 2).
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ from drive_common.waiting import wait_until
 from drive_logger import graph_topics, ros_types
 from drive_logger.bag_writer import LOG_TIME_SOURCES, BagWriteError, BagWriter, SimTimeLog
 from drive_common.telemetry import DEFAULT_LIVE_PERIOD
-from drive_logger.sample_topics import SampleTopics, finish_canonical
+from drive_logger.sample_topics import CanonicalWriter, SampleTopics
 from drive_logger.message_definitions import (NO_STAMP, DefinitionNotFoundError, normalize_type_name,
                                               sim_stamp_kind, type_definition)
 
@@ -55,11 +55,12 @@ class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
     __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamp_kind',
-                 'canonical_of')
+                 'canonical_of', 'paced')
 
     def __init__(self, name, type_name, definition, qos):
         self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
         self.stamp_kind = sim_stamp_kind(type_name) if definition is not None else NO_STAMP
+        self.paced = definition is not None and graph_topics.is_paced(type_name)
         # the message class whose bytes need canonicalize(); None: canonical at the source
         self.canonical_of = (None if definition is None or type_name in graph_topics.CANONICAL_AT_SOURCE_TYPES
                              else message_class(type_name))
@@ -104,7 +105,6 @@ class RecorderNode(Node):
         self.batch_period = float(p['batch_period'])
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
-        self.viewer = SampleTopics(float(p['viewer_period'])) if p['viewer_topics'] else None
         self._lock = threading.Lock()
         self._not_spun = DirectCallbackGroup()   # subscriptions: taken by TakeLoop, not the executor
 
@@ -117,7 +117,10 @@ class RecorderNode(Node):
                                     log_time=p['log_time'])
         except BagWriteError as exc:
             raise RecorderConfigError(str(exc)) from exc
-        self.sim_log = SimTimeLog(self.writer) if p['log_time'] == 'sim' else None
+        viewer = SampleTopics(float(p['viewer_period'])) if p['viewer_topics'] else None
+        self.bag = CanonicalWriter(self.writer, viewer, reserved=wanted)
+        self.sim_log = SimTimeLog(self.bag) if p['log_time'] == 'sim' else None
+        self.derived = set(viewer.topics_for(graph_topics.BLOCK_TOPICS)) - set(wanted) if viewer else set()
         self.topics: dict[str, _Topic] = {}
         for name, (type_name, definition) in wanted.items():
             self._subscribe(name, type_name, definition)
@@ -196,6 +199,9 @@ class RecorderNode(Node):
         for name, types in self.get_topic_names_and_types():
             if name in self.topics or not types:
                 continue
+            if name in self.derived:        # the bag has it from the blocks
+                self.topics[name] = _Topic(name, types[0], None, None)
+                continue
             try:
                 message_class(types[0])
                 self._subscribe(name, normalize_type_name(types[0]), type_definition(types[0]))
@@ -209,22 +215,23 @@ class RecorderNode(Node):
         return [ros_types.qos_to_dict(info.qos_profile) for info in self.get_publishers_info_by_topic(topic.name)]
 
     def _callback_for(self, topic: _Topic):
-        writer = self.writer
+        bag = self.bag
         sim_log = self.sim_log
 
         def on_message(data: bytes, info: dict) -> None:
             if topic.canonical_of is not None:
                 data = self._canonical(topic, data)
             with self._lock:
-                if writer.closed:
+                if bag.closed:
                     return
                 record = topic.record
                 if record is None:
-                    record = topic.record = writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
+                    record = topic.record = bag.add_topic(topic.name, topic.definition, self._offered_qos(topic),
+                                                          paced=topic.paced and sim_log is not None)
                 if sim_log is not None:
                     sim_log.write(record, data, topic.stamp_kind)
                 else:
-                    writer.write(record, data, info['received_timestamp'], info['source_timestamp'])
+                    bag.write(record, data, info['received_timestamp'], info['source_timestamp'])
         return on_message
 
     def _canonical(self, topic: _Topic, data: bytes) -> bytes:
@@ -243,20 +250,25 @@ class RecorderNode(Node):
                 self.sim_log.end_of_wakeup()
 
     def flush(self) -> None:
-        """Close the current chunk and fsync (a crash keeps everything up to here)."""
+        """Write what every paced topic has passed (wall log times: all) and put it on disk."""
         with self._lock:
-            self.writer.flush(sync_in_background=True)
+            watermark = (self.bag.watermark([t.name for t in self.topics.values() if t.paced])
+                         if self.sim_log is not None else None)
+            self.bag.flush(watermark, sync_in_background=True)
 
     def finalize(self) -> None:
-        """Register silent topics (count 0) and close the bag."""
+        """Write everything, register silent topics (count 0) and close the bag."""
         self.end_of_wakeup()
         with self._lock:
-            if self.writer.closed:
+            if self.bag.closed:
                 return
-            for topic in self.topics.values():
-                if topic.record is None and topic.definition is not None:
-                    topic.record = self.writer.add_topic(topic.name, topic.definition, self._offered_qos(topic))
-            self.writer = finish_canonical(self.writer, self.viewer)
+            self.bag.close({t.name: (t.definition, self._offered_qos(t)) for t in self.topics.values()
+                            if t.record is None and t.definition is not None})
+        if self.bag.late:
+            self.get_logger().warning(f'{self.bag.late} message(s) came after later ones had been written: '
+                                      'the bag holds them out of log-time order')
+        if self.bag.underived:
+            self.get_logger().warning(f'{self.bag.underived} block(s) did not decode: no viewer messages from them')
         counts = {name: t.message_count for name, t in self.writer.topics.items()}
         self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
 

@@ -6,25 +6,28 @@ CDR and logged at their sample's time, every sample (``period`` 0) or the first
 at or after each multiple of ``period`` of sim time
 (:class:`drive_common.telemetry.Decimator`: the recorder's viewer topics).
 
-:func:`write_canonical` copies a complete MCAP data file into a
-:class:`drive_logger.bag_writer.BagWriter` in one total order (channels sorted by
-topic, messages by log time, topic, arrival within the topic and bytes; chunks
-cut by size only), so the file depends only on the messages: two recordings of
-one scenario are byte-identical. The recorder and the exporter use it.
-docs/architecture.md "Telemetry: blocks and live topics".
+:class:`CanonicalWriter` writes a recording in one total order as it comes, with
+the viewer topics derived on the way; :func:`write_canonical` copies a complete
+MCAP file so (the exporter's full-rate viewer bags). The file depends only on the
+messages (sorted by log time, topic, order within the topic; chunks cut by size
+only), so two recordings of one scenario are byte-identical files.
 """
 from __future__ import annotations
 
 import heapq
-import os
+import struct
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
+import numpy as np
 from mcap.reader import make_reader
+from rclpy.serialization import deserialize_message, serialize_message
 
+from drive_common.cdr_padding import canonical_bytes
 from drive_common.telemetry import Decimator
+from drive_common.telemetry_blocks import block_columns, check_lengths, expand, layout, sample_stamps_ns
 from drive_logger import qos_yaml
-from drive_logger.bag_writer import BagWriter, TopicRecord
+from drive_logger.bag_writer import BagWriteError, BagWriter, TopicRecord
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
 from drive_logger.message_definitions import TypeDefinition, type_definition
 
@@ -53,6 +56,7 @@ class SampleTopics:
         self.start_ns, self.end_ns = start_ns, end_ns
         self._decimators: dict[str, Decimator] = {}
         self._counters: dict[str, int] = {}
+        self._templates: dict = {}      # sample_cdr's templates, per layout
 
     def topics_for(self, block_topics: Iterable[str]) -> dict[str, tuple[str, str, int]]:
         """{per-sample topic: (type name, block topic, part)} derived from the given block topics."""
@@ -70,9 +74,6 @@ class SampleTopics:
     def derive(self, block_topic: str, data: bytes, log_time: int, publish_time: int,
                wanted: set[str] | None = None) -> Iterator[tuple[str, int, int, bytes]]:
         """(topic, log time, publish time, canonical CDR) of the kept samples of one block message."""
-        from rclpy.serialization import deserialize_message
-        from drive_common.telemetry_blocks import sample_stamps_ns
-
         block = deserialize_message(data, block_class(block_topic))
         if not block.count:
             return
@@ -96,7 +97,7 @@ class SampleTopics:
             return
         names = BLOCK_TOPICS[block_topic][1]
         parts = [(p, names[p]) for p in self.parts if p < len(names) and (wanted is None or names[p] in wanted)]
-        rows = {part: sample_cdr(block, part, kept) for part, _ in parts}
+        rows = {part: sample_cdr(block, part, kept, self._templates) for part, _ in parts}
         for j, i in enumerate(kept):
             offset = stamps[i] - stamps[0]
             for part, topic in parts:
@@ -136,25 +137,29 @@ def _field_offsets(msg) -> tuple[dict[str, int], int]:
     return offsets, pos
 
 
-def sample_cdr(block, part: int, indices: list[int]) -> list[bytes]:
+def sample_cdr(block, part: int, indices: list[int], templates: dict | None = None) -> list[bytes]:
     """Canonical CDR of the per-sample messages of one part of a block, samples `indices`.
 
     All samples of a block share one layout (one frame_id, one mode string), so
     the first is serialized by rclpy (canonical_bytes: padding zeroed) as the
     template and the others get their values written at the fields' offsets,
     all samples at once: the bytes equal each message's own canonical
-    serialization (test_export), at a fraction of the cost.
+    serialization (test_export), at a fraction of the cost. templates: keep
+    the templates there for the next blocks of the same layout.
     """
-    import numpy as np
-    from rclpy.serialization import serialize_message
-    from drive_common.cdr_padding import canonical_bytes
-    from drive_common.telemetry_blocks import block_columns, expand, layout, sample_stamps_ns
-
-    first = next(expand(block, indices[:1]))[part]
-    template = canonical_bytes(first, serialize_message(first))
-    offsets, end = _field_offsets(first)
-    if template[1] != 1 or ENCAPSULATION + end != len(template):
-        raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(template)} bytes)')
+    lay = layout(type(block))
+    key = (type(block), part, block.header.frame_id, *(getattr(block, c.name) for c in lay.per_block))
+    cached = templates.get(key) if templates is not None else None
+    if cached is None:
+        first = next(expand(block, indices[:1]))[part]
+        cached = canonical_bytes(first, serialize_message(first)), _field_offsets(first)
+        if cached[0][1] != 1 or ENCAPSULATION + cached[1][1] != len(cached[0]):
+            raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(cached[0])} bytes)')
+        if templates is not None:
+            templates[key] = cached
+    template, (offsets, _) = cached
+    if len(indices) <= FEW_SAMPLES:
+        return _packed_rows(block, part, indices, template, offsets)
     rows = np.tile(np.frombuffer(template, dtype=np.uint8), (len(indices), 1))
     index = np.asarray(indices)
 
@@ -167,10 +172,36 @@ def sample_cdr(block, part: int, indices: list[int]) -> list[bytes]:
     put('header.stamp.nanosec', (stamps % 1_000_000_000).astype('<u4'))
     columns = block_columns(block)
     put('step', columns['step'][index].astype('<u8'))
-    for column in layout(type(block)).columns:
+    for column in lay.columns:
         if column.part == part:
             put(column.source, columns[column.name][index].astype(_CDR_DTYPES[column.element]))
     return [row.tobytes() for row in rows]
+
+
+FEW_SAMPLES = 8
+"""Up to this many samples of a block (the recorder's decimated viewer topics), sample_cdr packs each
+row with struct: fewer calls than numpy's per column, which pays off for many samples."""
+_STRUCT = {'double': 'd', 'float': 'f', 'int64': 'q', 'uint64': 'Q', 'int32': 'i', 'uint32': 'I', 'int16': 'h',
+           'uint16': 'H', 'int8': 'b', 'uint8': 'B', 'boolean': '?', 'octet': 'B', 'char': 'B'}
+
+
+def _packed_rows(block, part: int, indices: list[int], template: bytes, offsets: dict[str, int]) -> list[bytes]:
+    """sample_cdr's rows for a few samples, each value packed at its field's offset."""
+    lay = layout(type(block))
+    check_lengths(block, lay)
+    fields = [(ENCAPSULATION + offsets[c.source], f'<{c.width}{_STRUCT[c.element]}', getattr(block, c.name), c.width)
+              for c in lay.columns if c.part == part]
+    stamp_at, step_at = ENCAPSULATION + offsets['header.stamp.sec'], ENCAPSULATION + offsets['step']
+    stamps = sample_stamps_ns(block).tolist()
+    rows = []
+    for i in indices:
+        row = bytearray(template)
+        struct.pack_into('<iI', row, stamp_at, *divmod(stamps[i], 1_000_000_000))
+        struct.pack_into('<Q', row, step_at, block.first_step + i * block.step_stride)
+        for at, fmt, values, width in fields:
+            struct.pack_into(fmt, row, at, *values[i * width:(i + 1) * width])
+        rows.append(bytes(row))
+    return rows
 
 
 def _type_name(msg_class: type) -> str:
@@ -251,28 +282,125 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
             progress(read % 1000)
 
 
-def finish_canonical(writer: BagWriter, samples: SampleTopics | None = None) -> BagWriter:
-    """Finish writer's bag with its data file in canonical order (plus the topics of samples).
+HOLD = 100_000_000
+"""ns of sim time a paced topic may fall behind the one furthest ahead and still hold the others back."""
 
-    The data file as written (arrival order, chunks cut at every flush: what
-    a crash leaves) is finished, copied in canonical order next to it and
-    renamed over it; then metadata.yaml is written. Returns the writer of
-    the canonical file (closed), whose topics and counts metadata.yaml holds.
+
+class _Stream:
+    """A topic of a :class:`CanonicalWriter`: its channel once written, its latest log time if paced."""
+
+    __slots__ = ('name', 'definition', 'profiles', 'paced', 'latest', 'record', 'derived', 'block', 'taken')
+
+    def __init__(self, name: str, definition: TypeDefinition, profiles: list, paced: bool = False,
+                 block: str | None = None) -> None:
+        self.name, self.definition, self.profiles, self.paced = name, definition, profiles, paced
+        self.latest = -1            # log time of the latest message (paced topics)
+        self.record: TopicRecord | None = None
+        self.derived: set[str] = set()      # per-sample topics derived from this (block) topic
+        self.block = block                  # the block topic this per-sample topic is derived from
+        self.taken = 0                      # messages taken: the order of equal log times
+
+
+class CanonicalWriter:
+    """Write a recording into a :class:`BagWriter` in canonical order while it comes.
+
+    Messages wait in a heap until :meth:`flush` is given a watermark above
+    their log time; they are then written sorted by (log time, topic, order
+    taken within the topic), each channel registered at its first message. The caller promises that
+    no message logged below a watermark comes after it (the recorder's
+    paced topics each arrive in log-time order: :meth:`watermark`); a later
+    one is still written, out of order, and counted in ``late``. samples:
+    per-sample topics derived from the block topics on the way, except the
+    names in ``reserved`` (topics recorded under that name); a block that
+    does not decode is written without them and counted in ``underived``.
     """
-    writer.finish_data()
-    tmp = writer.data_file.with_name(writer.data_file.name + '.sorting')
-    out = BagWriter(writer.path, compression=writer.compression, chunk_size=writer.chunk_size,
-                    ros_distro=writer.ros_distro, log_time=writer.log_time, data_file=tmp,
-                    file_name=writer.file_name)
-    try:
-        write_canonical(writer.data_file, out, samples)
-    except BaseException:
-        out.finish_data()
-        tmp.unlink(missing_ok=True)
-        writer.write_metadata_yaml()      # the bag as recorded stays complete
-        raise
-    out.finish_data()
-    os.replace(tmp, writer.data_file)
-    out.data_file = writer.data_file
-    out.write_metadata_yaml()
-    return out
+
+    def __init__(self, writer: BagWriter, samples: SampleTopics | None = None, reserved: Iterable[str] = ()) -> None:
+        self.writer, self.samples, self.reserved = writer, samples, set(reserved)
+        self.streams: dict[str, _Stream] = {}
+        self.late = 0
+        self.underived = 0          # blocks whose per-sample messages could not be derived
+        self._pending: list[tuple[int, str, int, bytes, int]] = []   # (log time, topic, n, data, publish time)
+        self._written = -1          # log time of the latest message written
+        self._first = 1 << 63       # log time of the first paced message
+
+    @property
+    def closed(self) -> bool:
+        return self.writer.closed
+
+    def add_topic(self, name: str, definition: TypeDefinition, qos_profiles: list | None = None,
+                  paced: bool = False) -> _Stream:
+        """Declare a topic (its channel is registered at its first message written); paced: see watermark."""
+        if name in self.streams:
+            raise BagWriteError(f'topic {name!r} registered twice')
+        stream = self.streams[name] = _Stream(name, definition, _sorted_profiles(qos_profiles or []), paced)
+        if self.samples is not None:
+            for topic, (type_name, _, _) in self.samples.topics_for([name]).items():
+                if topic not in self.reserved and topic not in self.streams:
+                    self.streams[topic] = _Stream(topic, type_definition(type_name), stream.profiles, block=name)
+                    stream.derived.add(topic)
+        return stream
+
+    def write(self, stream: _Stream, data: bytes, log_time: int, publish_time: int) -> None:
+        """Take one message (and the per-sample messages derived from it)."""
+        if stream.paced and log_time > stream.latest:
+            stream.latest = log_time
+            self._first = min(self._first, log_time)
+        self._push(stream, log_time, data, publish_time)
+        if not stream.derived:
+            return
+        try:
+            rows = list(self.samples.derive(stream.name, data, log_time, publish_time, stream.derived))
+        except Exception:  # noqa: BLE001 - a block that does not decode (rclpy raises bare errors)
+            self.underived += 1
+            return
+        for topic, log, publish, row in rows:
+            self._push(self.streams[topic], log, row, publish)
+
+    def _push(self, stream: _Stream, log_time: int, data: bytes, publish_time: int) -> None:
+        heapq.heappush(self._pending, (log_time, stream.name, stream.taken, data, publish_time))
+        stream.taken += 1
+
+    def watermark(self, expected: Iterable[str] = ()) -> int | None:
+        """The least latest log time of the paced topics (None: no paced topic, no bound).
+
+        A paced topic more than HOLD behind the one furthest ahead (stalled)
+        does not count; one of ``expected`` (the paced topics subscribed to)
+        that has sent nothing holds it at -1 until the one furthest ahead is
+        HOLD past the first paced message (a block topic's first message
+        comes a block later than /clock's). Their later messages are late.
+        """
+        times = [s.latest for s in self.streams.values() if s.paced]
+        if not times:
+            return -1 if expected else None
+        lead = max(times)
+        if lead - self._first <= HOLD and any(name not in self.streams for name in expected):
+            return -1
+        return min(t for t in times if t >= lead - HOLD)
+
+    def flush(self, watermark: int | None = None, sync_in_background: bool = False) -> None:
+        """Write the messages logged before watermark (None: all) in order, then flush the writer."""
+        pending = self._pending
+        while pending and (watermark is None or pending[0][0] < watermark):
+            log_time, name, _, data, publish_time = heapq.heappop(pending)
+            stream = self.streams[name]
+            if stream.record is None:
+                stream.record = self.writer.add_topic(name, stream.definition, stream.profiles)
+            if log_time < self._written:
+                self.late += 1
+            self._written = max(self._written, log_time)
+            self.writer.write(stream.record, data, log_time, publish_time)
+        self.writer.flush(sync_in_background)
+
+    def close(self, silent: dict[str, tuple[TypeDefinition, list]] | None = None) -> None:
+        """Write everything, register the topics without a message (silent: {name: (definition,
+        QoS profiles)} too), sorted by name, then finish the bag and write metadata.yaml."""
+        self.flush()
+        for name, (definition, profiles) in (silent or {}).items():
+            if name not in self.streams:
+                self.add_topic(name, definition, profiles)
+        for name in sorted(self.streams):
+            stream = self.streams[name]
+            if stream.record is None and stream.block is None:
+                stream.record = self.writer.add_topic(name, stream.definition, stream.profiles)
+        self.writer.close()

@@ -2,6 +2,7 @@
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -120,7 +121,7 @@ def test_corrupt_chunk_is_a_clear_error(tmp_path, measurement_factory):
 
 def _stamped_bag(path, measurement_factory, flushed, unflushed, chunk_size=1 << 20):
     """A sim-time bag: `flushed` messages flushed to disk, then `unflushed` more left in the open chunk
-    (the state a SIGKILL leaves). Returns (writer, published CDR bytes, size of the file at the flush)."""
+    (the state a SIGKILL leaves). Returns (writer, published CDR bytes, the file's bytes at the last flush)."""
     from drive_logger.message_definitions import cdr_stamp_ns
     writer = BagWriter(path, chunk_size=chunk_size)
     topic = writer.add_topic('/drive/measurement', type_definition('dtc_msgs/msg/DriveMeasurement'),
@@ -132,8 +133,8 @@ def _stamped_bag(path, measurement_factory, flushed, unflushed, chunk_size=1 << 
         sent.append(data)
         if k + 1 == flushed // 2 or k + 1 == flushed:
             writer.flush()
-            size = writer.data_file.stat().st_size
-    return writer, sent, size
+            on_disk = writer.data_file.read_bytes()
+    return writer, sent, on_disk
 
 
 def test_sim_time_bag_metadata_and_summary_agree(tmp_path, measurement_factory):
@@ -172,13 +173,15 @@ def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path,
     import shutil
     from drive_logger.bag_reindex import main, reindex
     from drive_logger.message_definitions import cdr_stamp_ns
-    writer, sent, flushed_size = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
-    # The killed recorder's directory: the file as it was on disk, plus half of a chunk being written.
+    writer, sent, flushed = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
+    # The killed recorder's directory: the file as it was at the last flush, plus half of a record
+    # being written after it (the later file's bytes there: the open chunk, grown).
     writer.flush()
     data = (tmp_path / 'live' / 'live_0.mcap').read_bytes()
+    assert len(data) > len(flushed)
     bag = tmp_path / 'bag'
     bag.mkdir()
-    cut = data[:flushed_size + (len(data) - flushed_size) // 2]
+    cut = flushed + data[len(flushed):len(flushed) + (len(data) - len(flushed)) // 2]
     (bag / 'bag_0.mcap').write_bytes(cut)
     with pytest.raises(BagReadError, match='no MCAP footer'):
         BagReader(bag)
@@ -205,6 +208,29 @@ def test_reindex_completes_a_killed_bag_with_the_flushed_messages_only(tmp_path,
     assert main([str(bag)]) == 0
     assert (bag / 'bag_0.mcap.orig.1').read_bytes() == cut
     assert [m.data for m in BagReader(bag).messages()] == sent[:200]
+
+
+def test_a_kill_cutting_the_open_chunk_rewrite_keeps_the_flushed_messages_from_beside_the_file(
+        tmp_path, measurement_factory):
+    import struct
+    from drive_logger.bag_reindex import reindex
+    writer, sent, flushed = _stamped_bag(tmp_path / 'live', measurement_factory, 200, 57)
+    writer.flush()                  # all 257 in the open chunk, rewritten in place
+    live = tmp_path / 'live' / 'live_0.mcap'
+    data, journal = live.read_bytes(), Path(f'{live}.open-chunk').read_bytes()
+    offset = struct.unpack_from('<Q', journal)[0]
+    assert data[offset:] == journal[8:] and offset < len(flushed)     # where the 200 were
+    for name, cut, kept in (('rewrite', data[:offset + (len(data) - offset) // 2], 257),   # cut in the rewrite
+                            ('after', flushed + b'\x06' + bytes(40), 200)):   # intact to a later cut: not used
+        bag = tmp_path / name
+        bag.mkdir()
+        (bag / 'bag_0.mcap').write_bytes(cut)
+        (bag / 'bag_0.mcap.open-chunk').write_bytes(journal)
+        assert [m.data for m in BagReader(bag, salvage=True).messages()] == sent[:kept], name
+        assert reindex(bag).message_count == kept
+        assert [m.data for m in BagReader(bag).messages()] == sent[:kept], name
+    writer.close()
+    assert not Path(f'{live}.open-chunk').exists()
 
 
 def test_reindex_of_a_malformed_bag_is_a_one_line_error(tmp_path, capsys):

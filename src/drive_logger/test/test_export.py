@@ -9,7 +9,7 @@ import pytest
 from drive_logger import export
 from drive_logger.bag_reader import BagReader
 from drive_logger.bag_writer import BagWriter
-from drive_logger.sample_topics import SampleTopics, finish_canonical
+from drive_logger.sample_topics import CanonicalWriter, SampleTopics
 from drive_common.cdr_padding import canonicalize
 from drive_logger.ros_types import message_class
 from drive_testing.block_bags import scenario_bags
@@ -31,47 +31,48 @@ def _by_topic(reader, topics):
     return out
 
 
-def _shuffled_copy(source, path, seed: int) -> BagWriter:
-    """The messages of source written as a recorder may receive them: each topic in its order,
-    the topics interleaved at random (equal log times in varying order), chunks cut often."""
+def _recorded(source, path, seed: int, samples=None) -> CanonicalWriter:
+    """The messages of source recorded as the recorder takes them: each topic in its order, the
+    topics interleaved at random (equal log times in varying order), flushed at random up to the
+    watermark of the paced topics; then closed."""
+    from drive_logger.graph_topics import is_paced
     reader = BagReader(source)
-    writer = BagWriter(path, chunk_size=4096)
+    bag = CanonicalWriter(BagWriter(path, chunk_size=4096), samples, reserved=reader.topics)
     streams = {}
     for msg in reader.messages():
         streams.setdefault(msg.topic, []).append(msg)
     from drive_logger.message_definitions import TypeDefinition
     records = {}
     rng = random.Random(seed)
-    names = list(streams)
-    rng.shuffle(names)
-    for topic in names:
-        info = reader.topics[topic]
-        records[topic] = writer.add_topic(topic, TypeDefinition(info.type, reader._schema_for(info.type).data.decode(),
-                                                                info.type_hash), info.qos_profiles)
+    paced = [t for t in streams if is_paced(reader.topics[t].type)]
     while streams:
         topic = rng.choice(sorted(streams))
         msg = streams[topic].pop(0)
         if not streams[topic]:
             del streams[topic]
-        writer.write(records[topic], msg.data, msg.log_time, msg.publish_time)
+        if topic not in records:
+            info = reader.topics[topic]
+            definition = TypeDefinition(info.type, reader._schema_for(info.type).data.decode(), info.type_hash)
+            records[topic] = bag.add_topic(topic, definition, info.qos_profiles, paced=topic in paced)
+        bag.write(records[topic], msg.data, msg.log_time, msg.publish_time)
         if rng.random() < 0.05:
-            writer.flush()
-    return writer
+            bag.flush(bag.watermark(paced))
+    bag.close()
+    return bag
 
 
-def test_canonical_bag_does_not_depend_on_arrival_order_and_adds_viewer_topics(bags, tmp_path):
+def test_recorded_bag_does_not_depend_on_arrival_order_or_flushes_and_adds_viewer_topics(bags, tmp_path):
     files = []
     for seed in (1, 2):
         # same bag name (the file names itself in its rosbag2 record)
-        writer = finish_canonical(_shuffled_copy(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed),
-                                  SampleTopics(1e-3))
-        files.append(writer.data_file.read_bytes())
+        bag = _recorded(bags['blocks'], tmp_path / f'run{seed}' / 'bag', seed, SampleTopics(1e-3))
+        assert bag.late == 0 and bag.underived == 0
+        files.append(bag.writer.data_file.read_bytes())
         assert (tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').exists()
     assert files[0] == files[1]
     meta = [(tmp_path / f'run{seed}' / 'bag' / 'metadata.yaml').read_text() for seed in (1, 2)]
     assert meta[0] == meta[1]
     reader = BagReader(tmp_path / 'run1' / 'bag')
-    assert list(reader.topics) == sorted(reader.topics)
     # the bag already held decimated /plant/state and /dtc/status: kept as they are, not derived twice
     assert reader.topics['/plant/state'].message_count == BagReader(bags['blocks']).topics['/plant/state'].message_count
     times = [m.log_time for m in reader.messages()]
@@ -87,7 +88,7 @@ def test_viewer_topics_are_derived_at_the_viewer_period(bags, tmp_path):
     from drive_logger.sample_topics import write_canonical
     write_canonical(source.files[0], writer, topics=without_live)
     writer.close()
-    out = finish_canonical(_shuffled_copy(tmp_path / 'src', tmp_path / 'viewer', 3), SampleTopics(1e-3))
+    out = _recorded(tmp_path / 'src', tmp_path / 'viewer', 3, SampleTopics(1e-3)).writer
     reader = BagReader(out.path)
     assert {'/plant/state', '/dtc/status'} <= set(reader.topics)
     states = [(m.log_time, deserialize_message(m.data, PlantState)) for m in reader.messages(['/plant/state'])]
@@ -165,3 +166,55 @@ def test_export_options_select_topics_time_and_every_nth(bags, tmp_path, capsys)
     errors = capsys.readouterr().err.strip().splitlines()
     assert len(errors) == 3 and all(line.startswith('export: ') for line in errors)
     assert 'already exists' in errors[0] and '--every' in errors[1] and 'does not exist' in errors[2]
+
+
+def test_watermark_waits_for_each_paced_topic_for_a_while_and_a_late_message_is_still_written(tmp_path):
+    from rclpy.serialization import serialize_message
+    from rosgraph_msgs.msg import Clock
+    from drive_logger.message_definitions import type_definition
+    from drive_logger.sample_topics import HOLD
+
+    def clock(ns):
+        msg = Clock()
+        msg.clock.sec, msg.clock.nanosec = divmod(ns, 10**9)
+        return serialize_message(msg)
+    bag = CanonicalWriter(BagWriter(tmp_path / 'bag'))
+    definition = type_definition('rosgraph_msgs/msg/Clock')
+    expected = ['/a', '/b', '/silent']
+    assert bag.watermark(expected) == -1 and bag.watermark() is None    # nothing yet; nothing paced
+    a = bag.add_topic('/a', definition, paced=True)
+    for ns in range(0, HOLD // 2, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    b = bag.add_topic('/b', definition, paced=True)          # its first message comes later
+    bag.write(b, clock(0), 0, 0)
+    assert bag.watermark(expected) == -1                     # /silent may still come
+    for ns in range(HOLD // 2, 2 * HOLD, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    bag.write(b, clock(HOLD + 10**6), HOLD + 10**6, HOLD + 10**6)
+    assert bag.watermark(expected) == HOLD + 10**6     # /silent counts as absent now
+    bag.flush(bag.watermark(expected))
+    assert bag.writer.topics['/a'].message_count == HOLD // 10**6 + 1 and bag.late == 0
+    for ns in range(2 * HOLD, 4 * HOLD, 10**6):
+        bag.write(a, clock(ns), ns, ns)
+    assert bag.watermark(expected) == 4 * HOLD - 10**6         # /b, stalled for longer than HOLD, does not count
+    other = bag.add_topic('/other', definition)              # not paced: expected before the watermark
+    bag.write(other, clock(5), 5, 5)
+    bag.close()
+    assert bag.late == 1
+    reader = BagReader(tmp_path / 'bag')
+    assert [m.log_time for m in reader.messages(['/b'])] == [0, HOLD + 10**6]
+    assert [m.log_time for m in reader.messages(['/other'])] == [5]
+    assert reader.topics['/a'].message_count == 4 * HOLD // 10**6
+
+
+def test_a_block_that_does_not_decode_is_recorded_without_viewer_messages(bags, tmp_path):
+    from drive_logger.message_definitions import type_definition
+    block = next(BagReader(bags['blocks']).messages(['/plant/state_block']))
+    bag = CanonicalWriter(BagWriter(tmp_path / 'bag'), SampleTopics(1e-3))
+    stream = bag.add_topic('/plant/state_block', type_definition('dtc_msgs/msg/PlantStateBlock'), paced=True)
+    bag.write(stream, block.data[:40], 0, 0)                     # cut: does not decode
+    bag.write(stream, block.data, block.log_time, block.publish_time)
+    bag.close()
+    assert bag.underived == 1
+    reader = BagReader(tmp_path / 'bag')
+    assert reader.topics['/plant/state_block'].message_count == 2 and reader.topics['/plant/state'].message_count
