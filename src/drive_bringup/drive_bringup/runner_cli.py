@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Callable
@@ -115,7 +116,25 @@ def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
     return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def main(argv=None) -> int:
+    """Ctrl-C and SIGTERM interrupt from the first instruction on, even when the shell of a
+    non-interactive script started this in the background with SIGINT ignored."""
+    previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        print('interrupted: all nodes stopped', file=sys.stderr)
+        return 130
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.list:
         for path in sorted(scenario_dir().glob('*.yaml')):
