@@ -1,29 +1,63 @@
 """Scale-out of a design study: points per minute serial, on a LocalCluster, on separate programs.
 
-    python benchmarks/bench_study.py [--study sampled_hysteresis_torque_deficit] [--duration 0.05]
-                                     [--workers 2] [--points 16]
+    python benchmarks/bench_study.py [--study sampled_hysteresis_torque_deficit] [--duration S]
+                                     [--workers 2] [--points 16] [--refine-to 1000]
 
-Runs the same points (the first --points of the study, run length --duration
-s of sim time) three ways, each into a fresh results directory:
-  serial    run_point one after the other in this process (no Dask);
+Runs the same points (the first --points of the study, or of its grid refined to
+--refine-to points: each numeric axis resampled evenly between its extremes; run
+length --duration s of sim time, default the study's) three ways, each into a fresh
+results directory:
+  serial    run_point one after the other in this process (no Dask), with the
+            per-point split: set-up (cores), loop, arrays + metrics, journal write;
   local     run_study on a LocalCluster of --workers single-threaded processes;
   programs  run_study on `dask scheduler` + --workers `dask worker` programs
             started as separate processes on this machine (as on a cluster).
-Worker imports are done before timing (steady state). Prints points/minute, the speed-up over serial, the per-task overhead
-((wall x workers - sum of the points' own run times) / points) and the
-resident memory of each worker process after its run (psutil).
+Worker imports are done before timing (steady state). Prints points/minute against
+the old figure and the goal, the speed-up over serial, the per-task overhead
+((wall x workers - sum of the points' own run times) / points) and the resident
+memory of each worker process after its run (psutil).
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from drive_bringup.dask_programs import DaskPrograms
-from drive_bringup.study import dask_client, load_study, run_point, run_study
+from drive_bringup.study import (append_rows, apply_values, batch_size, dask_client, load_study,
+                                 point_key, run_point, run_study, sample)
 from drive_bringup.study_cli import find_study
+
+
+OLD_POINTS_PER_MIN = 780.0   # the shipped 30 points in 2.3 s on 2 workers, one Dask task per point
+GOAL_POINTS_PER_MIN = 10 * OLD_POINTS_PER_MIN
+
+
+def refined_points(study, total: int) -> list:
+    """The first ``total`` points of the study's grid with each numeric axis resampled evenly
+    between its extremes, every axis's count scaled by the same factor (product >= total)."""
+    factor = (total / len(study.points)) ** (1.0 / len(study.axes))
+    axes = []
+    for a in study.axes:
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in a.values):
+            axes.append(a)
+            continue
+        num = max(2, math.ceil(len(a.values) * factor))
+        axes.append(dataclasses.replace(a, values=tuple(np.linspace(min(a.values), max(a.values), num).tolist())))
+    plan = sample(axes, 'grid')
+    if len(plan) < total:
+        raise SystemExit(f'--refine-to {total}: the grid of {study.name} gives only {len(plan)} points')
+    points = []
+    for values in plan[:total]:
+        scenario = apply_values(study.scenario, {t: values[a.name] for a in axes for t in a.targets})
+        points.append(dataclasses.replace(study.points[0], key=point_key(scenario, 0), values=values,
+                                          repeat=0, scenario=scenario))
+    return points
 
 
 def worker_memory_mb(client) -> list[float]:
@@ -50,27 +84,40 @@ def clustered(study, out: Path, client, workers: int) -> dict:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--study', default='sampled_hysteresis_torque_deficit')
-    parser.add_argument('--duration', type=float, default=0.5, help='sim time per point, s')
+    parser.add_argument('--duration', type=float, help="sim time per point, s (default: the study's)")
     parser.add_argument('--workers', type=int, default=2)
     parser.add_argument('--points', type=int, default=16)
+    parser.add_argument('--refine-to', type=int, metavar='N',
+                        help='run N points of the grid refined to N points (then --points is ignored)')
     args = parser.parse_args(argv)
 
     study = load_study(find_study(args.study))
-    from drive_bringup.study import apply_values, point_key
-    points = []
-    for p in study.points[:args.points]:
-        scenario = apply_values(p.scenario, {'duration': args.duration})
-        points.append(dataclasses.replace(p, scenario=scenario, key=point_key(scenario, p.repeat)))
+    points = refined_points(study, args.refine_to) if args.refine_to else study.points[:args.points]
+    if args.duration is not None:
+        points = [dataclasses.replace(p, scenario=s, key=point_key(s, p.repeat)) for p in points
+                  for s in (apply_values(p.scenario, {'duration': args.duration}),)]
     study = dataclasses.replace(study, points=points)
     n = len(points)
-    print(f'{args.study}: {n} points of {args.duration} s sim time, {args.workers} workers')
+    duration = points[0].scenario.duration
+    print(f'{args.study}: {n} points of {duration} s sim time, {args.workers} workers; '
+          f'old figure {OLD_POINTS_PER_MIN:.0f} points/min, goal {GOAL_POINTS_PER_MIN:.0f}')
 
     _warm_up()
-    started = time.monotonic()
-    rows = [run_point(p) for p in points]
-    serial = time.monotonic() - started
+    run_point(points[0])          # first-call costs (compiled kernels loaded, caches filled)
+    split: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        started = time.monotonic()
+        rows = [run_point(p, split=split) for p in points]
+        serial = time.monotonic() - started
+        size = batch_size(n, args.workers)
+        started = time.monotonic()
+        with open(Path(tmp) / 'points.jsonl', 'a') as journal:
+            for i in range(0, n, size):
+                append_rows(journal, rows[i:i + size], 'bench')
+        split['write'] = time.monotonic() - started
     per_point = sum(r['wall_time_s'] for r in rows) / n
-    print(f'serial     {60 * n / serial:7.1f} points/min  ({per_point:.3f} s per point)')
+    print(f'serial     {60 * n / serial:7.1f} points/min  ({1e3 * per_point:.2f} ms per point: '
+          + ', '.join(f'{k} {1e3 * v / n:.2f} ms' for k, v in split.items()) + ')')
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -81,8 +128,10 @@ def main(argv=None) -> int:
             with Client(programs.address) as client:
                 remote = clustered(study, tmp / 'programs_out', client, args.workers)
     for name, r in (('local', local), ('programs', remote)):
-        print(f'{name:9s}  {60 * n / r["wall"]:7.1f} points/min  speed-up {serial / r["wall"]:.2f}x  '
-              f'per-task overhead {r["overhead"]:.3f} s  worker RSS {r["memory"]} MB')
+        rate = 60 * n / r['wall']
+        print(f'{name:9s}  {rate:7.1f} points/min  ({rate / OLD_POINTS_PER_MIN:.1f}x the old figure)  '
+              f'speed-up {serial / r["wall"]:.2f}x  per-point overhead {1e3 * r["overhead"]:.2f} ms  '
+              f'worker RSS {r["memory"]} MB')
     return 0
 
 

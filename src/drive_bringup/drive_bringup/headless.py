@@ -50,6 +50,7 @@ class HeadlessResult:
     final_time: float = 0.0      # s sim
     final_step: int = 0          # plant base ticks
     wall_time: float = 0.0       # s
+    setup_time: float = 0.0      # s of wall_time spent building the cores
     bag = None                   # nothing recorded: the arrays are the run's data
 
     @property
@@ -109,6 +110,7 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
     cosim = CoSimulation(plant, dtc, pfc, record_every=record_every, on_tick=on_tick,
                          on_tick_every=ON_TICK_EVERY,
                          fused=FusedDtcLoop() if fused else None)
+    setup_time = time.monotonic() - started
     cores = {'plant': plant, 'dtc_controller': dtc, 'controller': dtc, 'pfc_controller': pfc}
     for event in scenario.events:
         if event.time > plant.time:
@@ -118,4 +120,4 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
         cores[event.node].reconfigure(snapshots[event.node])
     cosim.run(steps=plant.step_of(scenario.duration) - plant.step)
     return HeadlessResult(scenario, cosim.trajectory, final_time=plant.time, final_step=plant.step,
-                          wall_time=time.monotonic() - started)
+                          wall_time=time.monotonic() - started, setup_time=setup_time)

@@ -3,12 +3,12 @@
 A study file (YAML) names a base scenario, the parameters to vary, how to
 sample them, repeats and the metrics to collect. Every point is a complete,
 validated scenario (the base with the point's values applied), run by
-:func:`drive_bringup.headless.run_headless` as one ``dask.distributed`` task:
-on a ``LocalCluster`` (one single-threaded worker process per core) by
-default, or on any running cluster given its scheduler address. Results go to
-one table (``results.parquet`` and ``results.csv``); each finished point is
-appended to ``points.jsonl`` at once, so re-running a study skips the points
-already done (key = hash of the point's full parameters).
+:func:`drive_bringup.headless.run_headless`, in batches (:func:`batch_size`), each
+one ``dask.distributed`` task: on a ``LocalCluster`` (one single-threaded worker
+process per core) by default, or on any running cluster given its scheduler
+address. Results go to one table (``results.parquet`` and ``results.csv``); each
+finished batch appends a row per point to ``points.jsonl`` at once, so re-running
+a study skips the points already done (key = hash of the point's full parameters).
 
 The study file (schema, targets) and the status of a point (``ok``,
 ``protection_trip``, ``error``, ``timeout``): docs/studies.md.
@@ -47,6 +47,8 @@ SAMPLINGS = ('grid', 'zip', 'random', 'latin_hypercube')
 STATUSES = ('ok', 'protection_trip', 'error', 'timeout')
 EVENT_TARGET = re.compile(r'events\[(\d+)\]\.(.+)')
 JOURNAL = 'points.jsonl'
+TASKS_PER_WORKER = 8       # Dask tasks per worker a study is split into, at least (load balance)
+MAX_BATCH = 64             # points per Dask task, at most
 SOURCE_ROOT = str(Path(__file__).resolve().parents[2])
 
 
@@ -389,14 +391,23 @@ def _deadline(seconds: float) -> Callable:
     return check
 
 
-def run_point(point: Point, timeout: float = 600.0) -> dict[str, Any]:
-    """Run one point headless; its result row. Never raises: failures become a status."""
+def run_point(point: Point, timeout: float = 600.0, split: dict | None = None) -> dict[str, Any]:
+    """Run one point headless; its result row. Never raises: failures become a status.
+
+    split: if given, the point's wall time [s] is added to its 'setup', 'loop' and
+    'arrays_metrics' entries (building the cores, the run, arrays and metrics).
+    """
     from drive_bringup.headless import run_headless
     started = time.monotonic()
     row = {'key': point.key, 'repeat': point.repeat, **point.values, 'status': 'ok', 'reason': ''}
     try:
-        arrays = run_headless(point.scenario, on_tick=_deadline(timeout)).arrays()
+        result = run_headless(point.scenario, on_tick=_deadline(timeout))
+        arrays = result.arrays()
         values = evaluate_metrics(point.scenario, arrays)
+        if split is not None:
+            for name, seconds in (('setup', result.setup_time), ('loop', result.wall_time - result.setup_time),
+                                  ('arrays_metrics', time.monotonic() - started - result.wall_time)):
+                split[name] = split.get(name, 0.0) + seconds
         for name, value in values.items():
             if isinstance(value, str):                  # a metric that raised: NaN + reason
                 row['reason'] += f'{name}: {value}; '
@@ -416,6 +427,18 @@ def run_point(point: Point, timeout: float = 600.0) -> dict[str, Any]:
     row['wall_time_s'] = time.monotonic() - started
     row['worker'] = f'{socket.gethostname()}:{os.getpid()}'
     return row
+
+
+def run_points(points: list[Point], timeout: float = 600.0) -> list[dict[str, Any]]:
+    """Run a batch of points one after the other (one Dask task); their rows, in order."""
+    return [run_point(p, timeout) for p in points]
+
+
+def batch_size(points: int, workers: int, per_worker: int = TASKS_PER_WORKER,
+               largest: int = MAX_BATCH) -> int:
+    """Points per Dask task: enough tasks per worker to balance the load (per_worker each),
+    few enough that scheduling costs little against the points (at most ``largest`` per task)."""
+    return max(1, min(largest, points // (max(1, workers) * per_worker)))
 
 
 # ---- the study on Dask ----------------------------------------------------------------------
@@ -444,6 +467,15 @@ def read_journal(out_dir: Path) -> dict[str, dict]:
                 continue          # a line cut short by a crash
             rows[row['key']] = row
     return rows
+
+
+def append_rows(journal, rows: list[dict], revision: str) -> None:
+    """Append a finished batch's rows (with the git revision) to the open journal, synced to disk."""
+    for row in rows:
+        row['git_revision'] = revision
+        journal.write(json.dumps(row, default=_scalar) + '\n')
+    journal.flush()
+    os.fsync(journal.fileno())
 
 
 @dataclass
@@ -494,26 +526,26 @@ def run_study(study: Study, out_dir: str | Path, *, scheduler: str | None = None
         with ExitStack() as stack:
             if client is None:
                 client = stack.enter_context(dask_client(scheduler, workers))
-            futures = client.map(partial(run_point, timeout=study.timeout), todo, pure=False,
-                                 key=[f'study-{study.name}-{p.key}-{time.time_ns()}' for p in todo])
-            point_of = {f.key: p for f, p in zip(futures, todo)}
+            size = batch_size(len(todo), len(client.scheduler_info()['workers']))
+            batches = [todo[i:i + size] for i in range(0, len(todo), size)]
+            futures = client.map(partial(run_points, timeout=study.timeout), batches, pure=False,
+                                 key=[f'study-{study.name}-{b[0].key}-{len(b)}-{time.time_ns()}'
+                                      for b in batches])
+            batch_of = {f.key: b for f, b in zip(futures, batches)}
             journal = stack.enter_context(open(out_dir / JOURNAL, 'a'))
             bar = stack.enter_context(tqdm(total=len(todo), desc=study.name, unit='point',
                                            disable=not progress, dynamic_ncols=True))
             for future in as_completed(futures):
-                point = point_of[future.key]
+                batch = batch_of[future.key]
                 try:
-                    row = future.result()
+                    rows = future.result()
                 except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded, not raised
-                    row = {'key': point.key, 'repeat': point.repeat, **point.values,
-                           'status': 'error', 'reason': f'{type(exc).__name__}: {exc}',
-                           'wall_time_s': math.nan, 'worker': ''}
-                row['git_revision'] = revision
-                journal.write(json.dumps(row, default=_scalar) + '\n')
-                journal.flush()
-                os.fsync(journal.fileno())
-                done[point.key] = row
-                bar.update(1)
+                    rows = [{'key': point.key, 'repeat': point.repeat, **point.values,
+                             'status': 'error', 'reason': f'{type(exc).__name__}: {exc}',
+                             'wall_time_s': math.nan, 'worker': ''} for point in batch]
+                append_rows(journal, rows, revision)
+                done.update(zip((p.key for p in batch), rows))
+                bar.update(len(batch))
                 future.release()
     table = results_table(study, done)
     files = write_results(study, table, out_dir, plots=plots)
