@@ -14,10 +14,12 @@ snapshot (``motor.file`` plus explicit values, which win) into the values used.
 """
 from __future__ import annotations
 
+import copy
 import math
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from drive_common import file_cache
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.telemetry import TELEMETRY_PARAMETERS
 
@@ -258,10 +260,15 @@ def load_motor_file(name: str) -> dict[str, Any]:
 
     A value the schema refuses (type, range, choices) raises ParameterError
     naming the file, the key and the reason, as any other parameter change.
+    Read once per process and file version (:mod:`drive_common.file_cache`); a copy is returned.
     """
+    path = motor_file_path(name)
+    return copy.deepcopy(file_cache.from_file('motor_file', path, lambda: _read_motor_file(path)))
+
+
+def _read_motor_file(path: Path) -> dict[str, Any]:
     import yaml  # noqa: PLC0415
 
-    path = motor_file_path(name)
     try:
         data = yaml.safe_load(path.read_text())
     except (OSError, yaml.YAMLError) as exc:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drive_common import file_cache
 from drive_common.signals import TWO_PI, clarke, park
 
 __all__ = ['COLUMNS', 'HEADER', 'REQUIRED_COLUMNS', 'MIN_TABLE_ROWS', 'BackEmfTableError', 'TableFile',
@@ -94,8 +95,14 @@ def read(path) -> TableFile:
 
     Also checked: theta_e in rad, strictly increasing within [0, 2 pi) (a last
     angle far above 2 pi is reported as a likely table in degrees); at least
-    MIN_TABLE_ROWS rows, and as many as a ``# points:`` line says.
+    MIN_TABLE_ROWS rows, and as many as a ``# points:`` line says. Read once per
+    process and file version (:mod:`drive_common.file_cache`): the columns are read-only.
     """
+    t = file_cache.from_file('backemf_file', path, lambda: _read(path))
+    return TableFile(t.path, dict(t.columns), dict(t.metadata), t.header_line, list(t.row_lines))
+
+
+def _read(path) -> TableFile:
     try:
         text = Path(path).read_text()
     except OSError as exc:
@@ -145,7 +152,7 @@ def read(path) -> TableFile:
     if 'points' in meta and meta['points'] != str(len(rows)):
         raise _fail(path, lines[-1], f'{len(rows)} data rows, but the file says "# points: {meta["points"]}"')
     data = np.array(rows, dtype=float)
-    cols = {name: data[:, j].copy() for j, name in enumerate(header)}
+    cols = {name: file_cache.frozen(data[:, j].copy()) for j, name in enumerate(header)}
     theta = cols['theta_e']
     if theta[0] < 0.0:
         raise _fail(path, lines[0], f'theta_e {theta[0]:g} is negative; angles must lie in [0, 2 pi) rad')

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drive_common import backemf_file
+from drive_common import backemf_file, file_cache
+from drive_common.file_cache import frozen
 from drive_common.signals import TWO_PI, clarke
 
 SHIFTS = (0.0, TWO_PI / 3.0, 2.0 * TWO_PI / 3.0)
@@ -68,11 +69,14 @@ class BackEmfShape:
     def __post_init__(self) -> None:
         if self.kind not in SHAPES:
             raise ValueError(f'back-EMF shape {self.kind!r} is not one of {SHAPES}')
-        self._table = None
+        key = (self.kind, float(self.constant), tuple(self.orders), tuple(self.coefficients),
+               tuple(self.phase_gain), int(self.points))
+        # Built once per process and shape (and table file version): the tables are shared, read-only.
         if self.kind == 'table':
-            cols = backemf_file.read(self.table_file).columns
-            self._table = (cols['theta_e'], cols['k_ba'], cols['k_ca'])
-        self._build_luts()
+            tables = file_cache.from_file('backemf_shape', self.table_file, self._build_luts, *key)
+        else:
+            tables = file_cache.memo(('backemf_shape', *key), self._build_luts)
+        self.__dict__.update(tables)
 
     @classmethod
     def from_params(cls, p: dict) -> 'BackEmfShape':
@@ -113,25 +117,29 @@ class BackEmfShape:
         return np.vstack([g * k for g, k in zip(self.phase_gain, phases)])
 
     # ------------------------------------------------------------------ lookup tables
-    def _build_luts(self) -> None:
+    def _build_luts(self) -> dict:
+        """The table columns (shape 'table') and the lookup tables, by attribute name."""
+        self._table = None
+        if self.kind == 'table':
+            cols = backemf_file.read(self.table_file).columns
+            self._table = (cols['theta_e'], cols['k_ba'], cols['k_ca'])
         n = self.points
         theta = np.arange(n) * (TWO_PI / n)
         k = self.k_abc(theta)
         psi = backemf_file.periodic_integral(k)      # PM flux linkage
-        self.grid = theta
-        self.k_grid = k
-        self.psi_grid = psi
         # Hall: H_x = 1 while the fundamental of k_x is positive.
         c1 = (k * np.exp(-1j * theta)).sum(axis=1) * (2.0 / n)
         fund = np.real(c1[:, None] * np.exp(1j * theta)[None, :])
         bits = (fund > 0.0).astype(int)
         hall = bits[0] | (bits[1] << 1) | (bits[2] << 2)
-        self.fundamental = np.abs(c1)
-        # Plain Python lists with a wrap-around copy: scalar fast path in the plant.
-        self.lut_k = tuple(backemf_file.periodic_list(row) for row in k)
-        self.lut_psi = tuple(backemf_file.periodic_list(row) for row in psi)
-        self.lut_hall = [int(h) for h in hall] + [int(hall[0])]
-        self.lut_scale = n / TWO_PI
+        return {
+            '_table': self._table, 'grid': frozen(theta), 'k_grid': frozen(k), 'psi_grid': frozen(psi),
+            'fundamental': frozen(np.abs(c1)),
+            # Python sequences with a wrap-around copy: scalar fast path in the plant.
+            'lut_k': tuple(tuple(backemf_file.periodic_list(row)) for row in k),
+            'lut_psi': tuple(tuple(backemf_file.periodic_list(row)) for row in psi),
+            'lut_hall': tuple(int(h) for h in hall) + (int(hall[0]),),
+            'lut_scale': n / TWO_PI}
 
     def _interpolate(self, lut, theta: float) -> tuple[float, float, float]:
         """The three phase columns of lut at theta [rad], linearly interpolated (scalar).

@@ -17,8 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drive_common import backemf_file
+from drive_common import backemf_file, file_cache
 from drive_common.backemf_file import COLUMNS, HEADER, BackEmfTableError, periodic_integral, periodic_list
+from drive_common.file_cache import frozen
 from drive_common.signals import TWO_PI
 
 __all__ = ['COLUMNS', 'HEADER', 'BackEmfTable', 'BackEmfTableError', 'periodic_list']
@@ -75,8 +76,15 @@ class BackEmfTable:
         Beyond the file rules: every column of COLUMNS, ``# pole_pairs`` and ``# points``
         metadata, evenly spaced angles, derived columns matching the per-phase ones, and
         (expected_pole_pairs: the controller's motor) the motor's pole pairs.
-        Raises BackEmfTableError naming the file and, where it applies, the line.
+        Raises BackEmfTableError naming the file and, where it applies, the line. Loaded once
+        per process, file version and expected_pole_pairs (:mod:`drive_common.file_cache`):
+        the table is shared by the cores that load it and must not be changed.
         """
+        return file_cache.from_file('backemf_table', path, lambda: cls._load(path, expected_pole_pairs),
+                                    expected_pole_pairs, cls)
+
+    @classmethod
+    def _load(cls, path, expected_pole_pairs: int | None) -> 'BackEmfTable':
         table = backemf_file.read(path)
         name, line = table.path, table.header_line
         missing = [c for c in COLUMNS if c not in table.columns]
@@ -95,7 +103,9 @@ class BackEmfTable:
                                     f'controller motor.pole_pairs is {expected_pole_pairs}')
         cols = {c: table.columns[c] for c in COLUMNS}
         _check_consistency(name, cols, table.row_lines)
-        return cls(cols, pole_pairs, table.metadata, name)
+        loaded = cls(cols, pole_pairs, table.metadata, name)
+        frozen(loaded.rotor_flux_alpha), frozen(loaded.rotor_flux_beta)
+        return loaded
 
     def write(self, path) -> None:
         """Write in the table file format (used by tests; the plant's generator writes the real one)."""
