@@ -109,7 +109,8 @@ class FusedDtcLoop:
             if sw is None:
                 sw = switches[code] = plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
             applied.append(sw)
-        status, topology = run.status_builder(out, x[:, F.X_THETA], x[:, F.X_SPEED]), plant.topology
+        theta, speed = x[:, F.X_THETA], x[:, F.X_SPEED]
+        status, columns, topology = run.status_builder(out, theta, speed), run.columns(out, theta, speed), plant.topology
         commands = run.commands
 
         def gate(step, r):
@@ -117,7 +118,7 @@ class FusedDtcLoop:
 
         cosim.trajectory.pop_last_if(int(steps[0]))
         cosim.trajectory.add_block(RecordBlock(steps, plant.base_tick, sv, applied, extras,
-                                               x[:, F.X_DUE] != 0.0, status, gate))
+                                               x[:, F.X_DUE] != 0.0, status, gate, columns))
 
 
 _NO_SPLIT, _NO_UPPER = np.zeros((1, 1, 1), np.int64), np.zeros((1, 1), np.int64)
@@ -146,6 +147,10 @@ class _ModeRun:
             return mode.status_of(step, rotation, rows[0][r], rows[1][r], rows[2][r])
         return status
 
+    def columns(self, out, theta, speed):
+        mode, rotation = self.mode, self.mode.rotation
+        return lambda steps, rows: mode.status_columns(steps, rotation, out[rows], theta[rows], speed[rows])
+
     def after(self) -> None:
         self.mode.after_fused()
 
@@ -164,6 +169,9 @@ class _ConstantRun:
 
     def status_builder(self, out, theta, speed):
         return lambda step, r: None
+
+    def columns(self, out, theta, speed):
+        return lambda steps, rows: {}
 
     def after(self) -> None:
         pass

@@ -10,8 +10,7 @@ system test shows it gives the same trajectory as the ROS graph.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, fields
-from operator import attrgetter
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -69,18 +68,8 @@ class HeadlessResult:
         """Plant ground truth as 'plant/state.<field>' and DTC/PFC status as 'dtc/status.<field>'
         (each status with the 'time' of the sample it answered, as its header stamp in a bag)."""
         out = {f'plant/state.{k}': v for k, v in self.trajectory.as_arrays().items()}
-        times = self.trajectory.times
-        for which, seq in (('dtc', self.trajectory.dtc_status), ('pfc', self.trajectory.pfc_status)):
-            statuses = [s for s in seq if s is not None]
-            if not statuses:
-                continue
-            out[f'{which}/status.time'] = np.array([t for t, s in zip(times, seq) if s is not None], dtype=float)
-            names = [f.name for f in fields(statuses[0])]
-            for name, column in zip(names, zip(*map(attrgetter(*names), statuses))):
-                try:
-                    out[f'{which}/status.{name}'] = np.array(column, dtype=float)
-                except (TypeError, ValueError):
-                    continue  # strings (mode name)
+        for which in ('dtc', 'pfc'):
+            out.update((f'{which}/status.{k}', v) for k, v in self.trajectory.status_arrays(which).items())
         return out
 
     def save(self, path: Path, arrays: dict[str, np.ndarray] | None = None) -> Path:

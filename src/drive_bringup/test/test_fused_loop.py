@@ -14,6 +14,8 @@ from drive_bringup.scenario import load_scenario
 from drive_common.uris import resolve_path
 from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
 from dtc_controller.core.controller import DtcCore
+from dtc_controller.core.modes.three_phase_pmsm import ThreePhaseBase
+from dtc_controller.core.modes.two_phase_base import TwoPhaseModeBase
 
 # each shipped DTC mode: two-phase six / four switch, fstp (four-switch three-phase) voltage and
 # current model, dtifc sensorless, pmsm (sstp)
@@ -89,6 +91,26 @@ def test_shipped_scenarios_fused_equal_per_sample(name):
     assert_same_trajectory(fused.trajectory, per_sample.trajectory)
     assert fused.arrays().keys() == per_sample.arrays().keys()
     assert differing(fused.arrays(), per_sample.arrays()) == []
+
+
+@requires_jit()
+@pytest.mark.parametrize('name', [SCENARIOS[0], SCENARIOS[4]])
+def test_status_arrays_of_compiled_blocks_are_built_without_objects(name, monkeypatch):
+    """arrays() reads the DTC statuses of compiled records from the kernel outputs: no
+    DtcStatusSample is built, and every array has the per-sample path's dtype, shape and bits."""
+    sc = scenario(name)
+    per_sample = run_headless(sc, fused=False).arrays()
+    fused = run_headless(sc)
+
+    def refuse(*args):
+        raise AssertionError('a status object was built for arrays()')
+    for mode in (TwoPhaseModeBase, ThreePhaseBase):
+        monkeypatch.setattr(mode, 'status_of', refuse)
+    arrays = fused.arrays()
+    status = sorted(k for k in per_sample if k.startswith('dtc/status.'))
+    assert len(status) > 20 and status == sorted(k for k in arrays if k.startswith('dtc/status.'))
+    assert [k for k in status if (arrays[k].dtype, arrays[k].shape) != (per_sample[k].dtype, per_sample[k].shape)
+            or arrays[k].tobytes() != per_sample[k].tobytes()] == []
 
 
 @requires_jit()

@@ -17,6 +17,7 @@ its records come as :class:`RecordBlock` arrays, objects built when read.
 from __future__ import annotations
 
 from dataclasses import fields
+from operator import attrgetter
 from typing import Any, Callable
 
 import numpy as np
@@ -50,6 +51,9 @@ class _Rows:
     def column(self, name: str) -> np.ndarray | None:
         return None
 
+    def status_columns(self, which: str) -> dict | None:
+        return None
+
 
 class RecordBlock:
     """Records of compiled ticks as arrays; objects are built only when asked for.
@@ -57,12 +61,13 @@ class RecordBlock:
     steps: ticks; sv: (n, SV_SIZE) plant_kernel.state_values rows; applied: switch tuple of each
     record; extras: PlantCore.state_extras() of the block (constant: a fault ends a block);
     due: DTC due per record; status(step, row) -> DtcStatusSample of a due record; gate(step, row)
-    -> the GateSample the DTC returned.
+    -> the GateSample the DTC returned; columns(steps, rows) -> the statuses of those due records
+    as DtcStatusSample.columns gives them ({} when the DTC returns none; None: build objects).
     """
 
-    def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate) -> None:
+    def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate, columns=None) -> None:
         self.steps_, self.base_tick, self.sv, self.applied, self.extras = steps, base_tick, sv, applied, extras
-        self.due, self.status, self.gate = due, status, gate
+        self.due, self.status, self.gate, self.columns = due, status, gate, columns
         self.n = len(steps)
 
     def __len__(self) -> int:
@@ -87,6 +92,18 @@ class RecordBlock:
         build = self.status if name == 'dtc_status' else self.gate
         seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
         return seq if name == 'dtc_status' else [(g, None) for g in seq]
+
+    def status_columns(self, which: str) -> dict | None:
+        """The 'dtc' / 'pfc' statuses of the block's records as 'time' and field columns, built
+        without objects ({}: none; None: not held as columns)."""
+        if which == 'pfc':
+            return {}
+        if self.columns is None:
+            return None
+        rows = np.flatnonzero(self.due[:self.n])
+        steps = self.steps_[rows]
+        columns = self.columns(steps, rows) if len(rows) else {}
+        return {'time': steps * self.base_tick, **columns} if columns else {}
 
     def column(self, name: str) -> np.ndarray | None:
         """One PlantState field as a float array without building objects (None: not held here)."""
@@ -169,6 +186,20 @@ class Trajectory:
             cols.append(col)
         return np.concatenate(cols) if cols else np.array([], dtype=float)
 
+    def status_arrays(self, which: str) -> dict[str, np.ndarray]:
+        """The 'dtc' / 'pfc' statuses as arrays: 'time' of each record with one, then each numeric
+        field (tuples as columns); {} without any. Compiled blocks give theirs without objects."""
+        pieces = []
+        for part in (p for p in self._parts if len(p)):
+            columns = part.status_columns(which)
+            if columns is None:
+                seq = part.list_of(f'{which}_status')[:len(part)]
+                columns = _object_columns(part.list_of('times')[:len(part)], seq)
+            if columns:
+                pieces.append(columns)
+        return {k: np.concatenate([p[k] for p in pieces]) for k in pieces[0]
+                if all(k in p for p in pieces)} if pieces else {}
+
     def as_arrays(self) -> dict[str, np.ndarray]:
         """Every PlantState field as an array, plus 'step' and 'time'."""
         times = [np.array(p.times[:len(p)]) if isinstance(p, _Rows) else p.steps_[:p.n] * p.base_tick
@@ -177,6 +208,22 @@ class Trajectory:
         for f in fields(PlantStateSample):
             out[f.name] = self.array(f.name)
         return out
+
+
+def _object_columns(times: list, seq: list) -> dict[str, np.ndarray]:
+    """Status objects (None: no status at that record) as 'time' and one float array per
+    numeric field; fields that are not numbers (a mode name) are left out."""
+    statuses = [s for s in seq if s is not None]
+    if not statuses:
+        return {}
+    out = {'time': np.array([t for t, s in zip(times, seq) if s is not None], dtype=float)}
+    names = [f.name for f in fields(statuses[0])]
+    for name, column in zip(names, zip(*map(attrgetter(*names), statuses))):
+        try:
+            out[name] = np.array(column, dtype=float)
+        except (TypeError, ValueError):
+            continue
+    return out
 
 
 class CoSimulation:

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 NAN = float('nan')
 
 
@@ -34,6 +36,24 @@ class DtcStatusSample:
     d_current_hysteresis: int        # 0 (DTIFC only)
     voltage_vector: int              # index in the mode's vector numbering
     switch_on: tuple                 # SW1..SW6
+
+    @classmethod
+    def columns(cls, n: int, vectors, vector, **values) -> dict:
+        """n statuses as columns: each numeric field a float array, as ``np.array`` over the objects'
+        values gives (scalars repeated; switch_on (n, switches)); mode (a string) left out.
+
+        vectors: the mode's voltage vectors; vector: (n,) indexes into them (voltage_vector and
+        switch_on are looked up); integer fields are given as integer arrays.
+        """
+        vector = np.asarray(vector).astype(np.int64)
+        values['voltage_vector'] = np.array([v.index for v in vectors], dtype=float)[vector]
+        values['switch_on'] = np.array([v.switch_on for v in vectors], dtype=float)[vector]
+        out = {}
+        for f in fields(cls):
+            if f.name != 'mode':
+                value = np.asarray(values[f.name], dtype=float)
+                out[f.name] = np.full(n, float(value)) if value.ndim == 0 else value
+        return out
 
     @classmethod
     def partial(cls, step: int, mode: str, **values) -> 'DtcStatusSample':
