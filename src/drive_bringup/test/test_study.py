@@ -12,6 +12,7 @@ import yaml
 
 from drive_bringup.study import (JOURNAL, StudyError, load_study, read_journal, run_point,
                                  run_study, sample, Axis)
+from drive_bringup import study
 from drive_bringup.study_cli import study_dir
 
 BASE = '''
@@ -159,6 +160,32 @@ def test_resume_skips_the_points_already_done(tmp_path):
     assert table['mean_torque_N_m'].notna().all()
     assert pd.read_csv(out / 'results.csv').shape == table.shape
     assert (out / 'plots' / 'mean_torque_N_m.png').stat().st_size > 0
+
+
+def test_batch_size_balances_the_workers_and_is_bounded():
+    assert [study.batch_size(n, 2) for n in (1, 15, 16, 100, 1000, 10 ** 6)] == [1, 1, 1, 6, 62, 64]
+    assert study.batch_size(100, 0) == study.batch_size(100, 1) == 12
+
+
+def test_points_run_in_batches_and_each_is_recorded_once(tmp_path, monkeypatch):
+    from distributed import Client, get_task_stream
+    loads = [round(0.01 * i, 2) for i in range(1, 21)]
+    probe = load_study(write(tmp_path, BASE.replace('[0.1, 0.2, 0.3]', str(loads))))
+    out = tmp_path / 'out'
+    with Client(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as client:
+        with get_task_stream(client) as tasks:
+            run = run_study(probe, out, client=client, progress=False, plots=False)
+        assert len(tasks.data) == 10 and run.ran == 20            # 2 points per task on 1 worker
+        rows = [json.loads(line) for line in (out / JOURNAL).read_text().splitlines()]
+        assert sorted(r['key'] for r in rows) == sorted(p.key for p in probe.points)
+        assert list(run.table['load_N_m']) == loads and set(run.table['status']) == {'ok'}
+
+        def broken(points, timeout):
+            raise RuntimeError('worker lost')
+        monkeypatch.setattr(study, 'run_points', broken)
+        again = run_study(probe, tmp_path / 'again', client=client, progress=False, plots=False)
+    assert set(again.table['status']) == {'error'} and len(again.table) == 20   # every point of each batch
+    assert set(again.table['reason']) == {'RuntimeError: worker lost'}
 
 
 def test_shipped_studies_validate():
