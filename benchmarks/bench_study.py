@@ -12,8 +12,9 @@ results directory:
   local     run_study on a LocalCluster of --workers single-threaded processes;
   programs  run_study on `dask scheduler` + --workers `dask worker` programs
             started as separate processes on this machine (as on a cluster).
-Worker imports are done before timing (steady state). Prints points/minute against
-the old figure and the goal, the speed-up over serial, the per-task overhead
+Each process runs one point before timing (steady state: imports,
+compiled kernels and file caches loaded). Prints points/minute against
+the old figure and the goal, the speed-up over serial, the per-point overhead
 ((wall x workers - sum of the points' own run times) / points) and the resident
 memory of each worker process after its run (psutil).
 """
@@ -66,13 +67,16 @@ def worker_memory_mb(client) -> list[float]:
     return sorted(round(v / 1e6) for v in rss.values())
 
 
-def _warm_up() -> None:
-    import drive_bringup.headless  # noqa: F401 - the imports a first point would pay for
+def _warm_up(point=None) -> None:
+    """The imports, compiled-kernel loads and file caches a first point would pay for."""
+    import drive_bringup.headless  # noqa: F401
     import drive_bringup.report  # noqa: F401
+    if point is not None:
+        run_point(point)
 
 
 def clustered(study, out: Path, client, workers: int) -> dict:
-    client.run(_warm_up)          # measure the steady state, not each worker's first imports
+    client.run(_warm_up, study.points[0])    # the steady state, not each worker's first point
     started = time.monotonic()
     run = run_study(study, out, client=client, progress=False, plots=False)
     wall = time.monotonic() - started
@@ -102,8 +106,7 @@ def main(argv=None) -> int:
     print(f'{args.study}: {n} points of {duration} s sim time, {args.workers} workers; '
           f'old figure {OLD_POINTS_PER_MIN:.0f} points/min, goal {GOAL_POINTS_PER_MIN:.0f}')
 
-    _warm_up()
-    run_point(points[0])          # first-call costs (compiled kernels loaded, caches filled)
+    _warm_up(points[0])
     split: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as tmp:
         started = time.monotonic()
