@@ -110,7 +110,8 @@ class FusedDtcLoop:
                 sw = switches[code] = plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
             applied.append(sw)
         theta, speed = x[:, F.X_THETA], x[:, F.X_SPEED]
-        status, columns, topology = run.status_builder(out, theta, speed), run.columns(out, theta, speed), plant.topology
+        status, columns = run.status_builder(out, theta, speed), run.columns(out, theta, speed)
+        topology = plant.topology
         commands = run.commands
 
         def gate(step, r):
