@@ -16,6 +16,7 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
@@ -40,6 +41,7 @@ from dtc_msgs.msg import PlantState, PlantStateBlock
 from dtc_msgs.srv import ResetProtection
 
 STOP_WAIT = 10.0                # s stop() waits for a run to end
+FIRST_CLOCK_ACK_WAIT = 3.0      # s the first /clock waits for its readers' acknowledgements
 
 
 class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
@@ -79,6 +81,7 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._block_pub = self.create_publisher(PlantStateBlock, topics.PLANT_STATE_BLOCK,
                                                 topics.BLOCK_QOS)
         self._clock_pub = self.create_publisher(Clock, topics.CLOCK, topics.LIVE_QOS)
+        self._clock_acked = False
         self._telemetry = BlockStream(PlantStateBlock, self._block_pub.publish,
                                       self.parameters['telemetry.block_size'],
                                       self.parameters['telemetry.live_period'])
@@ -127,6 +130,12 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         clock_ticks = self.schedule.clock_ticks
         if clock_ticks == 0 or self.core.step % clock_ticks == 0:
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
+            if not self._clock_acked:
+                # Once: every /clock reader (a recorder) has matched this node from its own
+                # side before the run goes on; a reader that matches a publisher only after
+                # its first samples went out never gets them (the start check sees our side).
+                self._clock_acked = True
+                self._clock_pub.wait_for_all_acked(Duration(seconds=FIRST_CLOCK_ACK_WAIT))
 
     def _flush_state_block(self) -> None:
         """Publish the partial block (sim time holds: end of a run, reset, stop)."""
