@@ -12,7 +12,6 @@ Ctrl-C or SIGTERM.
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -426,19 +425,9 @@ class GraphRunner:
         return result.final_step, result.final_time
 
 
-def _raise_keyboard_interrupt(signum, frame):
-    raise KeyboardInterrupt
-
-
 def main_guard(fn: Callable[[], int]) -> int:
-    """Run fn; a RunFailed, SIGINT (Ctrl-C) or SIGTERM ends with a message and a non-zero code.
-
-    Both signals are handled explicitly, whatever was inherited: a shell starts
-    a background job of a non-interactive script with SIGINT ignored, and
-    Python then installs no KeyboardInterrupt handler of its own.
-    """
-    previous = {sig: signal.signal(sig, _raise_keyboard_interrupt)
-                for sig in (signal.SIGINT, signal.SIGTERM)}
+    """Run fn; a refused domain (2) or a RunFailed (1) ends with a one-line message. Signals:
+    run_scenario's main turns SIGINT/SIGTERM into KeyboardInterrupt from its start (exit 130)."""
     try:
         return fn()
     except DomainBusy as exc:
@@ -447,9 +436,3 @@ def main_guard(fn: Callable[[], int]) -> int:
     except RunFailed as exc:
         print(f'run failed: {exc}', file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print('interrupted: all nodes stopped', file=sys.stderr)
-        return 130
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)

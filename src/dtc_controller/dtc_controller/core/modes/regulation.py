@@ -15,12 +15,14 @@ applied switch state for the next sample's voltage model.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from drive_common.compiled import njit
 from drive_common.signals import TWO_PI, clarke
 
 from ..hysteresis import TwoLevelHysteresis
 from ..speed_loop import SpeedPI
-from ..status import NAN
+from ..status import NAN, DtcStatusSample
 
 _ALL_OFF = (False,) * 6
 
@@ -124,6 +126,23 @@ class DtcMode:
         self.speed_reference = float(params['speed_reference'])
         self.speed_pi.set_gains(params['speed_loop.kp'], params['speed_loop.ki'],
                                 params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
+
+    STATUS_COLUMNS: tuple = ()     # per mode: the status field of each kernel output column
+    _INTEGER_FIELDS = frozenset({'vector', 'sector', 'torque_hysteresis', 'flux_hysteresis',
+                                 'd_current_hysteresis'})
+
+    def status_columns(self, step, rotation: int, out, theta, speed_m) -> dict:
+        """The mode's ``status_of`` over n samples at once, as :meth:`DtcStatusSample.columns`:
+        out (n, O_SIZE) kernel outputs named by STATUS_COLUMNS; step, theta (encoder angle, the
+        rotor angle estimate unless out has one), speed_m (n,); fields not in out: NaN or 0."""
+        values = dict(phase_a_torque_estimate=NAN, phase_b_torque_estimate=NAN,
+                      d_current_reference=NAN, rotor_angle_estimate=theta, speed_estimate=NAN,
+                      d_current_hysteresis=0)
+        for name, column in zip(self.STATUS_COLUMNS, out.T):
+            values[name] = column.astype(np.int64) if name in self._INTEGER_FIELDS else column
+        vector = values.pop('vector')
+        return DtcStatusSample.columns(len(step), self.vectors, vector, step=step, rotation=rotation,
+                                       speed_measured=speed_m, **values)
 
     def measure(self, s):
         """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample (:func:`measure_values`)."""

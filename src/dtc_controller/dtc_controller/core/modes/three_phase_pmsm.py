@@ -153,19 +153,11 @@ class ThreePhaseBase(DtcMode):
             psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta, w_e, int(sector), int(tau),
             int(phi), int(d_state), vec.index, vec.switch_on)
 
-    def status_columns(self, step, rotation: int, out, theta_enc, speed_m) -> dict:
-        """:meth:`status_of` over n samples at once (out (n, O_SIZE), step, theta_enc, speed_m (n,)),
-        as :meth:`DtcStatusSample.columns`."""
-        (vector, t_ref, speed_ref, torque, psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta,
-         w_e, sector, tau, phi, d_state) = out.T
-        as_int = lambda x: x.astype(np.int64)  # noqa: E731 - int() of each value
-        return DtcStatusSample.columns(
-            len(step), self.vectors, vector, step=step, rotation=rotation, speed_reference=speed_ref,
-            speed_measured=speed_m, torque_reference=t_ref, torque_estimate=torque,
-            phase_a_torque_estimate=NAN, phase_b_torque_estimate=NAN, flux_alpha=psi_al, flux_beta=psi_be,
-            flux_magnitude=psi_mag, flux_reference=flux_ref, d_current_reference=id_ref, d_current=i_d,
-            q_current=i_q, rotor_angle_estimate=theta, speed_estimate=w_e, sector=as_int(sector),
-            torque_hysteresis=as_int(tau), flux_hysteresis=as_int(phi), d_current_hysteresis=as_int(d_state))
+    # status field of each kernel output column (DtcMode.status_columns)
+    STATUS_COLUMNS = ('vector', 'torque_reference', 'speed_reference', 'torque_estimate', 'flux_alpha',
+                      'flux_beta', 'flux_magnitude', 'flux_reference', 'd_current_reference',
+                      'd_current', 'q_current', 'rotor_angle_estimate', 'speed_estimate', 'sector',
+                      'torque_hysteresis', 'flux_hysteresis', 'd_current_hysteresis')
 
     def fused_arrays(self) -> tuple:
         """(kind 3, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""

@@ -102,19 +102,11 @@ class TwoPhaseModeBase(DtcMode):
             psi_al, psi_be, psi_mag, flux_ref, NAN, i_d, i_q, theta, NAN, int(sector), int(tau),
             int(phi), 0, vec.index, vec.switch_on)
 
-    def status_columns(self, step, rotation: int, out, theta, speed_m) -> dict:
-        """:meth:`status_of` over n samples at once (out (n, O_SIZE), step, theta, speed_m (n,)), as
-        :meth:`DtcStatusSample.columns`."""
-        (vector, t_ref, speed_ref, torque, t_a, t_b, psi_al, psi_be, psi_mag, flux_ref, i_d, i_q,
-         sector, tau, phi) = out.T
-        as_int = lambda x: x.astype(np.int64)  # noqa: E731 - int() of each value
-        return DtcStatusSample.columns(
-            len(step), self.vectors, vector, step=step, rotation=rotation, speed_reference=speed_ref,
-            speed_measured=speed_m, torque_reference=t_ref, torque_estimate=torque,
-            phase_a_torque_estimate=t_a, phase_b_torque_estimate=t_b, flux_alpha=psi_al, flux_beta=psi_be,
-            flux_magnitude=psi_mag, flux_reference=flux_ref, d_current_reference=NAN, d_current=i_d,
-            q_current=i_q, rotor_angle_estimate=theta, speed_estimate=NAN, sector=as_int(sector),
-            torque_hysteresis=as_int(tau), flux_hysteresis=as_int(phi), d_current_hysteresis=0)
+    # status field of each kernel output column (DtcMode.status_columns)
+    STATUS_COLUMNS = ('vector', 'torque_reference', 'speed_reference', 'torque_estimate',
+                      'phase_a_torque_estimate', 'phase_b_torque_estimate', 'flux_alpha', 'flux_beta',
+                      'flux_magnitude', 'flux_reference', 'd_current', 'q_current', 'sector',
+                      'torque_hysteresis', 'flux_hysteresis')
 
     def fused_arrays(self) -> tuple:
         """(kind 2, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""
