@@ -12,8 +12,20 @@ from __future__ import annotations
 
 import math
 
+from drive_common.compiled import njit
+
 from .vectors import LOW, HIGH, OPEN, VoltageVector, leg_states, voltage_coefficients
 
+
+
+@njit
+def trapezoid_flux_step(psi_alpha: float, psi_beta: float, v_alpha_prev: float, v_beta_prev: float,
+                        r: float, ts: float, i_prev_alpha: float, i_prev_beta: float,
+                        i_alpha: float, i_beta: float):
+    """Eqs. (1.22)-(1.23): the stator flux [Wb] one sample T_s [s] on, with v(k-1) [V] and the
+    mean of i(k-1), i(k) [A] through R [ohm] (trapezoidal). Shared by every voltage model."""
+    return (psi_alpha + (v_alpha_prev - r * 0.5 * (i_prev_alpha + i_alpha)) * ts,
+            psi_beta + (v_beta_prev - r * 0.5 * (i_prev_beta + i_beta)) * ts)
 
 class VoltageModelFluxEstimator:
     """Open-loop integrator of eqs. (1.22)-(1.23); R [ohm], T_s [s], state in Wb."""
@@ -40,9 +52,9 @@ class VoltageModelFluxEstimator:
         The first call only stores i(0) (no voltage applied before it).
         """
         if self._primed:
-            r, ts = self.resistance, self.sample_period
-            self.psi_alpha += (v_alpha_prev - r * 0.5 * (self._i_alpha + i_alpha)) * ts
-            self.psi_beta += (v_beta_prev - r * 0.5 * (self._i_beta + i_beta)) * ts
+            self.psi_alpha, self.psi_beta = trapezoid_flux_step(
+                self.psi_alpha, self.psi_beta, v_alpha_prev, v_beta_prev, self.resistance,
+                self.sample_period, self._i_alpha, self._i_beta, i_alpha, i_beta)
         self._primed = True
         self._i_alpha = i_alpha
         self._i_beta = i_beta
@@ -113,4 +125,4 @@ class InverterVoltageModel:
         return v_al, v_be
 
 
-__all__ = ['VoltageModelFluxEstimator', 'rotor_flux', 'InverterVoltageModel', 'VoltageVector']
+__all__ = ['VoltageModelFluxEstimator', 'trapezoid_flux_step', 'rotor_flux', 'InverterVoltageModel', 'VoltageVector']

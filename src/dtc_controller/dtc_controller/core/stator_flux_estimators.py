@@ -15,7 +15,7 @@ import math
 
 from drive_common.compiled import interpreted, njit
 
-from .flux_estimator import VoltageModelFluxEstimator
+from .flux_estimator import VoltageModelFluxEstimator, trapezoid_flux_step
 
 PureIntegrator = VoltageModelFluxEstimator
 """000 eqs. (1.22)-(1.23) / 001 eqs. (15)-(16): open-loop integration (helper-2's estimator)."""
@@ -49,8 +49,8 @@ def integrator_step(kind: int, r: float, ts: float, leak: float, limit: float, p
                     i_alpha: float, i_beta: float):
     """New (psi_alpha, psi_beta) [Wb] of a primed voltage-model integrator (module doc), kind 0 pure,
     1 low-pass, 2 Hu-Wu (leak = 1 - exp(-w_c T_s), limit [Wb])."""
-    pa_new = pa + (v_alpha_prev - r * 0.5 * (i_prev_alpha + i_alpha)) * ts
-    pb_new = pb + (v_beta_prev - r * 0.5 * (i_prev_beta + i_beta)) * ts
+    pa_new, pb_new = trapezoid_flux_step(pa, pb, v_alpha_prev, v_beta_prev, r, ts,
+                                         i_prev_alpha, i_prev_beta, i_alpha, i_beta)
     if kind == 1:
         pa_new -= leak * pa
         pb_new -= leak * pb

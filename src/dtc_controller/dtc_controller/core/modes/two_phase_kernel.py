@@ -17,6 +17,7 @@ import numpy as np
 
 from drive_common.compiled import njit
 
+from ..flux_estimator import trapezoid_flux_step
 from ..hysteresis import two_level
 from ..speed_loop import speed_pi_update
 from ..switching_tables import sector_of_angle
@@ -133,9 +134,9 @@ def _flux(prm, st, tab, coef, legs, i_a, i_b, i_c, i_al, i_be, theta, speed_m) -
                                      prm[P_THRESHOLD], st[S_PREV_VDC], st[S_PREV_VMID], st[S_PREV_IA],
                                      st[S_PREV_IB], st[S_PREV_IC], use_emf, e_a, e_b, e_c)
     if st[S_PRIMED] != 0.0:
-        r, ts = prm[P_R], prm[P_TS]
-        st[S_PSI_ALPHA] += (v_al - r * 0.5 * (st[S_I_ALPHA] + i_al)) * ts
-        st[S_PSI_BETA] += (v_be - r * 0.5 * (st[S_I_BETA] + i_be)) * ts
+        st[S_PSI_ALPHA], st[S_PSI_BETA] = trapezoid_flux_step(
+            st[S_PSI_ALPHA], st[S_PSI_BETA], v_al, v_be, prm[P_R], prm[P_TS], st[S_I_ALPHA],
+            st[S_I_BETA], i_al, i_be)
     st[S_PRIMED] = 1.0
     st[S_I_ALPHA] = i_al
     st[S_I_BETA] = i_be
