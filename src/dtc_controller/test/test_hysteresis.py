@@ -1,4 +1,4 @@
-from dtc_controller.core.hysteresis import ThreeLevelHysteresis, TwoLevelHysteresis
+from dtc_controller.core.hysteresis import TwoLevelHysteresis
 
 
 def test_two_level_holds_inside_band():
@@ -7,7 +7,3 @@ def test_two_level_holds_inside_band():
     h.band = 0.0
     assert h.update(1e-9) == 1
 
-
-def test_three_level_returns_to_zero_at_crossing():
-    h = ThreeLevelHysteresis(0.1)
-    assert [h.update(e) for e in (0.05, 0.2, 0.05, -0.01, -0.05, -0.2, -0.01, 0.0)] == [0, 1, 1, 0, 0, -1, -1, 0]

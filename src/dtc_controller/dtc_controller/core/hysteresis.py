@@ -1,12 +1,10 @@
-"""Hysteresis (bang-bang) comparators: two-level (eqs. 1.17-1.20) and three-level.
+"""Hysteresis (bang-bang) comparators: two-level (eqs. 1.17-1.20).
 
 ``band`` is the half-width H [unit of the controlled quantity]: with
 error = reference - actual, a two-level comparator outputs +1 once
 error > +H (actual below reference - H, eq. 1.19 "d = 1") and -1 once
 error < -H (eq. 1.20, written with -1 instead of 0 as Table II's tau),
-holding its output in between. The three-level comparator (classical DTC
-with zero vectors) outputs +1 / -1 beyond +-H and returns to 0 when the
-error crosses zero.
+holding its output in between.
 """
 from __future__ import annotations
 
@@ -42,27 +40,3 @@ class TwoLevelHysteresis:
 
     def reset(self, initial: int = 1) -> None:
         self.state = 1 if initial >= 0 else -1
-
-
-class ThreeLevelHysteresis:
-    """Output +1 / 0 / -1: +1 beyond +H, -1 beyond -H, back to 0 at the zero crossing of the error."""
-
-    __slots__ = ('band', 'state')
-
-    def __init__(self, band: float) -> None:
-        self.band = float(band)
-        self.state = 0
-
-    def update(self, error: float) -> int:
-        s = self.state
-        if error > self.band:
-            s = 1
-        elif error < -self.band:
-            s = -1
-        elif (s > 0 and error <= 0.0) or (s < 0 and error >= 0.0):
-            s = 0
-        self.state = s
-        return s
-
-    def reset(self) -> None:
-        self.state = 0

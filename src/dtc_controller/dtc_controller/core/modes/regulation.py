@@ -151,12 +151,6 @@ class DtcMode:
         return measure_values(i_a, i_b, i_c, s.encoder_angle, self.encoder_offset, s.dc_link_voltage,
                               s.midpoint_voltage)
 
-    def torque_reference_now(self, speed_m: float) -> tuple[float, float]:
-        """(T* [N m], speed reference or NaN); speed_m [rad/s] is the speed the loop regulates."""
-        if self.speed_loop:
-            return self.speed_pi.update(self.speed_reference, speed_m), self.speed_reference
-        return self.torque_reference, NAN
-
     def remember(self, switch_on, v_dc, v_mid, i_a, i_b, i_c) -> None:
         """The applied switch state and the sample's measurements, for the next sample's voltage model."""
         self._started = True
