@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -109,7 +110,9 @@ def main(argv=None) -> int:
     started = time.monotonic()
     rows, notes = [], []
     jobs = 1 if args.ros else max(1, args.jobs)
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    # spawn, not fork: a caller with threads and compiled code loaded (a test process, rclpy)
+    # must not be forked (a forked worker died abruptly in CI)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context('spawn')) as pool:
         futures = [pool.submit(run_one, str(p), args.ros, str(args.out / 'bags')) for p in paths]
         for path, future in zip(paths, futures):
             scenario_rows, wall, error = future.result()
