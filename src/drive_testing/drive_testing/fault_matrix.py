@@ -34,6 +34,7 @@ import yaml
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.03            # s of sim time per run
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
+BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
 BLOCK_TOPICS = ('/plant/state_block', '/dtc/status_block')
@@ -273,8 +274,11 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
         outcome.crashed = _crash(code, text, case)
         return outcome
     from drive_testing.harness import reserve_domain
-    with reserve_domain() as domain_id:
-        code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
+    for _ in range(3):   # a domain that holds another graph (not this case's doing): another one
+        with reserve_domain() as domain_id:
+            code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
+        if not (code == 2 and BUSY_DOMAIN in text):
+            break
     logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
         if (out / 'logs').is_dir() else ''
     outcome.log = bool(LOG_LINE.search(logs))
@@ -392,10 +396,13 @@ def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
     scenario = _scenario_file(clean, directory)
     out = directory / f'clean_{duration:g}'
     from drive_testing.harness import isolated_env, reserve_domain
-    with reserve_domain() as domain_id:
-        code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out',
-                           str(out), '--overwrite', '--domain-id', str(domain_id)],
-                          isolated_env(domain_id))
+    for _ in range(3):   # a domain that holds another graph: another one
+        with reserve_domain() as domain_id:
+            code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario),
+                               '--out', str(out), '--overwrite', '--domain-id', str(domain_id)],
+                              isolated_env(domain_id))
+        if not (code == 2 and BUSY_DOMAIN in text):
+            break
     if code != 0:
         raise RuntimeError(f'the clean run failed (exit {code}): {text[-2000:]}')
     return _block_data(out / 'bag')
