@@ -273,12 +273,8 @@ def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) 
         outcome.result = _names_fault(code, text, case)
         outcome.crashed = _crash(code, text, case)
         return outcome
-    from drive_testing.harness import reserve_domain
-    for _ in range(3):   # a domain that holds another graph (not this case's doing): another one
-        with reserve_domain() as domain_id:
-            code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
-        if not (code == 2 and BUSY_DOMAIN in text):
-            break
+    code, text, ctx = _in_a_free_domain(
+        lambda domain_id: _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id))
     logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
         if (out / 'logs').is_dir() else ''
     outcome.log = bool(LOG_LINE.search(logs))
@@ -390,19 +386,27 @@ def _run_graph(command, case: Case, domain_id: int):
     return code, log.read(), ctx
 
 
+def _in_a_free_domain(run: Callable[[int], tuple]) -> tuple:
+    """run(domain_id) -> (exit code, output, ...) in a reserved domain; again in another one (at
+    most 3 times) while run_scenario finds the domain occupied by a graph that is not the run's."""
+    from drive_testing.harness import reserve_domain
+    for _ in range(3):
+        with reserve_domain() as domain_id:
+            result = run(domain_id)
+        if not (result[0] == 2 and BUSY_DOMAIN in result[1]):
+            break
+    return result
+
+
 def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
     """The block data of the scenario run without a fault (what outsiders must not change)."""
     clean = Case(f'clean {duration:g} s', 'outsider', duration=duration)
     scenario = _scenario_file(clean, directory)
     out = directory / f'clean_{duration:g}'
-    from drive_testing.harness import isolated_env, reserve_domain
-    for _ in range(3):   # a domain that holds another graph: another one
-        with reserve_domain() as domain_id:
-            code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario),
-                               '--out', str(out), '--overwrite', '--domain-id', str(domain_id)],
-                              isolated_env(domain_id))
-        if not (code == 2 and BUSY_DOMAIN in text):
-            break
+    from drive_testing.harness import isolated_env
+    code, text = _in_a_free_domain(lambda domain_id: _run(
+        [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
+         '--overwrite', '--domain-id', str(domain_id)], isolated_env(domain_id)))
     if code != 0:
         raise RuntimeError(f'the clean run failed (exit {code}): {text[-2000:]}')
     return _block_data(out / 'bag')
