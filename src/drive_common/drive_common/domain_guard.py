@@ -5,7 +5,9 @@ graph from a short-lived node before it starts any node or sends any goal,
 and refuses (exit 2, one line naming the domain and the nodes found) when a
 drive graph is already there: a node with an endpoint on a lockstep topic, or
 another scenario runner. The look waits until the graph is stable (no node
-or endpoint appeared or left for SETTLE s), at most DISCOVERY_TIMEOUT s.
+or endpoint appeared or left for SETTLE s), at least LOOK_AT_LEAST s (on a loaded
+machine the first answer of a running graph can take longer than SETTLE) and
+at most DISCOVERY_TIMEOUT s.
 
 Residual race: two runs started within one discovery interval of each other
 both find an empty domain. Their nodes then find each other before any of
@@ -23,6 +25,7 @@ from drive_common import topics
 
 SETTLE = 0.5               # s without a change in the graph: discovery is done
 DISCOVERY_TIMEOUT = 5.0    # s at most
+LOOK_AT_LEAST = 2.0        # s a look before starting a graph lasts at least
 POLL = 0.05                # s between looks
 RUNNER_NODE = 'scenario_runner'
 DRIVE_TOPICS = (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND, topics.PFC_MEASUREMENT,
@@ -46,15 +49,17 @@ def _graph(node) -> tuple:
 
 
 def wait_for_stable_graph(node, settle: float = SETTLE, timeout: float = DISCOVERY_TIMEOUT,
-                          stop: Callable[[], bool] = lambda: False) -> bool:
-    """Wait until the node's view of the graph has not changed for settle s (or timeout s).
+                          stop: Callable[[], bool] = lambda: False, least: float = 0.0) -> bool:
+    """Wait until the node's view of the graph has not changed for settle s and least s have
+    passed (or timeout s).
 
     stop is polled with the graph: once it returns True (Ctrl-C, shutdown) the
     wait ends at once. Return False if stop ended it, else True.
     """
     start = changed = time.monotonic()
     seen = _graph(node)
-    while time.monotonic() - changed < settle and time.monotonic() - start < timeout:
+    while ((time.monotonic() - changed < settle or time.monotonic() - start < least)
+           and time.monotonic() - start < timeout):
         if stop():
             return False
         time.sleep(POLL)
@@ -84,7 +89,7 @@ def drive_graph_nodes(node) -> list[str]:
 def refuse_if_busy(node, what: str, stop: Callable[[], bool] = lambda: False) -> None:
     """Raise DomainBusy (one line) if a drive graph already runs where node is; stop as in
     :func:`wait_for_stable_graph` (stopped early: no look, nothing raised)."""
-    if not wait_for_stable_graph(node, stop=stop):
+    if not wait_for_stable_graph(node, stop=stop, least=LOOK_AT_LEAST):
         return
     found = drive_graph_nodes(node)
     if found:

@@ -59,3 +59,18 @@ def test_timeout_ends_an_unsettled_wait_without_stop():
 
 def test_refuse_if_busy_stopped_looks_no_further():
     domain_guard.refuse_if_busy(StillGraph(), 'test', stop=lambda: True)   # no AssertionError
+
+
+class LateGraph(ChangingGraph):
+    """A fake node that finds a plant only at its third look (a loaded machine's late answer)."""
+
+    def get_node_names_and_namespaces(self):
+        self.looks += 1
+        return [('plant', '/')] if self.looks >= 3 else []
+
+
+def test_a_look_lasts_at_least_least_seconds_so_a_late_answer_is_seen():
+    node = LateGraph()
+    # An empty graph is 'stable' at once (settle ~0); least keeps looking until the plant shows.
+    assert domain_guard.wait_for_stable_graph(node, settle=1e-6, timeout=60.0, least=2.0) is True
+    assert node.looks >= 3 and ('plant', '/') in node.get_node_names_and_namespaces()
