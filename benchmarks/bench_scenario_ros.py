@@ -14,7 +14,7 @@ the Run goals (from /proc/<pid>/stat), which bounds the rate: the graph
 cannot run faster than its total CPU per sample divided by the machine's
 cores.
 
-    source scripts/env.sh && python benchmarks/bench_scenario_ros.py [--scenario NAME] [--duration 0.1]
+    source scripts/env.sh && python benchmarks/bench_scenario_ros.py [--scenario NAME] [--duration 0.02]
 """
 from __future__ import annotations
 
