@@ -72,12 +72,18 @@ class RosSession:
         return node
 
     def close(self) -> None:
+        """Stop spinning, destroy the nodes and leave the domain, whatever fails on the way: a
+        node left alive after its domain is released would be found by the next holder."""
         import rclpy
-        self.executor.shutdown(timeout_sec=2.0)
-        for node in self._nodes:
-            node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
-        self._thread.join(timeout=2.0)
+        try:
+            self.executor.shutdown(timeout_sec=2.0)
+        finally:
+            try:
+                for node in self._nodes:
+                    node.destroy_node()
+            finally:
+                rclpy.try_shutdown(context=self.context)
+                self._thread.join(timeout=2.0)
 
     def __enter__(self) -> 'RosSession':
         return self
