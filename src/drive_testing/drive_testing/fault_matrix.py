@@ -395,6 +395,8 @@ def _in_a_free_domain(run: Callable[[int], tuple]) -> tuple:
             result = run(domain_id)
         if not (result[0] == 2 and BUSY_DOMAIN in result[1]):
             break
+        refusal = next(ln for ln in result[1].splitlines() if BUSY_DOMAIN in ln)
+        print(f'fault matrix: {refusal}; running again in another domain', file=sys.stderr)
     return result
 
 
