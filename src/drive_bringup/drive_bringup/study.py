@@ -36,7 +36,8 @@ import numpy as np
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-from drive_bringup.scenario import _entry, _known_metric, _mapping, _number, read_named_file  # the same checks as scenarios
+# the same checks as scenarios
+from drive_bringup.scenario import _entry, _known_metric, _mapping, _number, read_named_file
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
