@@ -207,6 +207,19 @@ def _mapping(value, path: Path, key: str) -> dict:
     return value
 
 
+def _entry(value, path: Path, key: str, allowed, required=()) -> dict:
+    """value as a mapping (None: {}) of the allowed keys (listed in this order) with every required one."""
+    value = _mapping(value, path, key)
+    prefix = '' if key == '(top level)' else key + '.'
+    extra = sorted(set(value) - set(allowed))
+    if extra:
+        raise _fail(path, f'{prefix}{extra[0]}', 'unknown key (allowed: ' + ', '.join(allowed) + ')')
+    for req in required:
+        if req not in value:
+            raise _fail(path, prefix + req, 'required key missing')
+    return value
+
+
 def _list(value, path: Path, key: str) -> list:
     if value is None:
         return []
@@ -230,13 +243,7 @@ def read_named_file(path: Path, allowed: set[str], required: tuple[str, ...]) ->
         raise ScenarioError(f'{path}: cannot read: {exc.strerror}') from exc
     except yaml.YAMLError as exc:
         raise ScenarioError(f'{path}: not valid YAML: {exc}') from exc
-    raw = _mapping(raw, path, '(top level)')
-    unknown = sorted(set(raw) - allowed)
-    if unknown:
-        raise _fail(path, unknown[0], 'unknown key (allowed: ' + ', '.join(sorted(allowed)) + ')')
-    for key in ('name', *required):
-        if key not in raw:
-            raise _fail(path, key, 'required key missing')
+    raw = _entry(raw, path, '(top level)', sorted(allowed), ('name', *required))
     name = raw['name']
     if not isinstance(name, str) or not name or '/' in name:
         raise _fail(path, 'name', 'expected a non-empty string without "/"')
@@ -262,12 +269,7 @@ def load_scenario(path: str | Path) -> Scenario:
         if node not in NODE_SCHEMAS and node != 'controller':
             raise _fail(path, key, 'unknown node (allowed: ' + ', '.join(NODE_SCHEMAS)
                         + ', controller)')
-        spec = _mapping(spec, path, key)
-        allowed = CONTROLLER_KEYS if node == 'controller' else {'parameters'}
-        extra = sorted(set(spec) - allowed)
-        if extra:
-            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: '
-                        + ', '.join(sorted(allowed)) + ')')
+        spec = _entry(spec, path, key, sorted(CONTROLLER_KEYS) if node == 'controller' else ('parameters',))
         try:
             schemas[node] = controller.core_class().SCHEMA if node == 'controller' else node_schema(node)
         except ValueError as exc:
@@ -282,13 +284,7 @@ def load_scenario(path: str | Path) -> Scenario:
     events = []
     for i, ev in enumerate(_list(raw.get('events'), path, 'events')):
         key = f'events[{i}]'
-        ev = _mapping(ev, path, key)
-        extra = sorted(set(ev) - {'time', 'node', 'parameters'})
-        if extra:
-            raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: time, node, parameters)')
-        for req in ('time', 'node', 'parameters'):
-            if req not in ev:
-                raise _fail(path, f'{key}.{req}', 'required key missing')
+        ev = _entry(ev, path, key, ('time', 'node', 'parameters'), ('time', 'node', 'parameters'))
         t = _number(ev['time'], path, f'{key}.time')
         if not 0.0 <= t < duration:
             raise _fail(path, f'{key}.time', f'{t} s is outside [0, duration = {duration} s)')
@@ -309,10 +305,7 @@ def load_scenario(path: str | Path) -> Scenario:
     if [e.time for e in events] != sorted(e.time for e in events):
         raise _fail(path, 'events', 'events must be in time order')
 
-    record = _mapping(raw.get('record'), path, 'record')
-    extra = sorted(set(record) - {'enabled', 'topics', 'lockstep', 'viewer_period'})
-    if extra:
-        raise _fail(path, f'record.{extra[0]}', 'unknown key (allowed: enabled, topics, lockstep, viewer_period)')
+    record = _entry(raw.get('record'), path, 'record', ('enabled', 'topics', 'lockstep', 'viewer_period'))
     viewer_period = record.get('viewer_period', DEFAULT_LIVE_PERIOD)
     if viewer_period is False:
         viewer_period = None
@@ -347,18 +340,11 @@ def load_scenario(path: str | Path) -> Scenario:
     checks = []
     for i, ch in enumerate(_list(raw.get('checks'), path, 'checks')):
         key = f'checks[{i}]'
-        ch = _mapping(ch, path, key)
-        extra = sorted(set(ch) - {'metric', 'seed', 'tolerance', 'min', 'max', 'label'})
-        if extra:
-            raise _fail(path, f'{key}.{extra[0]}', 'unknown key')
-        if 'metric' not in ch:
-            raise _fail(path, f'{key}.metric', 'required key missing')
-        seed = _number(ch['seed'], path, f'{key}.seed') if 'seed' in ch else None
-        tol = _number(ch['tolerance'], path, f'{key}.tolerance') if 'tolerance' in ch else None
+        ch = _entry(ch, path, key, ('metric', 'seed', 'tolerance', 'min', 'max', 'label'), ('metric',))
+        seed, tol, lo, hi = (_number(ch[n], path, f'{key}.{n}') if n in ch else None
+                             for n in ('seed', 'tolerance', 'min', 'max'))
         if (seed is None) != (tol is None):
             raise _fail(path, key, 'seed and tolerance go together')
-        lo = _number(ch['min'], path, f'{key}.min') if 'min' in ch else None
-        hi = _number(ch['max'], path, f'{key}.max') if 'max' in ch else None
         if seed is None and lo is None and hi is None:
             raise _fail(path, key, 'needs seed + tolerance, or min / max')
         if tol is not None and tol < 0.0:

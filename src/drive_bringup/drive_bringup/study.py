@@ -36,7 +36,8 @@ import numpy as np
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-from drive_bringup.scenario import _known_metric, _mapping, _number, read_named_file  # the same checks as scenarios
+# the same checks as scenarios
+from drive_bringup.scenario import _entry, _known_metric, _mapping, _number, read_named_file
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -207,12 +208,7 @@ def _axis(raw, index: int, path: Path, scenario: Scenario, sampling: str) -> Axi
     key = f'parameters[{index}]'
     if not isinstance(raw, dict):
         raise _fail(path, key, f'expected a mapping, got {type(raw).__name__}')
-    extra = sorted(set(raw) - AXIS_KEYS)
-    if extra:
-        raise _fail(path, f'{key}.{extra[0]}', 'unknown key (allowed: ' + ', '.join(sorted(AXIS_KEYS)) + ')')
-    for req in ('name', 'targets'):
-        if req not in raw:
-            raise _fail(path, f'{key}.{req}', 'required key missing')
+    _entry(raw, path, key, sorted(AXIS_KEYS), ('name', 'targets'))
     name = raw['name']
     if not isinstance(name, str) or not name:
         raise _fail(path, f'{key}.name', 'expected a non-empty string')

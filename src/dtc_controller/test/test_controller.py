@@ -70,7 +70,7 @@ def test_reconfigure_applies_at_next_sample(trap_table):
     core = DtcCore({'torque_reference': 5.0, 'torque_band': 0.01}, trap_table)
     assert core.update(sample())[1].torque_hysteresis == 1
     core.reconfigure({'torque_reference': -5.0})
-    assert core.mode.torque_reference == 5.0  # not yet applied
+    assert core.mode._prm[core.mode.kernel.P_TORQUE_REF] == 5.0  # not yet applied
     st = core.update(sample(step=1))[1]
     assert st.torque_reference == -5.0 and st.torque_hysteresis == -1
     core.reconfigure({'rotation': -1})
@@ -252,10 +252,11 @@ def test_modes_are_built_then_configured_and_reconfigured_in_place(trap_table):
     from dtc_controller.core.modes import MODE_CLASSES, mode_class
     params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), {'mode': 'two_phase_four_switch', 'torque_band': 0.02})
     mode = mode_class('two_phase_four_switch').create(params, trap_table)
-    assert mode.split_now is mode.split_tables[1] and mode.hyst_a.band == pytest.approx(0.02 / 1000.0)
+    K = mode.kernel
+    assert mode.split_now is mode.split_select[1] and mode._prm[K.P_SPLIT_BAND] == pytest.approx(0.02 / 1000.0)
     mode.configure(dict(params, rotation=-1, torque_band=0.04))
-    assert mode.split_now is mode.split_tables[-1] and mode.table_now is mode.tables[-1]
-    assert mode.hyst_a.band == pytest.approx(0.04 / 1000.0) and mode.torque_hyst.band == 0.04
+    assert mode.split_now is mode.split_select[-1] and mode.select_now is mode.select_tables[-1]
+    assert mode._prm[K.P_SPLIT_BAND] == pytest.approx(0.04 / 1000.0) and mode._prm[K.P_TORQUE_BAND] == 0.04
     assert set(MODE_CLASSES) == set(DTC_SCHEMA['mode'].choices)
     with pytest.raises(ValueError, match="unknown mode 'no_such_mode'"):
         mode_class('no_such_mode')

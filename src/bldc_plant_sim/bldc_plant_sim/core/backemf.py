@@ -141,24 +141,14 @@ class BackEmfShape:
             'lut_hall': tuple(int(h) for h in hall) + (int(hall[0]),),
             'lut_scale': n / TWO_PI}
 
-    def _interpolate(self, lut, theta: float) -> tuple[float, float, float]:
-        """The three phase columns of lut at theta [rad], linearly interpolated (scalar).
-
-        The compiled plant kernels do the same (plant_kernel.emf_at_mid / table_at).
-        """
+    def lookup(self, theta: float) -> tuple[float, float, float]:
+        """(k_a, k_b, k_c) at theta [rad], linearly interpolated in the table (scalar; the compiled
+        plant kernels do the same: plant_kernel.emf_at_mid / table_at)."""
         x = (theta * self.lut_scale) % self.points
         i = int(x)
         f = x - i
-        a, b, c = lut
+        a, b, c = self.lut_k
         return (a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i]), c[i] + f * (c[i + 1] - c[i]))
-
-    def lookup(self, theta: float) -> tuple[float, float, float]:
-        """(k_a, k_b, k_c) at theta [rad] by linear interpolation of the table (scalar)."""
-        return self._interpolate(self.lut_k, theta)
-
-    def pm_flux(self, theta: float) -> tuple[float, float, float]:
-        """PM flux linkages (psi_ra, psi_rb, psi_rc) [Wb] at theta [rad]."""
-        return self._interpolate(self.lut_psi, theta)
 
     def hall_code(self, theta: float) -> int:
         """Hall code H_a | H_b << 1 | H_c << 2 at theta [rad]."""

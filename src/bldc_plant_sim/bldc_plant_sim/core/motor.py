@@ -45,13 +45,3 @@ class Motor:
         """Electromagnetic torque p sum k_x i_x [N m]."""
         ka, kb, kc = self.backemf.lookup(theta_e)
         return self.pole_pairs * (ka * i[0] + kb * i[1] + kc * i[2])
-
-    def flux_linkages(self, theta_e: float, i: tuple) -> tuple[float, float, float]:
-        """Phase flux linkages (L - M) i_x + psi_rx(theta_e) [Wb]."""
-        lm = self.inductance
-        pa, pb, pc = self.backemf.pm_flux(theta_e)
-        return lm * i[0] + pa, lm * i[1] + pb, lm * i[2] + pc
-
-    def magnetic_energy(self, i: tuple) -> float:
-        """(L - M)/2 sum i_x^2 [J] (isolated star point)."""
-        return 0.5 * self.inductance * (i[0] * i[0] + i[1] * i[1] + i[2] * i[2])

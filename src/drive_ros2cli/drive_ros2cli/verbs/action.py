@@ -3,9 +3,9 @@ from __future__ import annotations
 
 from drive_common.action_goals import goal_result, send_goal, within
 from drive_ros2cli import messages
-from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
-                                  join_node_name, print_names_and_types)
+from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, join_node_name, print_names_and_types
 from drive_ros2cli.errors import CliError
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various action related sub-commands'
 STATUS = {0: 'UNKNOWN', 1: 'ACCEPTED', 2: 'EXECUTING', 3: 'CANCELING', 4: 'SUCCEEDED',
@@ -13,22 +13,16 @@ STATUS = {0: 'UNKNOWN', 1: 'ACCEPTED', 2: 'EXECUTING', 3: 'CANCELING', 4: 'SUCCE
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='Output a list of action names', description='Output a list of action names')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'list', list_main, 'Output a list of action names', graph=True)
     p.add_argument('-t', '--show-types', action='store_true', help='Additionally show the action type')
     p.add_argument('-c', '--count-actions', action='store_true', help='Only display the number of actions discovered')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('info', help='Print information about an action',
-                         description='Print information about an action')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'info', info_main, 'Print information about an action', graph=True)
     p.add_argument('action_name', help="Name of the ROS action to get info (e.g. '/fibonacci')")
     p.add_argument('-t', '--show-types', action='store_true', help='Additionally show the action type')
     p.add_argument('-c', '--count', action='store_true', help='Only display the number of action clients and servers')
-    p.set_defaults(main=info_main)
 
-    p = verbs.add_parser('send_goal', help='Send an action goal', description='Send an action goal')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'send_goal', send_goal_main, 'Send an action goal', graph=True)
     p.add_argument('action_name', help="Name of the ROS action (e.g. '/fibonacci')")
     p.add_argument('action_type', help="Type of the ROS action (e.g. 'example_interfaces/action/Fibonacci')")
     p.add_argument('goal', nargs='?', default='{}', help="Goal request values in YAML format (e.g. '{order: 10}')")
@@ -37,7 +31,6 @@ def add_verbs(verbs) -> None:
                    help='Seconds to wait for the action server, and for the goal response per attempt: a reply lost right after discovery is recovered from the status topic, the goal is never sent twice (default %(default)s)')
     p.add_argument('--result-timeout', type=float, default=None, metavar='N',
                    help='Seconds to wait for the result (default: until Ctrl-C)')
-    p.set_defaults(main=send_goal_main)
 
 
 def _actions(cli: CliNode) -> list:

@@ -18,12 +18,13 @@ from pathlib import Path
 
 from drive_ros2cli.errors import CliError
 from drive_ros2cli.verbs.run import executables
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various rosbag related sub-commands'
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('record', help='Record ROS data to a bag', description='Record ROS data to a bag')
+    p = add_verb(verbs, 'record', record_main, 'Record ROS data to a bag')
     p.add_argument('topics', nargs='*', default=[],
                    help='List of topics to record (default: the drive graph\'s topics)')
     p.add_argument('-a', '--all', action='store_true', help='Record all topics, also those appearing later')
@@ -32,9 +33,8 @@ def add_verbs(verbs) -> None:
     p.add_argument('--use-sim-time', action='store_true', help='Use simulation time for message timestamps')
     p.add_argument('--compression-format', choices=['lz4', 'zstd', 'none'],
                    help='MCAP chunk compression (default: the recorder\'s, lz4)')
-    p.set_defaults(main=record_main)
 
-    p = verbs.add_parser('play', help='Play back ROS data from a bag', description='Play back ROS data from a bag')
+    p = add_verb(verbs, 'play', play_main, 'Play back ROS data from a bag')
     p.add_argument('bag_path', help='Bag to open (directory or .mcap file)')
     p.add_argument('-r', '--rate', type=float, default=1.0, help='rate at which to play back messages (default %(default)s)')
     p.add_argument('-l', '--loop', action='store_true', help='enables loop playback when playing a bagfile')
@@ -44,17 +44,12 @@ def add_verbs(verbs) -> None:
                    help='Start the playback player this many seconds into the bag file')
     p.add_argument('--clock', action='store_true',
                    help='publish /clock (the replay always does, from the recorded stamps)')
-    p.set_defaults(main=play_main)
 
-    p = verbs.add_parser('info', help='Print information about a bag to the screen',
-                         description='Print information about a bag to the screen')
+    p = add_verb(verbs, 'info', info_main, 'Print information about a bag to the screen')
     p.add_argument('bag_path', help='Bag to open')
-    p.set_defaults(main=info_main)
 
-    p = verbs.add_parser('reindex', help='Reconstruct metadata file for a bag',
-                         description='Reconstruct metadata file for a bag')
+    p = add_verb(verbs, 'reindex', reindex_main, 'Reconstruct metadata file for a bag')
     p.add_argument('bag_path', help='Bag to reindex (directory)')
-    p.set_defaults(main=reindex_main)
 
 
 def _exec_node(executable: str, parameters: dict) -> int:

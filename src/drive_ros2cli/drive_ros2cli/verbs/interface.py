@@ -5,25 +5,22 @@ import re
 
 from drive_ros2cli import messages
 from drive_ros2cli.errors import CliError
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Show information about ROS interfaces'
 _FIELD = re.compile(r'^(\s*)([A-Za-z][\w/]*)(\[[^\]]*\]|<=\d+)?(\s+\S.*)$')
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='List all interface types available',
-                         description='List all interface types available')
+    p = add_verb(verbs, 'list', list_main, 'List all interface types available')
     p.add_argument('-m', '--only-msgs', action='store_true', help='Print out only the message types')
     p.add_argument('-s', '--only-srvs', action='store_true', help='Print out only the service types')
     p.add_argument('-a', '--only-actions', action='store_true', help='Print out only the action types')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('show', help='Output the interface definition',
-                         description='Output the interface definition')
+    p = add_verb(verbs, 'show', show_main, 'Output the interface definition')
     p.add_argument('type', help="Show an interface definition (e.g. 'example_interfaces/msg/String')")
     p.add_argument('--all-comments', action='store_true', help='Show all comments, including for nested interface definitions')
     p.add_argument('--no-comments', action='store_true', help='Show no comments or whitespace')
-    p.set_defaults(main=show_main)
 
 
 def all_interfaces() -> dict[str, list[str]]:

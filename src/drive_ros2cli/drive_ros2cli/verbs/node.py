@@ -1,26 +1,21 @@
 """``ros2 node list|info``: the graph's nodes and what each publishes, subscribes and serves."""
 from __future__ import annotations
 
-from drive_ros2cli.client import CliNode, add_node_arguments, is_hidden, split_node_name
+from drive_ros2cli.client import CliNode, is_hidden, split_node_name
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various node related sub-commands'
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='Output a list of available nodes',
-                         description='Output a list of available nodes')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'list', list_main, 'Output a list of available nodes', graph=True)
     p.add_argument('-a', '--all', action='store_true', help='Display all nodes even hidden ones')
     p.add_argument('-c', '--count-nodes', action='store_true',
                    help='Only display the number of nodes discovered')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('info', help='Output information about a node',
-                         description='Output information about a node')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'info', info_main, 'Output information about a node', graph=True)
     p.add_argument('node_name', help='Node name to request information')
     p.add_argument('--include-hidden', action='store_true', help='Display hidden topics, services, and actions as well')
-    p.set_defaults(main=info_main)
 
 
 def list_main(args) -> int:

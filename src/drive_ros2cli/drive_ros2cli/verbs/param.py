@@ -17,6 +17,7 @@ import sys
 from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, add_node_arguments
 from drive_ros2cli.errors import CliError
 from drive_ros2cli.yaml_values import dump_yaml, load_yaml
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various param related sub-commands'
 
@@ -42,45 +43,35 @@ def _common(p, node_required: bool = True) -> None:
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='Output a list of available parameters',
-                         description='Output a list of available parameters')
+    p = add_verb(verbs, 'list', list_main, 'Output a list of available parameters')
     _common(p, node_required=False)
     p.add_argument('node_name', nargs='?', help='Name of the ROS node')
     p.add_argument('--param-prefixes', nargs='+', default=[], help='Only list parameters with the provided prefixes')
     p.add_argument('--param-type', action='store_true', help='Print parameter types with parameter names')
     p.add_argument('--filter', metavar='FILTER_REGEX', help='Only list parameters matching the regex')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('get', help='Get parameter', description='Get parameter')
+    p = add_verb(verbs, 'get', get_main, 'Get parameter')
     _common(p)
     p.add_argument('parameter_name', help='Name of the parameter')
     p.add_argument('--hide-type', action='store_true', help='Hide the type information')
-    p.set_defaults(main=get_main)
 
-    p = verbs.add_parser('set', help='Set parameter', description='Set parameter')
+    p = add_verb(verbs, 'set', set_main, 'Set parameter')
     _common(p)
     p.add_argument('params_and_values', nargs='+', metavar='name value',
                    help='Parameter name and value pair(s): name value [name value ...]')
-    p.set_defaults(main=set_main)
 
-    p = verbs.add_parser('describe', help='Show descriptive information about declared parameters',
-                         description='Show descriptive information about declared parameters')
+    p = add_verb(verbs, 'describe', describe_main, 'Show descriptive information about declared parameters')
     _common(p)
     p.add_argument('parameter_names', nargs='+', help='Names of the parameters')
-    p.set_defaults(main=describe_main)
 
-    p = verbs.add_parser('dump', help='Show all of the parameters of a node in a YAML file format',
-                         description='Show all of the parameters of a node in a YAML file format')
+    p = add_verb(verbs, 'dump', dump_main, 'Show all of the parameters of a node in a YAML file format')
     _common(p)
-    p.set_defaults(main=dump_main)
 
-    p = verbs.add_parser('load', help='Load parameter file for a node',
-                         description='Load parameter file for a node')
+    p = add_verb(verbs, 'load', load_main, 'Load parameter file for a node')
     _common(p)
     p.add_argument('parameter_file', help='Parameter file')
     p.add_argument('--use-wildcard', action='store_true',
                    help="Load parameters in the '/**' namespace into the node")
-    p.set_defaults(main=load_main)
 
 
 class _Params:

@@ -3,22 +3,18 @@ from __future__ import annotations
 
 from drive_ros2cli import pkg_create
 from drive_ros2cli.verbs.run import executables, package_prefix
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various package related sub-commands'
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('create', help='Create a new ROS 2 package', description='Create a new ROS 2 package')
+    p = add_verb(verbs, 'create', pkg_create.create_main, 'Create a new ROS 2 package')
     pkg_create.add_arguments(p)
-    p.set_defaults(main=pkg_create.create_main)
-    p = verbs.add_parser('list', help='Output a list of available packages',
-                         description='Output a list of available packages')
-    p.set_defaults(main=list_main)
-    p = verbs.add_parser('executables', help='Output a list of package specific executables',
-                         description='Output a list of package specific executables')
+    add_verb(verbs, 'list', list_main, 'Output a list of available packages')
+    p = add_verb(verbs, 'executables', executables_main, 'Output a list of package specific executables')
     p.add_argument('package_name', nargs='?', help='Name of the ROS package')
     p.add_argument('--full-path', action='store_true', help='Show the full path of each executable')
-    p.set_defaults(main=executables_main)
 
 
 def _packages() -> list[str]:

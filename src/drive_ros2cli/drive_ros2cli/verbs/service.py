@@ -2,30 +2,24 @@
 from __future__ import annotations
 
 from drive_ros2cli import messages
-from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
-                                  print_names_and_types)
+from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, print_names_and_types
 from drive_ros2cli.errors import CliError
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various service related sub-commands'
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='Output a list of available services',
-                         description='Output a list of available services')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'list', list_main, 'Output a list of available services', graph=True)
     p.add_argument('-t', '--show-types', action='store_true', help='Additionally show the service type')
     p.add_argument('-c', '--count-services', action='store_true',
                    help='Only display the number of services discovered')
     p.add_argument('--include-hidden-services', action='store_true', help='Consider hidden services as well')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('type', help='Output a service\'s type', description="Output a service's type")
-    add_node_arguments(p)
+    p = add_verb(verbs, 'type', type_main, 'Output a service\'s type', graph=True)
     p.add_argument('service_name', help="Name of the ROS service to get type (e.g. '/add_two_ints')")
-    p.set_defaults(main=type_main)
 
-    p = verbs.add_parser('call', help='Call a service', description='Call a service')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'call', call_main, 'Call a service', graph=True)
     p.add_argument('service_name', help="Name of the ROS service to call to (e.g. '/add_two_ints')")
     p.add_argument('service_type', nargs='?',
                    help="Type of the ROS service (e.g. 'std_srvs/srv/Empty'; default: the graph's)")
@@ -35,7 +29,6 @@ def add_verbs(verbs) -> None:
                    help='Repeat the call at a specific rate in Hz')
     p.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, metavar='N',
                    help='Seconds to wait for the service and for its response (default %(default)s)')
-    p.set_defaults(main=call_main)
 
 
 def list_main(args) -> int:

@@ -5,25 +5,20 @@ import math
 import time
 
 from drive_ros2cli import messages
-from drive_ros2cli.client import (DEFAULT_TIMEOUT, CliNode, absolute_name, add_node_arguments,
-                                  print_names_and_types)
+from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, print_names_and_types
 from drive_ros2cli.errors import CliError
+from drive_ros2cli.verbs import add_verb
 
 DESCRIPTION = 'Various topic related sub-commands'
 
 
 def add_verbs(verbs) -> None:
-    p = verbs.add_parser('list', help='Output a list of available topics',
-                         description='Output a list of available topics')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'list', list_main, 'Output a list of available topics', graph=True)
     p.add_argument('-t', '--show-types', action='store_true', help='Additionally show the topic type')
     p.add_argument('-c', '--count-topics', action='store_true', help='Only display the number of topics discovered')
     p.add_argument('--include-hidden-topics', action='store_true', help='Consider hidden topics as well')
-    p.set_defaults(main=list_main)
 
-    p = verbs.add_parser('echo', help='Output messages from a topic',
-                         description='Output messages from a topic')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'echo', echo_main, 'Output messages from a topic', graph=True)
     p.add_argument('topic_name', help="Name of the ROS topic to listen to (e.g. '/chatter')")
     p.add_argument('message_type', nargs='?', help="Type of the ROS message (e.g. 'std_msgs/msg/String')")
     p.add_argument('--once', action='store_true', help='Print the first message received and then exit')
@@ -32,29 +27,21 @@ def add_verbs(verbs) -> None:
                    help='Time in seconds to wait for a message with --once (default: until Ctrl-C)')
     p.add_argument('--no-arr', action='store_true', help="Don't print array fields of messages")
     p.add_argument('--no-str', action='store_true', help="Don't print string fields of messages")
-    p.set_defaults(main=echo_main)
 
-    p = verbs.add_parser('hz', help='Print the average publishing rate to screen',
-                         description='Print the average receiving rate to screen')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'hz', hz_main, 'Print the average publishing rate to screen',
+                 description='Print the average receiving rate to screen', graph=True)
     p.add_argument('topic_name', help="Name of the ROS topic to listen to (e.g. '/chatter')")
     p.add_argument('-w', '--window', type=int, default=10000, metavar='WINDOW',
                    help='window size, in # of messages, for calculating rate (default: %(default)s)')
     p.add_argument('--wall-time', action='store_true', help='calculates rate using wall time')
-    p.set_defaults(main=hz_main)
 
-    p = verbs.add_parser('info', help='Print information about a topic',
-                         description='Print information about a topic')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'info', info_main, 'Print information about a topic', graph=True)
     p.add_argument('topic_name', help="Name of the ROS topic to get info (e.g. '/chatter')")
     p.add_argument('-v', '--verbose', action='store_true',
                    help='Prints detailed information like the node name, node namespace, topic type, '
                         'topic type hash, GUID, and QoS Profile of the publishers and subscribers to this topic')
-    p.set_defaults(main=info_main)
 
-    p = verbs.add_parser('pub', help='Publish a message to a topic',
-                         description='Publish a message to a topic')
-    add_node_arguments(p)
+    p = add_verb(verbs, 'pub', pub_main, 'Publish a message to a topic', graph=True)
     p.add_argument('topic_name', help="Name of the ROS topic to publish to (e.g. '/chatter')")
     p.add_argument('message_type', help="Type of the ROS message (e.g. 'std_msgs/String')")
     p.add_argument('values', nargs='?', default='{}',
@@ -75,7 +62,6 @@ def add_verbs(verbs) -> None:
     p.add_argument('--keep-alive', type=float, default=0.1, metavar='N',
                    help='Keep publishing node alive for N seconds after the last msg (default: %(default)s)')
     p.add_argument('-n', '--node-name', help='Name of the created publishing node')
-    p.set_defaults(main=pub_main)
 
 
 def list_main(args) -> int:

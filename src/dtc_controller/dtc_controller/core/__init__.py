@@ -2,7 +2,7 @@
 
 One module per concept (frames: :mod:`drive_common.signals`): :mod:`backemf_table`,
 :mod:`hysteresis`, :mod:`vectors`, :mod:`switching_tables`,
-:mod:`torque_estimator`, :mod:`flux_estimator`, :mod:`speed_loop`,
+:mod:`stator_flux_estimators`, :mod:`voltage_drop_compensation`, :mod:`speed_loop`,
 :mod:`position`, one module per mode under :mod:`modes`, and
 :mod:`controller` (``DtcCore``, dispatching by the ``mode`` parameter).
 """

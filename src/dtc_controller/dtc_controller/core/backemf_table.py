@@ -121,39 +121,26 @@ class BackEmfTable:
         i %= self.points
         return i, frac
 
+    def _at(self, theta: float, *cols) -> tuple:
+        """Columns (periodic lists) at theta [rad], linear and wrapped."""
+        i, f = self.lookup_index(theta)
+        return tuple(c[i] + f * (c[i + 1] - c[i]) for c in cols)
+
     def k_alpha_beta(self, theta: float) -> tuple[float, float]:
-        """(k_alpha, k_beta) [V*s/rad] at electrical angle theta [rad] (linear, wrapped)."""
-        # lookup_index inlined: the torque estimate calls this every sample.
-        x = theta * self._scale
-        i = math.floor(x)
-        f = x - i
-        i %= self.points
-        ka, kb = self._kal, self._kbe
-        return ka[i] + f * (ka[i + 1] - ka[i]), kb[i] + f * (kb[i + 1] - kb[i])
+        """(k_alpha, k_beta) [V*s/rad] at electrical angle theta [rad]."""
+        return self._at(theta, self._kal, self._kbe)
 
     def k_abc(self, theta: float) -> tuple[float, float, float]:
         """(k_a, k_b, k_c) [V*s/rad] at theta [rad]."""
-        i, f = self.lookup_index(theta)
-        a, b, c = self._ka, self._kb, self._kc
-        return (a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i]), c[i] + f * (c[i + 1] - c[i]))
-
-    def k_phase(self, phase: int, theta: float) -> float:
-        """k of phase 0/1/2 (a/b/c) [V*s/rad] at theta [rad]."""
-        i, f = self.lookup_index(theta)
-        col = (self._ka, self._kb, self._kc)[phase]
-        return col[i] + f * (col[i + 1] - col[i])
+        return self._at(theta, self._ka, self._kb, self._kc)
 
     def rotor_flux(self, theta: float) -> tuple[float, float]:
         """(psi_r_alpha, psi_r_beta) [Wb]: integral of k over theta, zero mean (eq. 2.19's phi_r)."""
-        i, f = self.lookup_index(theta)
-        a, b = self._psia, self._psib
-        return a[i] + f * (a[i + 1] - a[i]), b[i] + f * (b[i + 1] - b[i])
+        return self._at(theta, self._psia, self._psib)
 
     def rotor_flux_magnitude(self, theta: float) -> float:
         """|psi_r(theta)| [Wb]: the position-dependent stator flux reference of eq. (2.20)/(4.3)."""
-        i, f = self.lookup_index(theta)
-        m = self._psim
-        return m[i] + f * (m[i + 1] - m[i])
+        return self._at(theta, self._psim)[0]
 
 
 def _check_consistency(name: str, cols: dict, row_lines: list) -> None:

@@ -8,7 +8,7 @@ holding its output in between.
 """
 from __future__ import annotations
 
-from drive_common.compiled import interpreted, njit
+from drive_common.compiled import njit
 
 
 @njit
@@ -20,23 +20,3 @@ def two_level(state: int, band: float, error: float) -> int:
         return -1
     return state
 
-
-_two_level = interpreted(two_level)   # the classes' per-call path (no dispatch cost)
-
-
-class TwoLevelHysteresis:
-    """Output +1 / -1 with half-width band H (>= 0). ``state`` is the last output."""
-
-    __slots__ = ('band', 'state')
-
-    def __init__(self, band: float, initial: int = 1) -> None:
-        self.band = float(band)
-        self.state = 1 if initial >= 0 else -1
-
-    def update(self, error: float) -> int:
-        """New output for error = reference - actual."""
-        self.state = _two_level(self.state, self.band, error)
-        return self.state
-
-    def reset(self, initial: int = 1) -> None:
-        self.state = 1 if initial >= 0 else -1

@@ -74,9 +74,7 @@ class DqBackEmf:
 
     def k_dq(self, theta: float) -> tuple[float, float]:
         """(k_d, k_q) [V s/rad] at electrical angle theta [rad]."""
-        i, f = self.table.lookup_index(theta)
-        kd, kq = self._kd, self._kq
-        return kd[i] + f * (kd[i + 1] - kd[i]), kq[i] + f * (kq[i + 1] - kq[i])
+        return self.table._at(theta, self._kd, self._kq)
 
     def rotor_flux(self, theta: float) -> tuple[float, float]:
         """(psi_r_alpha, psi_r_beta) [Wb] at theta [rad] (table integral, zero mean)."""

@@ -7,7 +7,7 @@ integrator itself.
 """
 from __future__ import annotations
 
-from drive_common.compiled import interpreted, njit
+from drive_common.compiled import njit
 
 
 @njit
@@ -30,39 +30,3 @@ def speed_pi_update(kp: float, ki: float, every_n: int, sample_period: float, li
         count = 0
     return integral, output, count
 
-
-_speed_pi_update = interpreted(speed_pi_update)   # SpeedPI's per-call path (no dispatch cost)
-
-
-class SpeedPI:
-    """PI speed controller; kp [N m s/rad], ki [N m/rad], period = every_n * sample_period [s]."""
-
-    __slots__ = ('kp', 'ki', 'every_n', 'sample_period', 'torque_limit', 'integral', 'output', '_count')
-
-    def __init__(self, kp: float, ki: float, every_n: int, sample_period: float, torque_limit: float) -> None:
-        self.kp, self.ki = float(kp), float(ki)
-        self.every_n = max(1, int(every_n))
-        self.sample_period = float(sample_period)
-        self.torque_limit = abs(float(torque_limit))
-        self.integral = 0.0
-        self.output = 0.0
-        self._count = 0
-
-    def set_gains(self, kp: float, ki: float, every_n: int, torque_limit: float) -> None:
-        """New gains/period/limit act at the next run; the integral is kept (bumpless)."""
-        self.kp, self.ki = float(kp), float(ki)
-        self.every_n = max(1, int(every_n))
-        self.torque_limit = abs(float(torque_limit))
-        self.integral = max(-self.torque_limit, min(self.torque_limit, self.integral))
-
-    def reset(self, integral: float = 0.0) -> None:
-        self.integral = float(integral)
-        self.output = 0.0
-        self._count = 0
-
-    def update(self, speed_reference: float, speed: float) -> float:
-        """Call every sample; runs the PI on every N-th call (the first call runs); returns T* [N m]."""
-        self.integral, self.output, self._count = _speed_pi_update(
-            self.kp, self.ki, self.every_n, self.sample_period, self.torque_limit, self.integral,
-            self.output, self._count, speed_reference, speed)
-        return self.output

@@ -1,42 +1,35 @@
-"""Stator flux estimators for the three-phase modes (000 eqs. 1.22-1.23, 5.36-5.38; 001 eqs. 8-9, 15-16).
+"""Stator flux estimators of the DTC modes (000 eqs. 1.22-1.24, 5.36-5.38; 001 eqs. 8-9, 15-16).
 
-The voltage-model estimators integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
-and share the interface of :class:`flux_estimator.VoltageModelFluxEstimator`, the
-pure integrator here (:data:`PureIntegrator`): :class:`LowPassIntegrator` (001,
-undone by :func:`compensate_low_pass`) and :class:`HuWuIntegrator` (000 Fig. 5.3,
-amplitude limiter). :class:`CurrentModelFlux` is 001 eqs. (8)-(9);
-:func:`rotor_angle` is 000 eq. (5.38). Discretisation: exact for constant x over a
-sample; the leak terms use (1 - exp(-w_c T_s)). Equations: docs/models.md
-"Stator flux estimators".
+The voltage models integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
+(:func:`trapezoid_flux_step`, eqs. 1.22-1.23: the voltage applied over the
+previous sample and the trapezoidal current); :func:`integrator_step` adds the
+leak of the low-pass integrator (001, undone by :func:`compensate_low_pass`) or
+of the Hu-Wu integrator (000 Fig. 5.3, amplitude limiter). The current model
+(001 eqs. 8-9) and the rotor angle of eq. (5.38) (:func:`rotor_angle`) are in the
+kernels. Discretisation: exact for constant x over a sample; the leak terms use
+(1 - exp(-w_c T_s)). Equations: docs/models.md "Stator flux estimators".
 """
 from __future__ import annotations
 
 import math
 
-from drive_common.compiled import interpreted, njit
-
-from .flux_estimator import VoltageModelFluxEstimator, trapezoid_flux_step
-
-PureIntegrator = VoltageModelFluxEstimator
-"""000 eqs. (1.22)-(1.23) / 001 eqs. (15)-(16): open-loop integration (helper-2's estimator)."""
-
-TWO_PI = 2.0 * math.pi
+from drive_common.compiled import njit
+from drive_common.signals import TWO_PI
 
 
-class _LeakyBase(VoltageModelFluxEstimator):
-    """The pure integrator's state, ``reset``, ``magnitude`` and ``angle`` plus the leak w_c."""
+@njit
+def trapezoid_flux_step(psi_alpha: float, psi_beta: float, v_alpha_prev: float, v_beta_prev: float,
+                        r: float, ts: float, i_prev_alpha: float, i_prev_beta: float,
+                        i_alpha: float, i_beta: float):
+    """Eqs. (1.22)-(1.23): the stator flux [Wb] one sample T_s [s] on, with v(k-1) [V] and the
+    mean of i(k-1), i(k) [A] through R [ohm] (trapezoidal). Shared by every voltage model."""
+    return (psi_alpha + (v_alpha_prev - r * 0.5 * (i_prev_alpha + i_alpha)) * ts,
+            psi_beta + (v_beta_prev - r * 0.5 * (i_prev_beta + i_beta)) * ts)
 
-    __slots__ = ('cutoff', '_leak')
 
-    def __init__(self, resistance: float, sample_period: float, cutoff: float,
-                 psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
-        super().__init__(resistance, sample_period, psi_alpha, psi_beta)
-        self.set_cutoff(cutoff)
-
-    def set_cutoff(self, cutoff: float) -> None:
-        """w_c [rad/s]."""
-        self.cutoff = float(cutoff)
-        self._leak = 1.0 - math.exp(-self.cutoff * self.sample_period)
+def leak(cutoff: float, sample_period: float) -> float:
+    """1 - exp(-w_c T_s): the per-sample leak of an integrator with cutoff w_c [rad/s]."""
+    return 1.0 - math.exp(-float(cutoff) * float(sample_period))
 
 
 INTEGRATORS = ('pure', 'low_pass', 'hu_wu')
@@ -64,48 +57,6 @@ def integrator_step(kind: int, r: float, ts: float, leak: float, limit: float, p
     return pa_new, pb_new
 
 
-_integrator_step = interpreted(integrator_step)   # the classes' per-call path (no dispatch cost)
-
-
-class LowPassIntegrator(_LeakyBase):
-    """psi(k) = psi(k-1) + T_s x - (1 - e^{-w_c T_s}) psi(k-1) (001 sec. IV, w_c = 5 rad/s)."""
-
-    __slots__ = ()
-
-    def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
-        """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
-        if self._primed:
-            self.psi_alpha, self.psi_beta = _integrator_step(
-                1, self.resistance, self.sample_period, self._leak, 0.0, self.psi_alpha, self.psi_beta,
-                self._i_alpha, self._i_beta, v_alpha_prev, v_beta_prev, i_alpha, i_beta)
-        self._primed = True
-        self._i_alpha = i_alpha
-        self._i_beta = i_beta
-        return self.psi_alpha, self.psi_beta
-
-
-class HuWuIntegrator(_LeakyBase):
-    """Modified integrator with amplitude limiter (000 Fig. 5.3 / Hu-Wu algorithm 2); limit [Wb]."""
-
-    __slots__ = ('limit',)
-
-    def __init__(self, resistance: float, sample_period: float, cutoff: float, limit: float,
-                 psi_alpha: float = 0.0, psi_beta: float = 0.0) -> None:
-        self.limit = float(limit)
-        super().__init__(resistance, sample_period, cutoff, psi_alpha, psi_beta)
-
-    def update(self, v_alpha_prev: float, v_beta_prev: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
-        """Advance with v(k-1) [V], i(k) [A]; return (psi_alpha, psi_beta) [Wb]."""
-        if self._primed:
-            self.psi_alpha, self.psi_beta = _integrator_step(
-                2, self.resistance, self.sample_period, self._leak, self.limit, self.psi_alpha,
-                self.psi_beta, self._i_alpha, self._i_beta, v_alpha_prev, v_beta_prev, i_alpha, i_beta)
-        self._primed = True
-        self._i_alpha = i_alpha
-        self._i_beta = i_beta
-        return self.psi_alpha, self.psi_beta
-
-
 @njit
 def compensate_low_pass(psi_alpha: float, psi_beta: float, omega_e: float, cutoff: float,
                         min_speed: float = 1e-3) -> tuple[float, float]:
@@ -119,49 +70,8 @@ def compensate_low_pass(psi_alpha: float, psi_beta: float, omega_e: float, cutof
     return psi_alpha + r * psi_beta, psi_beta - r * psi_alpha
 
 
-class CurrentModelFlux:
-    """001 eqs. (8)-(9): psi_s = L_s i + psi_r(theta_e) [Wb].
-
-    rotor_flux: a callable theta -> (psi_r_alpha, psi_r_beta) (e.g.
-    :meth:`line_to_line.DqBackEmf.rotor_flux`), or None to use psi_m (cos, sin).
-    """
-
-    __slots__ = ('inductance', 'psi_m', '_rf', 'psi_alpha', 'psi_beta')
-
-    def __init__(self, inductance: float, psi_m: float = 0.0, rotor_flux=None) -> None:
-        self.inductance = float(inductance)
-        self.psi_m = float(psi_m)
-        self._rf = rotor_flux
-        self.psi_alpha = 0.0
-        self.psi_beta = 0.0
-
-    def update(self, theta: float, i_alpha: float, i_beta: float) -> tuple[float, float]:
-        """Flux [Wb] at rotor angle theta [rad] and currents [A]."""
-        if self._rf is None:
-            ra, rb = self.psi_m * math.cos(theta), self.psi_m * math.sin(theta)
-        else:
-            ra, rb = self._rf(theta)
-        self.psi_alpha = self.inductance * i_alpha + ra
-        self.psi_beta = self.inductance * i_beta + rb
-        return self.psi_alpha, self.psi_beta
-
-    @property
-    def magnitude(self) -> float:
-        return math.hypot(self.psi_alpha, self.psi_beta)
-
-
 @njit
 def rotor_angle(psi_alpha: float, psi_beta: float, i_alpha: float, i_beta: float, inductance: float) -> float:
     """000 eq. (5.38): electrical rotor angle [rad, 0..2 pi) from stator flux [Wb], current [A], L_s [H]."""
     return math.atan2(psi_beta - inductance * i_beta, psi_alpha - inductance * i_alpha) % TWO_PI
 
-
-def make_voltage_model(kind: str, resistance: float, sample_period: float, cutoff: float, limit: float):
-    """Estimator by name: 'pure', 'low_pass' (cutoff) or 'hu_wu' (cutoff, limit)."""
-    if kind == 'pure':
-        return PureIntegrator(resistance, sample_period)
-    if kind == 'low_pass':
-        return LowPassIntegrator(resistance, sample_period, cutoff)
-    if kind == 'hu_wu':
-        return HuWuIntegrator(resistance, sample_period, cutoff, limit)
-    raise ValueError(f'unknown integrator {kind!r} (pure, low_pass, hu_wu)')

@@ -6,12 +6,12 @@ after ``super().__init__``) and then calls :meth:`DtcMode.configure`, which sets
 everything a runtime parameter change may alter; the controller calls
 ``configure`` again for each runtime change (it acts from the next sample).
 
-Shared regulation: torque reference T* (parameter, or the speed PI's output when
-``speed_loop.enabled``), flux reference, rotation (selects the switching table
-``table_now`` of ``self.tables``), two-level torque / flux comparators with
-half-width bands, the speed PI, the measurement of a sample (currents with one
-missing sensor reconstructed, Clarke, encoder angle) and the memory of the
-applied switch state for the next sample's voltage model.
+Shared here: the measurement of a sample (currents with one missing sensor
+reconstructed, Clarke, encoder angle) and the kernel's arrays (``kernel``: the
+mode's compiled module) with the parameters every mode regulates alike: torque
+reference T* (parameter, or the speed PI's output when ``speed_loop.enabled``),
+flux reference, rotation (selects the switching table), two-level torque / flux
+comparator bands and the speed PI's gains.
 """
 from __future__ import annotations
 
@@ -20,11 +20,7 @@ import numpy as np
 from drive_common.compiled import njit
 from drive_common.signals import TWO_PI, clarke
 
-from ..hysteresis import TwoLevelHysteresis
-from ..speed_loop import SpeedPI
 from ..status import NAN, DtcStatusSample
-
-_ALL_OFF = (False,) * 6
 
 
 @njit
@@ -65,8 +61,8 @@ def measure_values(i_a, i_b, i_c, encoder_angle, encoder_offset, v_dc, v_mid):
 
 
 class DtcMode:
-    """Base of the mode classes; a mode sets ``name``, ``topology``, ``tables`` {rotation: table}
-    and ``step(sample) -> (switch_on, DtcStatusSample)``."""
+    """Base of the mode classes; a mode sets ``name``, ``topology``, ``kernel``, ``vectors``,
+    ``select_tables`` {rotation: kernel selection table} and ``kernel_step``."""
 
     name = ''
     topology = 6
@@ -95,17 +91,13 @@ class DtcMode:
         self.table = backemf
         self.inductance = float(params['motor.inductance'])
         self.encoder_offset = float(params['estimation.encoder_offset'])
-        self.torque_hyst = TwoLevelHysteresis(params['torque_band'])
-        self.flux_hyst = TwoLevelHysteresis(params['flux_band'])
-        self.speed_pi = SpeedPI(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['sample_period'],
-                                params['speed_loop.torque_limit'])
-        self._started = False
-        self._prev_switch = _ALL_OFF
-        self._prev_vdc = 0.0
-        self._prev_vmid = 0.0
-        self._prev_i = (0.0, 0.0, 0.0)
-        self._speed_m = 0.0
+        K = self.kernel
+        self._st = np.zeros(K.S_SIZE)
+        self._st[[K.S_TAU, K.S_PHI]] = 1.0    # comparators start at +1
+        self._out = np.zeros(K.O_SIZE)
+        prm = self._prm = np.zeros(K.P_SIZE)
+        prm[K.P_L], prm[K.P_POLES] = self.inductance, self.pole_pairs
+        prm[K.P_R], prm[K.P_TS] = float(params['motor.resistance']), float(params['sample_period'])
 
     @classmethod
     def create(cls, params: dict, backemf) -> 'DtcMode':
@@ -115,17 +107,19 @@ class DtcMode:
         return mode
 
     def configure(self, params: dict) -> None:
-        """Rotation and its table, torque / flux references and bands, speed loop and PI gains."""
+        """Rotation and its table, torque / flux references and bands, speed loop and PI gains
+        (the PI's integral is kept, clamped to the new limit: bumpless)."""
         self.rotation = int(params['rotation'])
-        self.table_now = self.tables[self.rotation]
-        self.torque_reference = float(params['torque_reference'])
-        self.torque_hyst.band = float(params['torque_band'])
-        self.flux_hyst.band = float(params['flux_band'])
-        self.flux_reference = float(params['flux_reference'])
-        self.speed_loop = bool(params['speed_loop.enabled'])
-        self.speed_reference = float(params['speed_reference'])
-        self.speed_pi.set_gains(params['speed_loop.kp'], params['speed_loop.ki'],
-                                params['speed_loop.period_samples'], params['speed_loop.torque_limit'])
+        self.select_now = self.select_tables[self.rotation]
+        K, prm = self.kernel, self._prm
+        lim = abs(float(params['speed_loop.torque_limit']))
+        prm[K.P_ROTATION], prm[K.P_TORQUE_REF] = self.rotation, float(params['torque_reference'])
+        prm[K.P_SPEED_LOOP], prm[K.P_SPEED_REF] = bool(params['speed_loop.enabled']), params['speed_reference']
+        prm[K.P_TORQUE_BAND], prm[K.P_FLUX_BAND] = params['torque_band'], params['flux_band']
+        prm[K.P_FLUX_REF] = params['flux_reference']
+        prm[K.P_KP], prm[K.P_KI] = params['speed_loop.kp'], params['speed_loop.ki']
+        prm[K.P_EVERY_N], prm[K.P_TORQUE_LIMIT] = max(1, int(params['speed_loop.period_samples'])), lim
+        self._st[K.S_PI_INTEGRAL] = max(-lim, min(lim, float(self._st[K.S_PI_INTEGRAL])))
 
     STATUS_COLUMNS: tuple = ()     # per mode: the status field of each kernel output column
     _INTEGER_FIELDS = frozenset({'vector', 'sector', 'torque_hysteresis', 'flux_hysteresis',
@@ -147,14 +141,15 @@ class DtcMode:
     def measure(self, s):
         """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample (:func:`measure_values`)."""
         i_a, i_b, i_c = s.phase_current
-        self._speed_m = s.mechanical_speed
         return measure_values(i_a, i_b, i_c, s.encoder_angle, self.encoder_offset, s.dc_link_voltage,
                               s.midpoint_voltage)
 
-    def remember(self, switch_on, v_dc, v_mid, i_a, i_b, i_c) -> None:
-        """The applied switch state and the sample's measurements, for the next sample's voltage model."""
-        self._started = True
-        self._prev_switch = switch_on
-        self._prev_vdc = v_dc
-        self._prev_vmid = v_mid
-        self._prev_i = (i_a, i_b, i_c)
+    def step(self, s):
+        """One sample: DriveSample -> (switch tuple, DtcStatusSample), by the mode's compiled kernel."""
+        i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid = self.measure(s)
+        self.kernel_step(i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, s.mechanical_speed)
+        status = self.status_of(s.step, self.rotation, self._out.tolist(), theta, s.mechanical_speed)
+        return status.switch_on, status
+
+    def after_fused(self) -> None:
+        """Called after a fused loop ran the kernel on this mode's arrays: nothing is kept outside them."""

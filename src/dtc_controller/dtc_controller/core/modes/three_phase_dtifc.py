@@ -11,7 +11,6 @@ with the matching stator flux. Details: docs/models.md "Three-phase DTIFC mode".
 """
 from __future__ import annotations
 
-from ..hysteresis import TwoLevelHysteresis
 from . import three_phase_kernel as K
 from .three_phase_pmsm import ThreePhaseBase
 
@@ -27,12 +26,8 @@ class ThreePhaseDtifcMode(ThreePhaseBase):
     table_required = True
     dq_torque = True
 
-    def __init__(self, params, backemf) -> None:
-        super().__init__(params, backemf)
-        self.id_hyst = TwoLevelHysteresis(params['dtifc.d_current_band'])
-
     def configure(self, params) -> None:
+        """The three-phase parameters, then i_d* [A] and the d-current comparator's band [A]."""
         super().configure(params)
-        self.id_reference = float(params['dtifc.d_current_reference'])
-        self.id_hyst.band = float(params['dtifc.d_current_band'])
-        self._prm[K.P_ID_REF], self._prm[K.P_PHI_BAND] = self.id_reference, self.id_hyst.band
+        self._prm[K.P_ID_REF] = params['dtifc.d_current_reference']
+        self._prm[K.P_FLUX_BAND] = params['dtifc.d_current_band']

@@ -8,9 +8,8 @@ coefficients of the previous vector plus the voltage-drop correction of
 voltage model (:mod:`stator_flux_estimators`) or the current model (001
 eqs. 8-9), rotor angle and speed (encoder, or eq. 5.38 and the filtered
 derivative), torque (001 eq. 10, or 000 eq. 5.32 for DTIFC), torque reference
-(parameter or speed PI), hysteresis, sector and table lookup. The same
-arithmetic in the same order as the classes it replaces, so the answers are
-bit-identical compiled and interpreted. Arrays are built once per mode
+(parameter or speed PI), hysteresis, sector and table lookup; bit-identical
+compiled and interpreted. Arrays are built once per mode
 (:func:`mode_arrays`), the parameter vector on every configure.
 """
 from __future__ import annotations
@@ -28,7 +27,7 @@ from ..stator_flux_estimators import compensate_low_pass, integrator_step, rotor
 from ..switching_tables import sector_of_angle
 from ..three_phase_tables import four_sector_of_angle
 from ..vectors import leg_states
-from ..voltage_drop_compensation import drop_correction, leg_drop
+from ..voltage_drop_compensation import correction
 from .two_phase_kernel import LEG_CODES, coefficient_table, interp, selection_table
 
 # Table rows (each periodic: points + 1 values): rotor flux alpha/beta, k_d, k_q.
@@ -37,7 +36,7 @@ R_PSI_ALPHA, R_PSI_BETA, R_K_D, R_K_Q = range(4)
 (P_L, P_POLES, P_R, P_TS, P_PSI_M, P_ROTOR_TABLE, P_SCALE, P_POINTS, P_CURRENT_MODEL, P_INTEGRATOR,
  P_CUTOFF, P_LEAK, P_LIMIT, P_SENSORLESS, P_INITIAL_ANGLE, P_INIT_ROTOR, P_SPEED_GAIN, P_FOUR_SECTORS,
  P_DTIFC, P_FLUX_REF_TABLE, P_LPF_COMP, P_SCHEME, P_V_CE, P_V_D, P_V_F, P_R_ON, P_MIDPOINT, P_FLUX_REF,
- P_ROTATION, P_TORQUE_REF, P_SPEED_LOOP, P_SPEED_REF, P_TORQUE_BAND, P_PHI_BAND, P_ID_REF, P_KP, P_KI,
+ P_ROTATION, P_TORQUE_REF, P_SPEED_LOOP, P_SPEED_REF, P_TORQUE_BAND, P_FLUX_BAND, P_ID_REF, P_KP, P_KI,
  P_EVERY_N, P_TORQUE_LIMIT, P_SIZE) = range(40)
 # State (float64).
 (S_STARTED, S_PSI_ALPHA, S_PSI_BETA, S_I_ALPHA, S_I_BETA, S_PREV_VECTOR, S_PREV_VDC, S_PREV_VMID,
@@ -83,16 +82,10 @@ def _applied_voltage(prm, st, coef, legs, upper, i_a, i_b, i_c):
     v_dc, v_mid = st[S_PREV_VDC], st[S_PREV_VMID]
     v_al = c[0] * v_dc + c[1] * v_mid
     v_be = c[2] * v_dc + c[3] * v_mid
-    scheme = int(prm[P_SCHEME])
-    if scheme != 0:
-        mid = int(prm[P_MIDPOINT])
-        cur = (0.5 * (st[S_PREV_IA] + i_a), 0.5 * (st[S_PREV_IB] + i_b), 0.5 * (st[S_PREV_IC] + i_c))
-        d = [0.0, 0.0, 0.0]
-        for x in range(3):
-            if x != mid:
-                d[x] = leg_drop(scheme == 1, upper[vec, x] != 0, cur[x], prm[P_V_CE], prm[P_V_D], prm[P_V_F],
-                                prm[P_R_ON])
-        d_al, d_be = drop_correction(d[0], d[1], d[2])
+    if prm[P_SCHEME] != 0.0:
+        d_al, d_be = correction(int(prm[P_SCHEME]), int(prm[P_MIDPOINT]), upper[vec, 0] != 0, upper[vec, 1] != 0,
+                                upper[vec, 2] != 0, 0.5 * (st[S_PREV_IA] + i_a), 0.5 * (st[S_PREV_IB] + i_b),
+                                0.5 * (st[S_PREV_IC] + i_c), prm[P_V_CE], prm[P_V_D], prm[P_V_F], prm[P_R_ON])
         v_al += d_al
         v_be += d_be
     return v_al, v_be
@@ -100,7 +93,7 @@ def _applied_voltage(prm, st, coef, legs, upper, i_a, i_b, i_c):
 
 @njit
 def _flux(prm, st, tab, coef, legs, upper, i_a, i_b, i_c, i_al, i_be, theta_enc, speed_m) -> None:
-    """Stator flux at sample k into st (ThreePhaseBase.estimate_flux)."""
+    """Stator flux at sample k into st: the current model (001 eqs. 8-9) or a voltage model."""
     if prm[P_CURRENT_MODEL] != 0.0:
         ra, rb = _rotor_flux(prm, tab, theta_enc)
         st[S_PSI_ALPHA] = prm[P_L] * i_al + ra
@@ -183,14 +176,14 @@ def three_phase_step(prm, st, tab, coef, legs, upper, select, i_a, i_b, i_c, i_a
     tau = two_level(int(st[S_TAU]), prm[P_TORQUE_BAND], rot * (t_ref - torque))
     flux_ref = math.nan
     if dtifc:
-        phi = two_level(int(st[S_PHI]), prm[P_PHI_BAND], prm[P_ID_REF] - i_d)
+        phi = two_level(int(st[S_PHI]), prm[P_FLUX_BAND], prm[P_ID_REF] - i_d)
     else:
         if prm[P_FLUX_REF_TABLE] != 0.0:
             r_al, r_be = _rotor_flux(prm, tab, theta)
             flux_ref = math.sqrt(r_al * r_al + r_be * r_be)
         else:
             flux_ref = prm[P_FLUX_REF]
-        phi = two_level(int(st[S_PHI]), prm[P_PHI_BAND], flux_ref - psi_mag)
+        phi = two_level(int(st[S_PHI]), prm[P_FLUX_BAND], flux_ref - psi_mag)
     st[S_TAU], st[S_PHI] = tau, phi
     ang = math.atan2(psi_be, psi_al)
     sector = four_sector_of_angle(ang) if prm[P_FOUR_SECTORS] != 0.0 else sector_of_angle(ang)

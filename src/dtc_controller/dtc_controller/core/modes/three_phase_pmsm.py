@@ -10,16 +10,12 @@ sign), two-level torque and flux hysteresis and 000 Table I as derived in
 """
 from __future__ import annotations
 
-import math
-
-import numpy as np
-
 from ..backemf_table import BackEmfTable
 from ..line_to_line import DqBackEmf
 from ..status import NAN, DtcStatusSample
-from ..stator_flux_estimators import INTEGRATORS, CurrentModelFlux, make_voltage_model
+from ..stator_flux_estimators import INTEGRATORS, leak
 from ..three_phase_tables import six_switch_sector, six_switch_table
-from ..voltage_drop_compensation import SCHEMES, VoltageDropCompensation
+from ..voltage_drop_compensation import SCHEMES
 from . import three_phase_kernel as K
 from .regulation import DtcMode
 
@@ -30,6 +26,7 @@ DEFAULT_CUTOFF = {'low_pass': 5.0, 'hu_wu': 20.0, 'pure': 0.0}
 class ThreePhaseBase(DtcMode):
     """Shared state and per-sample helpers; subclasses set name, topology, defaults and ``step``."""
 
+    kernel = K
     default_integrator = 'pure'
     default_position = 'encoder'
     table_required = False
@@ -46,53 +43,33 @@ class ThreePhaseBase(DtcMode):
         super().__init__(params, backemf)
         self.dq = DqBackEmf(backemf) if backemf is not None else None
         psi_m = float(params['three_phase.pm_flux'])
-        self.psi_m = psi_m
-        self.sample_period = float(params['sample_period'])
-        self.resistance = float(params['motor.resistance'])
-        self.rotor_flux_fn = self.dq.rotor_flux if self.dq is not None else self._sine_rotor_flux
-        self.rotor_flux_amplitude = self.dq.rotor_flux_max if self.dq is not None else psi_m
-
-        # ---- estimator
+        sample_period = float(params['sample_period'])
+        # ---- estimator: voltage model (integrator kind, cutoff, limiter) or current model
         self.current_model = params['three_phase.flux_model'] == 'current'
         kind = params['three_phase.integrator']
         self.integrator = self.default_integrator if kind == 'auto' else kind
-        cutoff = float(params['three_phase.integrator_cutoff']) or DEFAULT_CUTOFF[self.integrator]
-        self.cutoff = cutoff
-        limit = float(params['three_phase.flux_limit']) or self.rotor_flux_amplitude
-        self.flux_limit = limit
-        if self.current_model:
-            self.flux = CurrentModelFlux(self.inductance, psi_m, self.rotor_flux_fn)
-        else:
-            self.flux = make_voltage_model(self.integrator, self.resistance, self.sample_period, cutoff, limit)
+        self.cutoff = float(params['three_phase.integrator_cutoff']) or DEFAULT_CUTOFF[self.integrator]
+        self.flux_limit = (float(params['three_phase.flux_limit'])
+                           or (self.dq.rotor_flux_max if self.dq is not None else psi_m))
         pos = params['three_phase.position_source']
         pos = self.default_position if pos == 'auto' else pos
         self.sensorless = pos == 'sensorless' and not self.current_model
-        self.initial_angle = float(params['three_phase.initial_angle'])
-        self.init_from_rotor = params['estimation.initial_flux'] == 'backemf_table'
-        self._speed_gain = 1.0 - math.exp(-float(params['three_phase.speed_filter_cutoff']) * self.sample_period)
-
-        # ---- inverter voltage model
-        self.compensation = VoltageDropCompensation(self.midpoint_phase)
 
         self.tables = {r: self.make_table(r) for r in (1, -1)}
-        self.omega_e = 0.0
         # the compiled kernel's arrays (three_phase_kernel)
         (self.vectors, self._tab, self._coef, self._legs, self._upper,
-         self._select_tables) = K.mode_arrays(self.tables, self.midpoint_phase, self.dq)
-        self._st = np.zeros(K.S_SIZE)
-        self._st[[K.S_TAU, K.S_PHI]] = 1.0    # comparators start at +1
-        self._out = np.zeros(K.O_SIZE)
-        prm = self._prm = np.zeros(K.P_SIZE)
-        prm[K.P_L], prm[K.P_POLES], prm[K.P_R], prm[K.P_TS] = (self.inductance, self.pole_pairs,
-                                                                 self.resistance, self.sample_period)
+         self.select_tables) = K.mode_arrays(self.tables, self.midpoint_phase, self.dq)
+        prm = self._prm
         prm[K.P_PSI_M], prm[K.P_ROTOR_TABLE] = psi_m, self.dq is not None
         if self.dq is not None:
             prm[K.P_SCALE], prm[K.P_POINTS] = backemf._scale, backemf.points
         prm[K.P_CURRENT_MODEL], prm[K.P_INTEGRATOR] = self.current_model, INTEGRATORS.index(self.integrator)
-        prm[K.P_CUTOFF], prm[K.P_LIMIT] = cutoff, limit
-        prm[K.P_LEAK] = getattr(self.flux, '_leak', 0.0)
-        prm[K.P_SENSORLESS], prm[K.P_INITIAL_ANGLE] = self.sensorless, self.initial_angle
-        prm[K.P_INIT_ROTOR], prm[K.P_SPEED_GAIN] = self.init_from_rotor, self._speed_gain
+        prm[K.P_CUTOFF], prm[K.P_LIMIT] = self.cutoff, self.flux_limit
+        prm[K.P_LEAK] = 0.0 if self.current_model or self.integrator == 'pure' else leak(self.cutoff, sample_period)
+        prm[K.P_SENSORLESS] = self.sensorless
+        prm[K.P_INITIAL_ANGLE] = params['three_phase.initial_angle']
+        prm[K.P_INIT_ROTOR] = params['estimation.initial_flux'] == 'backemf_table'
+        prm[K.P_SPEED_GAIN] = leak(params['three_phase.speed_filter_cutoff'], sample_period)
         prm[K.P_FOUR_SECTORS], prm[K.P_DTIFC] = self.sectors == 4, self.dq_torque
         prm[K.P_MIDPOINT] = -1 if self.midpoint_phase is None else self.midpoint_phase
 
@@ -106,41 +83,18 @@ class ThreePhaseBase(DtcMode):
     def configure(self, params: dict) -> None:
         """References, bands, gains, rotation, compensation and device drops (from the next sample)."""
         super().configure(params)
-        self.flux_ref_from_table = (params['flux_control.reference_source'] == 'backemf_table'
-                                    and self.dq is not None)
-        self.lpf_compensation = bool(params['three_phase.low_pass_compensation'])
-        self.compensation.configure(params['voltage_drop.compensation'], params['voltage_drop.v_ce'],
-                                    params['voltage_drop.v_d'], params['voltage_drop.v_f'],
-                                    params['voltage_drop.r_on'])
-        prm, pi, comp = self._prm, self.speed_pi, self.compensation
-        prm[K.P_FLUX_REF_TABLE], prm[K.P_LPF_COMP] = self.flux_ref_from_table, self.lpf_compensation
-        prm[K.P_SCHEME] = SCHEMES.index(comp.scheme)
-        prm[K.P_V_CE], prm[K.P_V_D], prm[K.P_V_F], prm[K.P_R_ON] = comp.v_ce, comp.v_d, comp.v_f, comp.r_on
-        prm[K.P_FLUX_REF], prm[K.P_ROTATION] = self.flux_reference, self.rotation
-        prm[K.P_TORQUE_REF], prm[K.P_SPEED_LOOP] = self.torque_reference, self.speed_loop
-        prm[K.P_SPEED_REF], prm[K.P_TORQUE_BAND] = self.speed_reference, self.torque_hyst.band
-        prm[K.P_PHI_BAND] = self.flux_hyst.band
-        prm[K.P_KP], prm[K.P_KI], prm[K.P_EVERY_N], prm[K.P_TORQUE_LIMIT] = (
-            pi.kp, pi.ki, pi.every_n, pi.torque_limit)
-        lim = pi.torque_limit
-        self._st[K.S_PI_INTEGRAL] = max(-lim, min(lim, float(self._st[K.S_PI_INTEGRAL])))
-        self._select_now = self._select_tables[self.rotation]
+        prm = self._prm
+        prm[K.P_FLUX_REF_TABLE] = params['flux_control.reference_source'] == 'backemf_table' and self.dq is not None
+        prm[K.P_LPF_COMP] = bool(params['three_phase.low_pass_compensation'])
+        prm[K.P_SCHEME] = SCHEMES.index(params['voltage_drop.compensation'])
+        prm[K.P_V_CE], prm[K.P_V_D] = params['voltage_drop.v_ce'], params['voltage_drop.v_d']
+        prm[K.P_V_F], prm[K.P_R_ON] = params['voltage_drop.v_f'], params['voltage_drop.r_on']
 
     # -------------------------------------------------------------- per sample
-    def _sine_rotor_flux(self, theta: float) -> tuple[float, float]:
-        """001 eqs. (8)-(9) rotor part: psi_m (cos theta, sin theta) [Wb]."""
-        return self.psi_m * math.cos(theta), self.psi_m * math.sin(theta)
-
-    def step(self, s):
-        """One sample: DriveSample -> (switch tuple, DtcStatusSample), by the compiled
-        :func:`three_phase_kernel.three_phase_step` (the pipeline of the module doc)."""
-        i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid = self.measure(s)
-        K.three_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._upper,
-                           self._select_now, i_a, i_b, i_c, i_al, i_be, theta_enc, v_dc, v_mid,
-                           s.mechanical_speed, self._out)
-        status = self.status_of(s.step, self.rotation, self._out.tolist(), theta_enc, s.mechanical_speed)
-        self.after_fused()
-        return status.switch_on, status
+    def kernel_step(self, i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m) -> None:
+        """:func:`three_phase_kernel.three_phase_step` on this mode's arrays (the module doc's pipeline)."""
+        K.three_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._upper, self.select_now,
+                           i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m, self._out)
 
     def status_of(self, step: int, rotation: int, out: list, theta_enc: float,
                   speed_m: float) -> DtcStatusSample:
@@ -161,14 +115,7 @@ class ThreePhaseBase(DtcMode):
 
     def fused_arrays(self) -> tuple:
         """(kind 3, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""
-        return 3, self._prm, self._st, self._tab, self._coef, self._legs, self._select_now, None, self._upper
-
-    def after_fused(self) -> None:
-        """The Python-side memory of the last sample, from the kernel's state (once started)."""
-        if self._st[K.S_STARTED]:
-            self._started = True
-            self._prev_switch = self.vectors[int(self._st[K.S_PREV_VECTOR])].switch_on
-            self.omega_e = float(self._st[K.S_OMEGA_E])
+        return 3, self._prm, self._st, self._tab, self._coef, self._legs, self.select_now, None, self._upper
 
 
 class ThreePhasePmsmMode(ThreePhaseBase):

@@ -10,7 +10,6 @@ unchanged and makes T_ea' = T_eb' mean i_c = 0). Why: docs/models.md
 """
 from __future__ import annotations
 
-from ..hysteresis import TwoLevelHysteresis
 from ..switching_tables import derive_split_phase_table, split_phase_sectors
 from ..vectors import four_switch_vectors
 from .two_phase_base import TwoPhaseModeBase
@@ -22,11 +21,6 @@ class TwoPhaseFourSwitchMode(TwoPhaseModeBase):
     name = 'two_phase_four_switch'
     topology = 4
     midpoint_phase = MIDPOINT_PHASE
-
-    def __init__(self, params, backemf) -> None:
-        super().__init__(params, backemf)
-        self.hyst_a = TwoLevelHysteresis(0.0)
-        self.hyst_b = TwoLevelHysteresis(0.0)
 
     def make_vectors(self):
         return four_switch_vectors(MIDPOINT_PHASE)
@@ -41,8 +35,3 @@ class TwoPhaseFourSwitchMode(TwoPhaseModeBase):
     def split_band(self, params: dict) -> float:
         """torque_band / split_band_divisor [N m] (1000 in the seed)."""
         return float(params['torque_band']) / float(params['four_switch.split_band_divisor'])
-
-    def configure(self, params) -> None:
-        super().configure(params)
-        self.hyst_a.band = self.hyst_b.band = self.split_band(params)
-        self.split_now = self.split_tables[self.rotation]

@@ -17,9 +17,9 @@ import numpy as np
 
 from drive_common.compiled import njit
 
-from ..flux_estimator import trapezoid_flux_step
 from ..hysteresis import two_level
 from ..speed_loop import speed_pi_update
+from ..stator_flux_estimators import trapezoid_flux_step
 from ..switching_tables import sector_of_angle
 from ..vectors import HIGH, LOW, MIDPOINT, OPEN, voltage_coefficients
 
@@ -32,7 +32,7 @@ K_A, K_B, K_C, K_ALPHA, K_BETA, PSI_ALPHA, PSI_BETA, PSI_MAG = range(8)
 (P_R, P_TS, P_L, P_POLES, P_TORQUE_C, P_SCALE, P_POINTS, P_DIODE, P_THRESHOLD, P_OPEN_EMF,
  P_FLUX_SECTOR, P_INIT_TABLE, P_FLUX_CONTROL, P_FLUX_REF_TABLE, P_FLUX_REF, P_ROTATION,
  P_TORQUE_REF, P_SPEED_LOOP, P_SPEED_REF, P_TORQUE_BAND, P_FLUX_BAND, P_SPLIT_BAND, P_KP, P_KI,
- P_EVERY_N, P_SAMPLE_PERIOD, P_TORQUE_LIMIT, P_SIZE) = range(28)
+ P_EVERY_N, P_TORQUE_LIMIT, P_SIZE) = range(27)
 # State (float64): started, flux estimator, previous sample, comparators, speed PI.
 (S_STARTED, S_PSI_ALPHA, S_PSI_BETA, S_PRIMED, S_I_ALPHA, S_I_BETA, S_PREV_VECTOR, S_PREV_VDC,
  S_PREV_VMID, S_PREV_IA, S_PREV_IB, S_PREV_IC, S_TAU, S_PHI, S_TAU_A, S_TAU_B, S_PI_INTEGRAL,
@@ -90,7 +90,7 @@ def interp(tab, row: int, scale: float, points: int, theta: float) -> float:
 def applied_voltage(coef, legs, diode: bool, threshold: float, v_dc: float, v_mid: float,
                     i_a: float, i_b: float, i_c: float, use_emf: bool, e_a: float, e_b: float,
                     e_c: float):
-    """(v_alpha, v_beta) [V] of a leg pattern (flux_estimator.InverterVoltageModel.voltage)."""
+    """(v_alpha, v_beta) [V] of a leg pattern (module doc: ideal legs, or off legs still carrying current clamped by a free-wheeling diode)."""
     la, lb, lc = legs[0], legs[1], legs[2]
     if diode and (la == L_OPEN or lb == L_OPEN or lc == L_OPEN):
         la = la if la != L_OPEN else L_LOW if i_a > threshold else L_HIGH if i_a < -threshold else L_OPEN
@@ -148,7 +148,7 @@ def _torque_reference(prm, st, speed_m: float):
     if prm[P_SPEED_LOOP] == 0.0:
         return prm[P_TORQUE_REF], math.nan
     integral, output, count = speed_pi_update(
-        prm[P_KP], prm[P_KI], int(prm[P_EVERY_N]), prm[P_SAMPLE_PERIOD], prm[P_TORQUE_LIMIT],
+        prm[P_KP], prm[P_KI], int(prm[P_EVERY_N]), prm[P_TS], prm[P_TORQUE_LIMIT],
         st[S_PI_INTEGRAL], st[S_PI_OUTPUT], int(st[S_PI_COUNT]), prm[P_SPEED_REF], speed_m)
     st[S_PI_INTEGRAL] = integral
     st[S_PI_OUTPUT] = output
