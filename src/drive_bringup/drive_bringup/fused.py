@@ -106,16 +106,12 @@ class FusedDtcLoop:
     def _add_block(cosim, run, steps, sv, x, out, extras, applied0, k0, front) -> None:
         """The chunk's records as a RecordBlock of the trajectory."""
         plant = cosim.plant
-        switches = {}
-        applied = []
-        for r, code in enumerate(x[:, F.X_LEGS].astype(np.int64).tolist()):
-            if r == 0 and steps[0] == k0:
-                applied.append(applied0)
-                continue
-            sw = switches.get(code)
-            if sw is None:
-                sw = switches[code] = plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
-            applied.append(sw)
+        codes = x[:, F.X_LEGS].astype(np.int64)
+        switches = {code: plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
+                    for code in np.unique(codes).tolist()}
+        applied = list(map(switches.__getitem__, codes.tolist()))
+        if int(steps[0]) == k0:
+            applied[0] = applied0
         theta, speed = x[:, F.X_THETA], x[:, F.X_SPEED]
         status, columns = run.status_builder(out, theta, speed), run.columns(out, theta, speed)
         topology = plant.topology

@@ -329,8 +329,8 @@ class PlantCore:
         prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
             self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
         prm[K.PR_LM] = m.inductance
-        self._lut = np.array(shape.lut_k, dtype=np.float64)
-        self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
+        self._lut = shape.lut_k_array.copy()
+        self._lut_psi = shape.lut_psi_array.copy()
         self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
         self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
 
