@@ -13,8 +13,8 @@ end, at a PFC-due tick its measurement and sample
 (:func:`~pfc_controller.core.average_current_control.pfc_step`), the duty latch, and per record
 the front end's PlantState fields (:func:`~bldc_plant_sim.core.front_end_kernel.front_end_values`).
 The same functions as the per-sample path, so the trajectories are bit-identical. A peak-current
-or boost protection trip ends the chunk after its tick (Python records the fault); located
-events are returned.
+trip ends the chunk after its tick (Python records the fault); located events (boost trips
+among them) are returned with their tick.
 """
 from __future__ import annotations
 
@@ -115,16 +115,14 @@ def unit_clamp(d):
 @njit
 def keep_events(ev, n_ev, k, events, loop):
     """Append a tick's located events (when, kind, phase, current) with the tick to events;
-    True when one is a trip (motor peak current, boost over-current or over-voltage)."""
+    True when one is a motor trip (boost trips only open the boost switch: the chunk goes on)."""
     tripped = False
     n = loop[L_EVENTS]
     for e in range(min(n_ev, ev.shape[0])):
         events[n, :4] = ev[e]
         events[n, 4] = k
         n += 1
-        kind = int(ev[e, 1])
-        tripped = (tripped or kind == PK.EV_TRIP or kind == FK.EV_FRONT_END + FK.KIND_OVER_CURRENT
-                   or kind == FK.EV_FRONT_END + FK.KIND_OVER_VOLTAGE)
+        tripped = tripped or int(ev[e, 1]) == PK.EV_TRIP
     loop[L_EVENTS] = n
     return tripped
 

@@ -12,12 +12,15 @@ the held command) as their own per-sample code does.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from bldc_plant_sim.core import front_end_kernel as FK
 from bldc_plant_sim.core import plant_kernel as PK
 from bldc_plant_sim.core.cosim import FrontRecords, RecordBlock
 from bldc_plant_sim.core.lockstep import ControllerKind
+from bldc_plant_sim.core.plant import BOOST_FAULTS, fault_extras
 from drive_common.samples import GateSample
 from dtc_controller.core.controller import DtcCore
 from pfc_controller.core.average_current_control import O_SIZE, PfcCore, samples_of
@@ -61,7 +64,7 @@ class FusedDtcLoop:
         n_rec = min(self.chunk_records, steps // every + 1) if every else 1
         ev_rows = len(plant._ev)
         if self._events is None or len(self._events) < 4 * ev_rows:
-            self._events = np.zeros((max(4096, 4 * ev_rows), 5))
+            self._events = np.zeros((max(16384, 4 * ev_rows), 5))
         held = sched._held[ControllerKind.GATE]
         cmd_codes = np.array([plant.commanded_code(sw) for sw in run.commands]
                              + [plant.commanded_code(held), plant.commanded_code()], dtype=np.int64)
@@ -81,15 +84,17 @@ class FusedDtcLoop:
         F.run_chunk(steps, k0, sched_, consts, loop, plant._buf, plant._lut, plant._lut_psi, plant._ev,
                     plant.sensors.cfg, run.kind, run.arrays, out, cmd_codes, rec_step, rec_sv, rec_x, rec_out,
                     self._events, *front.arrays())
-        self._finish(cosim, run, loop, held)
+        events = self._events[:int(loop[F.L_EVENTS])].tolist()
+        faults = _fault_changes(plant.faults, events) if plant.fe is not None else []
+        self._finish(cosim, run, loop, held, events)
         front.finish(cosim)
         n = int(loop[F.L_RECORDS])
         if n:
             self._add_block(cosim, run, rec_step[:n], rec_sv[:n], rec_x[:n], rec_out[:n], extras, applied0, k0,
-                            front.records(n, rec_x[:n], consts[F.C_PROTECTION]))
+                            front.records(n, rec_x[:n], consts[F.C_PROTECTION], faults))
         return int(loop[F.L_TICKS])
 
-    def _finish(self, cosim, run, loop, held) -> None:
+    def _finish(self, cosim, run, loop, held, events) -> None:
         """The plant, the latch and the controller as the per-sample path leaves them."""
         plant, sched = cosim.plant, cosim.schedule
         commands = [*run.commands, held]
@@ -98,8 +103,7 @@ class FusedDtcLoop:
         c = int(loop[F.L_CMD])
         if c < len(commands):
             plant.apply_gates(commands[c])
-        plant.finish_ticks(plant.step + int(loop[F.L_TICKS]), int(loop[F.L_LEGS]),
-                           self._events[:int(loop[F.L_EVENTS])].tolist())
+        plant.finish_ticks(plant.step + int(loop[F.L_TICKS]), int(loop[F.L_LEGS]), events)
         run.after()
 
     @staticmethod
@@ -127,6 +131,24 @@ class FusedDtcLoop:
 
 _NO_SPLIT, _NO_UPPER = np.zeros((1, 1, 1), np.int64), np.zeros((1, 1), np.int64)
 _NO_PFC = (np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
+# event-log kind of a boost trip -> its fault
+_BOOST_TRIPS = {FK.EV_FRONT_END + FK.KIND_NAMES.index(name): fault for name, fault in BOOST_FAULTS.items()}
+
+
+def _fault_changes(faults, events: list) -> list:
+    """[(first step, PlantState fault fields)] after each boost trip among a chunk's events (rows
+    when, kind, phase, value, tick): its fault counted on a copy of the plant's record, acting on
+    the records from the next tick on (a motor trip ends the chunk)."""
+    changes, shadow = [], None
+    for when, kind, _, _, tick in events:
+        fault = _BOOST_TRIPS.get(int(kind))
+        if fault is not None:
+            if shadow is None:
+                shadow = copy.copy(faults)
+                shadow.counts, shadow.pending = list(faults.counts), []
+            shadow.record(fault, when, int(tick), '')
+            changes.append((int(tick) + 1, fault_extras(shadow)))
+    return changes
 
 
 class _FrontRun:
@@ -158,7 +180,7 @@ class _FrontRun:
         cosim.schedule._held[ControllerKind.DUTY] = (d[F.D_HELD], d[F.D_HELD_ON] != 0.0)
         cosim.plant._duty = (d[F.D_APPLIED], d[F.D_APPLIED_ON] != 0.0)
 
-    def records(self, n: int, x, protection: float) -> FrontRecords | None:
+    def records(self, n: int, x, protection: float, faults: list) -> FrontRecords | None:
         """The chunk's front-end records (None without the front end)."""
         if not self.present:
             return None
@@ -169,7 +191,7 @@ class _FrontRun:
             if not rows:
                 rows.append(rec_pfc.tolist())
             return rows[0][r]
-        return FrontRecords(self.rec_fe[:n], int(protection), x[:, F.X_PFC_DUE] != 0.0,
+        return FrontRecords(self.rec_fe[:n], int(protection), faults, x[:, F.X_PFC_DUE] != 0.0,
                             lambda step, r: samples_of(step, row(r))[1],
                             lambda step, r: samples_of(step, row(r))[0])
 

@@ -58,26 +58,41 @@ class _Rows:
 
 class FrontRecords:
     """The front end's part of a RecordBlock: values (n, FV_SIZE) front_end_kernel.front_end_values
-    rows, protection: the PROTECTION_* bits outside the front end (constant: a trip ends a block),
-    pfc_due per record, pfc_status(step, row) -> PfcStatusSample and duty(step, row) ->
+    rows, protection: the PROTECTION_* bits outside the front end (constant: a motor trip ends a
+    block), faults: [(first step, PlantState fault fields)] after each boost trip inside the
+    block, pfc_due per record, pfc_status(step, row) -> PfcStatusSample and duty(step, row) ->
     DutySample of a due record."""
 
-    def __init__(self, values, protection, pfc_due, pfc_status, duty) -> None:
-        self.values, self.protection, self.pfc_due = values, protection, pfc_due
+    def __init__(self, values, protection, faults, pfc_due, pfc_status, duty) -> None:
+        self.values, self.protection, self.faults, self.pfc_due = values, protection, faults, pfc_due
         self.pfc_status, self.duty = pfc_status, duty
 
-    def extras(self, n: int, extras: dict) -> list[dict]:
-        """PlantCore.state_extras() of each of the first n records."""
+    def _fault_fields(self, steps: list, extras: dict) -> list[dict]:
+        """The fault fields of each record: the block's, then each change from its step on."""
+        out, changes, current = [], iter(self.faults), extras
+        change = next(changes, None)
+        for k in steps:
+            while change is not None and k >= change[0]:
+                current, change = change[1], next(changes, None)
+            out.append(current)
+        return out
+
+    def extras(self, steps: list, extras: dict) -> list[dict]:
+        """PlantCore.state_extras() of each record."""
         base = self.protection
-        return [{**extras, **front_extras(row), 'protection': base | int(row[FV_PROT])}
-                for row in self.values[:n].tolist()]
+        faults = self._fault_fields(steps, extras) if self.faults else [{}] * len(steps)
+        return [{**extras, **f, **front_extras(row), 'protection': base | int(row[FV_PROT])}
+                for row, f in zip(self.values[:len(steps)].tolist(), faults)]
 
     def pfc(self, steps: list, build) -> list:
         return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.pfc_due[:len(steps)].tolist()))]
 
-    def column(self, name: str, n: int) -> np.ndarray | None:
+    def column(self, name: str, steps: np.ndarray, extras: dict) -> np.ndarray | None:
+        n = len(steps)
         if name == 'protection':
             return (self.protection | self.values[:n, FV_PROT].astype(np.int64)).astype(float)
+        if self.faults and name in extras and name.startswith(('fault_', 'first_fault_')):
+            return np.array([f[name] for f in self._fault_fields(steps.tolist(), extras)], dtype=float)
         slot = _FRONT_SLOTS.get(name)
         return None if slot is None else self.values[:n, slot].copy()
 
@@ -118,7 +133,7 @@ class RecordBlock:
         if name == 'times':
             return [k * self.base_tick for k in steps]
         if name == 'states':
-            extras = front.extras(n, self.extras) if front is not None else [self.extras] * n
+            extras = front.extras(steps, self.extras) if front is not None else [self.extras] * n
             return [state_sample(k, v, a, x) for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
         if name == 'pfc_status':
             return front.pfc(steps, front.pfc_status) if front is not None else [None] * n
@@ -154,7 +169,7 @@ class RecordBlock:
         if slot is not None:
             return self.sv[:n, slot].copy()
         if self.front is not None:
-            col = self.front.column(name, n)
+            col = self.front.column(name, self.steps_[:n], self.extras)
             if col is not None:
                 return col
         value = np.asarray(self.extras[name], dtype=float)

@@ -107,6 +107,16 @@ def front_extras(fv: list) -> dict:
     return {name: kind(fv[slot]) for name, slot, kind in FRONT_END_FIELDS}
 
 
+# the fault of each front-end protection trip (FrontEnd.on_protection's kind)
+BOOST_FAULTS = {'over_current': FaultKind.BOOST_OVER_CURRENT, 'over_voltage': FaultKind.BOOST_OVER_VOLTAGE}
+
+
+def fault_extras(faults: FaultRecord) -> dict:
+    """PlantState's fault fields of a fault record."""
+    return dict(fault_count=faults.total, fault_counts=tuple(faults.counts),
+                first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
+
+
 def sv_slots() -> dict:
     """{PlantState field: SV_* slot or (first slot, width)} read off state_sample itself (the fields
     it fills from the state values: all differ from the defaults, which are 0 or NaN, with values
@@ -302,8 +312,7 @@ class PlantCore:
         return fe
 
     def _boost_protection(self, kind: str, when: float, text: str) -> None:
-        self.faults.record(FaultKind.BOOST_OVER_CURRENT if kind == 'over_current'
-                           else FaultKind.BOOST_OVER_VOLTAGE, when, self.step, text)
+        self.faults.record(BOOST_FAULTS[kind], when, self.step, text)
 
     def _derive_constants(self, max_step: float) -> None:
         """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
@@ -496,10 +505,8 @@ class PlantCore:
             front = dict(grid_voltage=NAN, grid_current=NAN, rectified_voltage=NAN, inductor_current=NAN,
                          boost_duty=0.0, boost_switch_enabled=False, energy_grid_input=0.0,
                          energy_front_end_loss=0.0)
-        faults = self.faults
         return dict(front, protection=self.protection, safe_state=self.in_safe_state,
-                    fault_count=faults.total, fault_counts=tuple(faults.counts),
-                    first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
+                    **fault_extras(self.faults))
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
