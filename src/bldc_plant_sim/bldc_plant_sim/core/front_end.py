@@ -38,7 +38,7 @@ _EVENT_ROWS = 4096           # event rows one advance can log
 # text of each logged event kind (KIND_NAMES order); protections add their value
 _EVENT_TEXT = ('inductor current zero (bridge blocks)', 'bridge forward biased: conduction starts',
                'bridge commutation starts (both diagonals conduct)', 'bridge commutation ends')
-_stored_energy, _grid_current = interpreted(FK.stored_energy), interpreted(FK.grid_current)
+_front_end_values = FK.front_end_values     # compiled: one dispatch for all the values
 _losses, _grid_voltage = interpreted(FK.losses), interpreted(FK.grid_voltage)
 
 
@@ -142,6 +142,7 @@ class FrontEnd:
         self.fp = np.zeros(FK.FP_SIZE)
         self.fx = np.zeros(FK.FX_SIZE)
         self._ev = np.zeros((_EVENT_ROWS, 4))
+        self._fv = np.zeros(FK.FV_SIZE)
         self.filter_enabled = bool(filter_enabled)
         self.configure(line_voltage=line_voltage, line_frequency=line_frequency,
                        line_phase=line_phase, line_resistance=line_resistance,
@@ -258,21 +259,25 @@ class FrontEnd:
         """Clear latched flags (they re-trip at once if the condition still holds)."""
         self.over_current = self.over_voltage = False
 
+    def _value(self, slot: int) -> float:
+        """One of front_end_kernel.front_end_values (FV_*) now."""
+        _front_end_values(self.fp, self.fx, self.time, self._fv)
+        return float(self._fv[slot])
+
     @property
     def protection(self) -> int:
         """PlantState PROTECTION_BOOST_* bits currently active."""
-        return (BOOST_OVER_CURRENT if self.over_current else 0) | (
-            BOOST_OVER_VOLTAGE if self.over_voltage else 0)
+        return int(self._value(FK.FV_PROT))
 
     @property
     def switch_enabled(self) -> bool:
         """Boost switching enabled after protections (PlantState.boost_switch_enabled)."""
-        return self.enable and not (self.over_current or self.over_voltage)
+        return self._value(FK.FV_SWITCH) != 0.0
 
     @property
     def applied_duty(self) -> float:
         """PlantState.boost_duty: the duty applied (0 while held off)."""
-        return self.duty if self.switch_enabled else 0.0
+        return self._value(FK.FV_DUTY)
 
     # ------------------------------------------------------------------ outputs
     def grid_voltage(self, t: float) -> float:
@@ -286,12 +291,12 @@ class FrontEnd:
     @property
     def rectified_voltage(self) -> float:
         """V, |bridge input| = the rectified line voltage the PFC senses (PfcMeasurement)."""
-        return abs(self.bridge_input_voltage)
+        return self._value(FK.FV_RECT)
 
     @property
     def grid_current(self) -> float:
         """A, line current at self.time (filter: i_f + C1 dv_g/dt; else the bridge input current)."""
-        return float(_grid_current(self.fp, self.fx))
+        return self._value(FK.FV_GRID_I)
 
     @property
     def inductor_current(self) -> float:
@@ -299,7 +304,7 @@ class FrontEnd:
 
     def stored_energy(self) -> float:
         """J: boost inductor, filter inductors, C2 and C1 (C1 at the grid voltage now)."""
-        return float(_stored_energy(self.fp, self.fx))
+        return self._value(FK.FV_STORED)
 
     def measurement(self) -> tuple[float, float]:
         """(rectified_voltage, inductor_current) for PfcMeasurement at self.time."""
