@@ -1,15 +1,14 @@
 """Switching-level boost PFC front end of 000 ch. III (Fig. 3.1), no rclpy.
 
-60 Hz grid -> optional EMI filter (C1, L1 + L2, C2) -> diode bridge -> boost
-inductor L -> boost switch, or boost diode into the split capacitor string kept by
-:class:`~.dc_link.DcLink` in ``current_fed`` mode; the switch held off is a plain
-diode-bridge rectifier. States i_f, v_c, i_L; conduction modes ``COND``,
-``OVERLAP`` and ``BLOCK``. Pieces between events (PWM edges, zero crossings,
-located DCM / overlap / over-current events) are integrated with the implicit
-midpoint rule in closed form, so the energy balance closes to round-off. PWM
-carrier locked to sim time (``triangle`` or ``sawtooth``); protections open the
-switch cycle by cycle or latched (000 3.3). The arithmetic is :mod:`.front_end_kernel`
-(state in float64 arrays); this class keeps the API, the event log and the trip callback.
+60 Hz grid -> optional EMI filter (C1, L1 + L2, C2) -> diode bridge -> boost inductor L ->
+boost switch, or boost diode into the split capacitor string (:class:`~.dc_link.DcLink`,
+``current_fed``); the switch held off is a plain diode-bridge rectifier. States i_f, v_c,
+i_L; modes ``COND``, ``OVERLAP``, ``BLOCK``. Pieces between events (PWM edges, zero
+crossings, located DCM / overlap / over-current events) are integrated with the implicit
+midpoint rule in closed form (the energy balance closes to round-off); PWM carrier locked to
+sim time; protections cycle by cycle or latched (000 3.3). The arithmetic is
+:mod:`.front_end_kernel` (state in float64 arrays); this class keeps the API, the event log
+and the trip callback.
 
 Circuit, equations, events, PWM, protections and the PlantCore wiring:
 docs/models.md "Boost PFC front end".

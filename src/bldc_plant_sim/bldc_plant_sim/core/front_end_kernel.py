@@ -356,9 +356,10 @@ def plain_event(fp, t, h, gate, i0, i1, R, u_off):
 
 @njit
 def piece_plain(fp, fx, ev, n_ev, t, h, gate, v_out):
-    """One piece of at most h [s] from t without the filter; advances fx's time; (link charge,
-    n_ev). Midpoint rule on L di_L/dt = |v_g| - 2 V_f - R i_L - u: mid-piece current
-    c = (g i0 + |v_g| - V_b - u) / (g + R), g = 2 L / h."""
+    """One piece of at most h [s] from t without the filter (000 Fig. 3.1 with the bridge input at
+    the grid); advances fx's time; (link charge, n_ev). Midpoint rule on
+    L di_L/dt = |v_g| - 2 V_f - R i_L - u: mid-piece current c = (g i0 + |v_g| - V_b - u) / (g + R),
+    g = 2 L / h (docs/models.md "Boost PFC front end")."""
     vg = grid_voltage(fp, t + 0.5 * h)
     u_off = 0.0 if gate else v_out + fp[FP_VD]
     R = fp[FP_RPLAIN] + (fp[FP_RON] if gate else 0.0)
@@ -438,8 +439,10 @@ def book_substeps(fp, fx, e_grid, e_line, qc, sq, q, gate, v_out):
 
 @njit
 def piece_filter(fp, fx, ev, n_ev, t, span, gate, v_out):
-    """Sub-steps of at most h_max over span [s] from t with a fixed gate (:func:`filter_substeps`),
-    stopping at an event, which :func:`filter_event` locates and takes; (link charge, n_ev)."""
+    """Sub-steps of at most h_max over span [s] from t with a fixed gate (:func:`filter_substeps`:
+    the COND / OVERLAP / BLOCK equations of docs/models.md, 000 Fig. 3.1 with the EMI filter),
+    stopping at an event, which :func:`first_filter_event` locates and :func:`take_filter_event`
+    takes; (link charge, n_ev)."""
     u = 0.0 if gate else v_out + fp[FP_VD]
     R = fp[FP_RL] + (fp[FP_RON] if gate else 0.0)
     start_mode(fp, fx, u)
