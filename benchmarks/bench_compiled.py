@@ -11,9 +11,10 @@ Each figure is measured in a subprocess twice, compiled (warm cache) and with
 * PfcCore.update per sample (bench_pfc_core's line cycle): goal <= 12.5 us (80 kHz real time);
 * FrontEnd alone ('fe only' of bench_front_end, EMI filter on): goal >= 1x real time;
 * headless ``two_phase_six_switch_torque_step`` (plant + DtcCore at 33.3 us),
-  ``fstp_voltage_model_proposed_compensation``, ``three_phase_dtifc_sensorless`` and
-  ``pfc_no_load_fig_3_5`` (plant with grid, bridge and boost + DTC + PFC cores), the whole
+  ``fstp_voltage_model_proposed_compensation`` and ``three_phase_dtifc_sensorless``, the whole
   ``run_headless`` with its set-up (files read, cores built): goal >= 1x real time;
+  ``pfc_no_load_fig_3_5`` (plant with grid, bridge and boost + DTC + PFC cores, all in the
+  fused loop): goal >= 5x real time;
 * the headless loop alone (time inside ``CoSimulation.run``, the fused compiled loop of
   drive_bringup.fused) of the default scenario run for 0.5 s: goal >= 300k samples/s with
   every sample recorded (its default), >= 600k samples/s (20x real time) without recording;
@@ -37,16 +38,20 @@ THREE_PHASE = (('three_phase_dtifc', {}), ('three_phase_pmsm', {}),
 
 
 def _real_time(name: str, duration: float) -> float:
-    """Sim seconds per wall second of a shipped scenario run headless for duration [s]."""
+    """Sim seconds per wall second of a shipped scenario run headless for duration [s] (best of
+    3 runs: the machine is shared)."""
     from drive_bringup.headless import run_headless
     from drive_bringup.scenario import load_scenario
     from drive_common.uris import resolve_path
     scenario = load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml'))
     duration = min(duration, scenario.duration)
     run_headless(scenario.shortened(duration))     # compile / load (both paths: a scripted change runs per sample)
-    t0 = time.perf_counter()
-    run_headless(scenario.shortened(duration))
-    return duration / (time.perf_counter() - t0)
+    best = float('inf')
+    for _ in range(3):
+        t0 = time.perf_counter()
+        run_headless(scenario.shortened(duration))
+        best = min(best, time.perf_counter() - t0)
+    return duration / best
 
 
 def _loop_rate(name: str, duration: float, record_every: int | None) -> float:
@@ -144,7 +149,7 @@ def main() -> None:
             ('headless two_phase_six_switch_torque_step [x real time]', 'dtc_real_time', '>= 1'),
             ('headless fstp_voltage_model_proposed_compensation [x real time]', 'fstp_real_time', '>= 1'),
             ('headless three_phase_dtifc_sensorless [x real time]', 'dtifc_real_time', '>= 1'),
-            ('headless pfc_no_load_fig_3_5 [x real time]', 'pfc_real_time', '>= 1'),
+            ('headless pfc_no_load_fig_3_5 [x real time]', 'pfc_real_time', '>= 5'),
             ('headless loop, default scenario, every sample recorded [samples/s]', 'loop_recorded', '>= 300k'),
             ('headless loop, default scenario, no recording [samples/s]', 'loop_unrecorded', '>= 600k')]
     print(f"{'figure':66s} {'compiled':>10s} {'interpreted':>12s} {'goal':>8s}")

@@ -113,5 +113,8 @@ from drive_common.uris import resolve_path
 for name in ('two_phase_six_switch_torque_step', 'two_phase_four_switch_torque_step',
              'three_phase_dtifc_sensorless', 'pfc_no_load_fig_3_5'):
     run_headless(load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml')).shortened(1e-3))
+# the per-sample tick as the plant node runs it (plant_kernel.advance_tick with the front end)
+run_headless(load_scenario(resolve_path('package://drive_bringup/scenarios/pfc_no_load_fig_3_5.yaml')).shortened(1e-4),
+             fused=False)
 PY
 say "ready: source scripts/env.sh to use the workspace"

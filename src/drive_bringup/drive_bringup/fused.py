@@ -12,13 +12,18 @@ the held command) as their own per-sample code does.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
+from bldc_plant_sim.core import front_end_kernel as FK
 from bldc_plant_sim.core import plant_kernel as PK
-from bldc_plant_sim.core.cosim import RecordBlock
+from bldc_plant_sim.core.cosim import FrontRecords, RecordBlock
 from bldc_plant_sim.core.lockstep import ControllerKind
+from bldc_plant_sim.core.plant import BOOST_FAULTS, fault_extras
 from drive_common.samples import GateSample
 from dtc_controller.core.controller import DtcCore
+from pfc_controller.core.average_current_control import O_SIZE, PfcCore, samples_of
 
 from . import cosim_kernel as F
 
@@ -35,9 +40,10 @@ class FusedDtcLoop:
     @staticmethod
     def controller(cosim):
         """The controller of cosim as the loop runs it (_ModeRun / _ConstantRun), or None."""
-        plant, dtc = cosim.plant, cosim.dtc
-        if (cosim.pfc is not None or plant.fe is not None or plant.sensors.draws
-                or cosim.schedule.pfc_ticks or getattr(dtc, 'topology', None) != plant.topology):
+        plant, dtc, pfc = cosim.plant, cosim.dtc, cosim.pfc
+        if (plant.sensors.draws or getattr(dtc, 'topology', None) != plant.topology
+                or (pfc is not None and (type(pfc) is not PfcCore or plant.fe is None))
+                or (pfc is None and cosim.schedule.pfc_ticks)):
             return None
         if type(dtc) is DtcCore and dtc._pending is None and hasattr(dtc.mode, 'fused_arrays'):
             run = _ModeRun(dtc.mode)
@@ -58,7 +64,7 @@ class FusedDtcLoop:
         n_rec = min(self.chunk_records, steps // every + 1) if every else 1
         ev_rows = len(plant._ev)
         if self._events is None or len(self._events) < 4 * ev_rows:
-            self._events = np.zeros((max(4096, 4 * ev_rows), 5))
+            self._events = np.zeros((max(16384, 4 * ev_rows), 5))
         held = sched._held[ControllerKind.GATE]
         cmd_codes = np.array([plant.commanded_code(sw) for sw in run.commands]
                              + [plant.commanded_code(held), plant.commanded_code()], dtype=np.int64)
@@ -70,19 +76,25 @@ class FusedDtcLoop:
         rec_sv = np.zeros((n_rec, PK.SV_SIZE))
         rec_x = np.zeros((n_rec, F.X_SIZE))
         rec_out = np.zeros((n_rec, run.out_size))
-        consts = np.array([plant.base_tick, plant._trip_level(), plant._off_code,
-                           float(plant.in_safe_state), run.encoder_offset])
+        front = _FrontRun(cosim, n_rec if every else 1)
+        consts = np.array([plant.base_tick, plant._trip_level(), plant._off_code, float(plant.in_safe_state),
+                           run.encoder_offset, float(bool(plant._safe)), plant.protection_outside_front_end])
+        sched_ = np.array([sched.dtc_ticks, sched.computation_delay, every, sched.pfc_ticks, front.n_avg], np.int64)
         extras, applied0, k0 = plant.state_extras(), plant._applied, plant.step
-        F.run_chunk(steps, k0, np.array([sched.dtc_ticks, sched.computation_delay, every], np.int64),
-                    consts, loop, plant._buf, plant._lut, plant._lut_psi, plant._ev, plant.sensors.cfg,
-                    run.kind, run.arrays, out, cmd_codes, rec_step, rec_sv, rec_x, rec_out, self._events)
-        self._finish(cosim, run, loop, held)
+        F.run_chunk(steps, k0, sched_, consts, loop, plant._buf, plant._lut, plant._lut_psi, plant._ev,
+                    plant.sensors.cfg, run.kind, run.arrays, out, cmd_codes, rec_step, rec_sv, rec_x, rec_out,
+                    self._events, *front.arrays())
+        events = self._events[:int(loop[F.L_EVENTS])].tolist()
+        faults = _fault_changes(plant.faults, events) if plant.fe is not None else []
+        self._finish(cosim, run, loop, held, events)
+        front.finish(cosim)
         n = int(loop[F.L_RECORDS])
         if n:
-            self._add_block(cosim, run, rec_step[:n], rec_sv[:n], rec_x[:n], rec_out[:n], extras, applied0, k0)
+            self._add_block(cosim, run, rec_step[:n], rec_sv[:n], rec_x[:n], rec_out[:n], extras, applied0, k0,
+                            front.records(n, rec_x[:n], consts[F.C_PROTECTION], faults))
         return int(loop[F.L_TICKS])
 
-    def _finish(self, cosim, run, loop, held) -> None:
+    def _finish(self, cosim, run, loop, held, events) -> None:
         """The plant, the latch and the controller as the per-sample path leaves them."""
         plant, sched = cosim.plant, cosim.schedule
         commands = [*run.commands, held]
@@ -91,24 +103,19 @@ class FusedDtcLoop:
         c = int(loop[F.L_CMD])
         if c < len(commands):
             plant.apply_gates(commands[c])
-        plant.finish_ticks(plant.step + int(loop[F.L_TICKS]), int(loop[F.L_LEGS]),
-                           self._events[:int(loop[F.L_EVENTS])].tolist())
+        plant.finish_ticks(plant.step + int(loop[F.L_TICKS]), int(loop[F.L_LEGS]), events)
         run.after()
 
     @staticmethod
-    def _add_block(cosim, run, steps, sv, x, out, extras, applied0, k0) -> None:
+    def _add_block(cosim, run, steps, sv, x, out, extras, applied0, k0, front) -> None:
         """The chunk's records as a RecordBlock of the trajectory."""
         plant = cosim.plant
-        switches = {}
-        applied = []
-        for r, code in enumerate(x[:, F.X_LEGS].astype(np.int64).tolist()):
-            if r == 0 and steps[0] == k0:
-                applied.append(applied0)
-                continue
-            sw = switches.get(code)
-            if sw is None:
-                sw = switches[code] = plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
-            applied.append(sw)
+        codes = x[:, F.X_LEGS].astype(np.int64)
+        switches = {code: plant.inverter.switches(tuple(PK.legs_of_code(code).tolist()))
+                    for code in np.unique(codes).tolist()}
+        applied = list(map(switches.__getitem__, codes.tolist()))
+        if int(steps[0]) == k0:
+            applied[0] = applied0
         theta, speed = x[:, F.X_THETA], x[:, F.X_SPEED]
         status, columns = run.status_builder(out, theta, speed), run.columns(out, theta, speed)
         topology = plant.topology
@@ -119,10 +126,74 @@ class FusedDtcLoop:
 
         cosim.trajectory.pop_last_if(int(steps[0]))
         cosim.trajectory.add_block(RecordBlock(steps, plant.base_tick, sv, applied, extras,
-                                               x[:, F.X_DUE] != 0.0, status, gate, columns))
+                                               x[:, F.X_DUE] != 0.0, status, gate, columns, front))
 
 
 _NO_SPLIT, _NO_UPPER = np.zeros((1, 1, 1), np.int64), np.zeros((1, 1), np.int64)
+_NO_PFC = (np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1))
+# event-log kind of a boost trip -> its fault
+_BOOST_TRIPS = {FK.EV_FRONT_END + FK.KIND_NAMES.index(name): fault for name, fault in BOOST_FAULTS.items()}
+
+
+def _fault_changes(faults, events: list) -> list:
+    """[(first step, PlantState fault fields)] after each boost trip among a chunk's events (rows
+    when, kind, phase, value, tick): its fault counted on a copy of the plant's record, acting on
+    the records from the next tick on (a motor trip ends the chunk)."""
+    changes, shadow = [], None
+    for when, kind, _, _, tick in events:
+        fault = _BOOST_TRIPS.get(int(kind))
+        if fault is not None:
+            if shadow is None:
+                shadow = copy.copy(faults)
+                shadow.counts, shadow.pending = list(faults.counts), []
+            shadow.record(fault, when, int(tick), '')
+            changes.append((int(tick) + 1, fault_extras(shadow)))
+    return changes
+
+
+class _FrontRun:
+    """The front end and PfcCore of a chunk: their arrays in, the duty latch out, the records."""
+
+    def __init__(self, cosim, n_rec: int) -> None:
+        plant, sched, pfc = cosim.plant, cosim.schedule, cosim.pfc
+        fe = plant.fe
+        self.fp, self.fx = (fe.fp, fe.fx) if fe is not None else (PK.NO_FRONT_END, PK.NO_FRONT_END)
+        if pfc is not None:
+            *self.pfc, self.n_avg, self.pfc_out = pfc.fused_arrays()
+            self.pfc = tuple(self.pfc)
+        else:
+            self.pfc, self.n_avg, self.pfc_out = _NO_PFC, 0, np.zeros(O_SIZE)
+        held_duty, held_on = sched._held[ControllerKind.DUTY]
+        applied_duty, applied_on = plant._duty
+        self.duty = np.array([held_duty, held_on, applied_duty, applied_on], dtype=float)
+        self.rec_fe = np.zeros((n_rec if fe is not None else 1, FK.FV_SIZE))
+        self.rec_pfc = np.zeros((n_rec if pfc is not None else 1, O_SIZE))
+        self.present = fe is not None
+
+    def arrays(self) -> tuple:
+        """run_chunk's front-end arguments (fp, fx, pfc, n_avg, pfc_out, duty, rec_fe, rec_pfc)."""
+        return self.fp, self.fx, self.pfc, self.n_avg, self.pfc_out, self.duty, self.rec_fe, self.rec_pfc
+
+    def finish(self, cosim) -> None:
+        """The duty latch (held and applied commands) as the per-sample path leaves it."""
+        d = self.duty.tolist()
+        cosim.schedule._held[ControllerKind.DUTY] = (d[F.D_HELD], d[F.D_HELD_ON] != 0.0)
+        cosim.plant._duty = (d[F.D_APPLIED], d[F.D_APPLIED_ON] != 0.0)
+
+    def records(self, n: int, x, protection: float, faults: list) -> FrontRecords | None:
+        """The chunk's front-end records (None without the front end)."""
+        if not self.present:
+            return None
+        rec_pfc = self.rec_pfc
+        rows = []
+
+        def row(r):
+            if not rows:
+                rows.append(rec_pfc.tolist())
+            return rows[0][r]
+        return FrontRecords(self.rec_fe[:n], int(protection), faults, x[:, F.X_PFC_DUE] != 0.0,
+                            lambda step, r: samples_of(step, row(r))[1],
+                            lambda step, r: samples_of(step, row(r))[0])
 
 
 class _ModeRun:

@@ -218,3 +218,78 @@ def test_plant_event_between_chunks_equal_per_sample():
     assert loop.python == 0 and loop.fused == per_sample.final_step
     assert_same_trajectory(fused.trajectory, per_sample.trajectory)
     assert differing(fused.arrays(), per_sample.arrays()) == []
+
+
+# Scenarios with the front end and PfcCore (plant parameters changed): the shipped operating
+# point; the plain rectifier (no PFC); boost over-current trips without the EMI filter with the
+# computation delay; a latched over-voltage trip at start with the sawtooth carrier.
+PFC_CASES = {
+    'fig_3_5': ('pfc_no_load_fig_3_5', {}),
+    'rectifier': ('pfc_without_pfc_fig_3_4', {}),
+    'over_current_no_filter_delay': ('pfc_no_load_fig_3_5', {
+        'front_end.filter.enabled': False, 'front_end.over_current_limit': 0.5, 'computation_delay': True}),
+    'latched_over_voltage': ('pfc_no_load_fig_3_5', {
+        'front_end.protection_latched': True, 'front_end.over_voltage_limit': 79.0, 'dc_link.voltage': 81.0,
+        'front_end.pwm_carrier': 'sawtooth'}),
+}
+
+
+def pfc_run(sc, fused):
+    """A PFC scenario's cores as run_headless builds them, records every second tick; (trajectory,
+    plant)."""
+    params = dict(sc.node_parameters['plant'], pfc_enabled='pfc_controller' in sc.node_parameters)
+    plant = PlantCore(params)
+    plant.fe.log_switching_events = True
+    cosim = CoSimulation(plant, *headless.build_controllers(sc), record_every=2, fused=fused)
+    return cosim.run(sc.duration), plant
+
+
+@requires_jit()
+@pytest.mark.parametrize('case', PFC_CASES)
+def test_pfc_scenarios_fused_equal_per_sample(case):
+    """The front end and PfcCore in the fused loop: trajectory (PlantState with the front end's
+    fields, PFC statuses and duty commands), the plant's and the front end's event logs, event
+    counts and fault record bit for bit as the per-sample path; a boost trip ends a chunk."""
+    name, plant_params = PFC_CASES[case]
+    sc = scenario(name, 0.01, **plant_params)
+    loop = CountingLoop(chunk_records=300)
+    (a, plant_a), (b, plant_b) = pfc_run(sc, loop), pfc_run(sc, None)
+    assert loop.python == 0 and loop.fused == plant_b.step == 800
+    assert_same_trajectory(a, b)
+    assert a.status_arrays('pfc').keys() == b.status_arrays('pfc').keys()
+    assert differing(a.status_arrays('pfc'), b.status_arrays('pfc')) == []
+    fe_a, fe_b = plant_a.fe, plant_b.fe
+    assert (plant_a.events, fe_a.events, fe_a.event_counts) == (plant_b.events, fe_b.events, fe_b.event_counts)
+    assert same(fe_a.last_event, fe_b.last_event)
+    assert plant_a.faults.first_text == plant_b.faults.first_text
+    assert list(plant_a.faults.counts) == list(plant_b.faults.counts)
+    assert sum(fe_b.event_counts.values()) > 0 and len(fe_b.events) > 0
+    duties = [d for _, d in b.commands if d is not None]
+    if case != 'rectifier':
+        assert len(duties) == 400 and max(d.duty for d in duties) > 0.0
+    if case == 'over_current_no_filter_delay':
+        assert fe_b.event_counts['over_current'] >= 5 and b.fault_kinds == ('boost_over_current',)
+    if case == 'latched_over_voltage':
+        assert fe_b.event_counts['over_voltage'] == 1 and b.fault_kinds == ('boost_over_voltage',)
+        assert fe_b.over_voltage and not any(d.duty > 0.0 and s.boost_switch_enabled
+                                             for (_, d), s in zip(b.commands, b.states) if d is not None)
+
+
+def fused_pfc_arrays(duration: float) -> dict:
+    """Trajectory and PFC status arrays of the fused PFC cases (PFC_CASES), 'case:key'."""
+    out = {}
+    for case, (name, plant_params) in PFC_CASES.items():
+        trajectory, plant = pfc_run(scenario(name, duration, **plant_params), FusedDtcLoop())
+        out.update({f'{case}:{k}': v for k, v in trajectory.as_arrays().items() if v is not None})
+        out.update({f'{case}:pfc/{k}': v for k, v in trajectory.status_arrays('pfc').items()})
+        out[f'{case}:fe'] = plant.fe.fx.copy()
+    return out
+
+
+@requires_jit()
+def test_fused_pfc_loop_interpreted_equals_compiled(tmp_path):
+    """NUMBA_DISABLE_JIT=1 runs the fused PFC loop (front-end, plant, PFC and DTC kernels) as plain
+    Python: the same arrays and front-end state."""
+    interpreted, compiled = interpreted_and_compiled('test_fused_loop:fused_pfc_arrays', [0.0008], tmp_path)
+    assert len(compiled['fig_3_5:time']) == 33 and np.ptp(compiled['fig_3_5:inductor_current']) > 0.0
+    assert differing(interpreted, compiled) == []

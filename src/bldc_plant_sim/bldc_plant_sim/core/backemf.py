@@ -132,12 +132,16 @@ class BackEmfShape:
         fund = np.real(c1[:, None] * np.exp(1j * theta)[None, :])
         bits = (fund > 0.0).astype(int)
         hall = bits[0] | (bits[1] << 1) | (bits[2] << 2)
+        lut_k = tuple(tuple(backemf_file.periodic_list(row)) for row in k)
+        lut_psi = tuple(tuple(backemf_file.periodic_list(row)) for row in psi)
         return {
             '_table': self._table, 'grid': frozen(theta), 'k_grid': frozen(k), 'psi_grid': frozen(psi),
             'fundamental': frozen(np.abs(c1)),
-            # Python sequences with a wrap-around copy: scalar fast path in the plant.
-            'lut_k': tuple(tuple(backemf_file.periodic_list(row)) for row in k),
-            'lut_psi': tuple(tuple(backemf_file.periodic_list(row)) for row in psi),
+            # Python sequences with a wrap-around copy: scalar fast path in the plant; the same
+            # as arrays for the compiled kernels (a core copies them: no conversion per core)
+            'lut_k': lut_k, 'lut_psi': lut_psi,
+            'lut_k_array': frozen(np.array(lut_k, dtype=np.float64)),
+            'lut_psi_array': frozen(np.array(lut_psi, dtype=np.float64)),
             'lut_hall': tuple(int(h) for h in hall) + (int(hall[0]),),
             'lut_scale': n / TWO_PI}
 

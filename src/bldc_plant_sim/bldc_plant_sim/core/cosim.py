@@ -23,7 +23,8 @@ from typing import Any, Callable
 import numpy as np
 
 from .lockstep import LockstepSchedule, ticks_of
-from .plant import PlantCore, PlantStateSample, state_sample, sv_slots
+from .front_end_kernel import FV_PROT
+from .plant import FRONT_END_FIELDS, PlantCore, PlantStateSample, front_extras, state_sample, sv_slots
 
 _SV_SLOTS = sv_slots()
 
@@ -55,19 +56,66 @@ class _Rows:
         return None
 
 
+class FrontRecords:
+    """The front end's part of a RecordBlock: values (n, FV_SIZE) front_end_kernel.front_end_values
+    rows, protection: the PROTECTION_* bits outside the front end (constant: a motor trip ends a
+    block), faults: [(first step, PlantState fault fields)] after each boost trip inside the
+    block, pfc_due per record, pfc_status(step, row) -> PfcStatusSample and duty(step, row) ->
+    DutySample of a due record."""
+
+    def __init__(self, values, protection, faults, pfc_due, pfc_status, duty) -> None:
+        self.values, self.protection, self.faults, self.pfc_due = values, protection, faults, pfc_due
+        self.pfc_status, self.duty = pfc_status, duty
+
+    def _fault_fields(self, steps: list, extras: dict) -> list[dict]:
+        """The fault fields of each record: the block's, then each change from its step on."""
+        out, changes, current = [], iter(self.faults), extras
+        change = next(changes, None)
+        for k in steps:
+            while change is not None and k >= change[0]:
+                current, change = change[1], next(changes, None)
+            out.append(current)
+        return out
+
+    def extras(self, steps: list, extras: dict) -> list[dict]:
+        """PlantCore.state_extras() of each record."""
+        base = self.protection
+        faults = self._fault_fields(steps, extras) if self.faults else [{}] * len(steps)
+        return [{**extras, **f, **front_extras(row), 'protection': base | int(row[FV_PROT])}
+                for row, f in zip(self.values[:len(steps)].tolist(), faults)]
+
+    def pfc(self, steps: list, build) -> list:
+        return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.pfc_due[:len(steps)].tolist()))]
+
+    def column(self, name: str, steps: np.ndarray, extras: dict) -> np.ndarray | None:
+        n = len(steps)
+        if name == 'protection':
+            return (self.protection | self.values[:n, FV_PROT].astype(np.int64)).astype(float)
+        if self.faults and name in extras and name.startswith(('fault_', 'first_fault_')):
+            return np.array([f[name] for f in self._fault_fields(steps.tolist(), extras)], dtype=float)
+        slot = _FRONT_SLOTS.get(name)
+        return None if slot is None else self.values[:n, slot].copy()
+
+
+_FRONT_SLOTS = {name: slot for name, slot, _ in FRONT_END_FIELDS}
+
+
 class RecordBlock:
     """Records of compiled ticks as arrays; objects are built only when asked for.
 
     steps: ticks; sv: (n, SV_SIZE) plant_kernel.state_values rows; applied: switch tuple of each
-    record; extras: PlantCore.state_extras() of the block (constant: a fault ends a block);
-    due: DTC due per record; status(step, row) -> DtcStatusSample of a due record; gate(step, row)
-    -> the GateSample the DTC returned; columns(steps, rows) -> the statuses of those due records
-    as DtcStatusSample.columns gives them ({} when the DTC returns none; None: build objects).
+    record; extras: PlantCore.state_extras() of the block (constant: a fault ends a block; with
+    front, its fields per record); due: DTC due per record; status(step, row) ->
+    DtcStatusSample of a due record; gate(step, row) -> the GateSample the DTC returned;
+    columns(steps, rows) -> the statuses of those due records as DtcStatusSample.columns gives
+    them ({} when the DTC returns none; None: build objects); front: FrontRecords or None.
     """
 
-    def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate, columns=None) -> None:
+    def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate, columns=None,
+                 front=None) -> None:
         self.steps_, self.base_tick, self.sv, self.applied, self.extras = steps, base_tick, sv, applied, extras
         self.due, self.status, self.gate, self.columns = due, status, gate, columns
+        self.front = front
         self.n = len(steps)
 
     def __len__(self) -> int:
@@ -78,26 +126,29 @@ class RecordBlock:
 
     def list_of(self, name: str) -> list:
         """One of the Trajectory lists (_LISTS) over this block's records."""
-        n = self.n
+        n, front = self.n, self.front
         steps = self.steps_[:n].tolist()
         if name == 'steps':
             return steps
         if name == 'times':
             return [k * self.base_tick for k in steps]
         if name == 'states':
-            extras = self.extras
-            return [state_sample(k, v, a, extras) for k, v, a in zip(steps, self.sv[:n].tolist(), self.applied)]
+            extras = front.extras(steps, self.extras) if front is not None else [self.extras] * n
+            return [state_sample(k, v, a, x) for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
         if name == 'pfc_status':
-            return [None] * n
+            return front.pfc(steps, front.pfc_status) if front is not None else [None] * n
         build = self.status if name == 'dtc_status' else self.gate
         seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
-        return seq if name == 'dtc_status' else [(g, None) for g in seq]
+        if name == 'dtc_status':
+            return seq
+        duties = front.pfc(steps, front.duty) if front is not None else [None] * n
+        return list(zip(seq, duties))
 
     def status_columns(self, which: str) -> dict | None:
         """The 'dtc' / 'pfc' statuses of the block's records as 'time' and field columns, built
         without objects ({}: none; None: not held as columns)."""
         if which == 'pfc':
-            return {}
+            return {} if self.front is None else None
         if self.columns is None:
             return None
         rows = np.flatnonzero(self.due[:self.n])
@@ -117,6 +168,10 @@ class RecordBlock:
             return self.sv[:n, slot[0]:slot[0] + slot[1]].copy()
         if slot is not None:
             return self.sv[:n, slot].copy()
+        if self.front is not None:
+            col = self.front.column(name, self.steps_[:n], self.extras)
+            if col is not None:
+                return col
         value = np.asarray(self.extras[name], dtype=float)
         return np.broadcast_to(value, (n, *value.shape)).copy()
 

@@ -22,6 +22,7 @@ from drive_common.parameters import ParameterError
 from drive_common.samples import ALL_OFF, DriveSample, PfcSample
 
 from ..parameters import PLANT_SCHEMA, effective_params
+from . import front_end_kernel as FK
 from . import plant_kernel as K
 from .dc_link import DcLink, array_slot
 from .link_kernel import DC_VL, DC_VU
@@ -92,6 +93,28 @@ def state_sample(step: int, sv, applied: tuple, extras: dict) -> PlantStateSampl
         applied_switch_on=applied, energy_dc_source=e_src, energy_copper_loss=copper,
         energy_device_loss=device, energy_friction_loss=friction, energy_mechanical_output=mech,
         energy_stored=stored, **extras)
+
+
+# PlantState's front-end fields: (name, front_end_kernel.front_end_values slot, type)
+FRONT_END_FIELDS = (('grid_voltage', FK.FV_GRID_V, float), ('grid_current', FK.FV_GRID_I, float),
+                    ('rectified_voltage', FK.FV_RECT, float), ('inductor_current', FK.FV_IL, float),
+                    ('boost_duty', FK.FV_DUTY, float), ('boost_switch_enabled', FK.FV_SWITCH, bool),
+                    ('energy_grid_input', FK.FV_E_GRID, float), ('energy_front_end_loss', FK.FV_E_LOSS, float))
+
+
+def front_extras(fv: list) -> dict:
+    """PlantState's front-end fields from a front_end_values row (FV_* order)."""
+    return {name: kind(fv[slot]) for name, slot, kind in FRONT_END_FIELDS}
+
+
+# the fault of each front-end protection trip (FrontEnd.on_protection's kind)
+BOOST_FAULTS = {'over_current': FaultKind.BOOST_OVER_CURRENT, 'over_voltage': FaultKind.BOOST_OVER_VOLTAGE}
+
+
+def fault_extras(faults: FaultRecord) -> dict:
+    """PlantState's fault fields of a fault record."""
+    return dict(fault_count=faults.total, fault_counts=tuple(faults.counts),
+                first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
 
 
 def sv_slots() -> dict:
@@ -171,6 +194,7 @@ class PlantCore:
         self._applied = ALL_OFF
         self._duty = (0.0, False)
         self.events: list[tuple[float, str]] = []   # (time, what) of located events, bounded
+        self._fv = np.zeros(FK.FV_SIZE)     # front_end_values' scratch
         self.energy = EnergyLedger(self.st)
         self.energy.stored_initial = self.stored_energy()
 
@@ -288,8 +312,7 @@ class PlantCore:
         return fe
 
     def _boost_protection(self, kind: str, when: float, text: str) -> None:
-        self.faults.record(FaultKind.BOOST_OVER_CURRENT if kind == 'over_current'
-                           else FaultKind.BOOST_OVER_VOLTAGE, when, self.step, text)
+        self.faults.record(BOOST_FAULTS[kind], when, self.step, text)
 
     def _derive_constants(self, max_step: float) -> None:
         """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
@@ -315,8 +338,8 @@ class PlantCore:
         prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
             self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
         prm[K.PR_LM] = m.inductance
-        self._lut = np.array(shape.lut_k, dtype=np.float64)
-        self._lut_psi = np.array(shape.lut_psi, dtype=np.float64)
+        self._lut = shape.lut_k_array.copy()
+        self._lut_psi = shape.lut_psi_array.copy()
         self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
         self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
 
@@ -418,10 +441,15 @@ class PlantCore:
     @property
     def protection(self) -> int:
         """PlantState PROTECTION_* bits: motor trip, boost over-current / over-voltage, safe state."""
-        bits = (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
+        bits = self.protection_outside_front_end
         if self.fe is not None:
             bits |= self.fe.protection
         return bits
+
+    @property
+    def protection_outside_front_end(self) -> int:
+        """The PROTECTION_* bits of the motor trip and the safe state."""
+        return (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
 
     def _effective_legs(self) -> tuple:
         if self._safe or self.trip.tripped:
@@ -471,18 +499,14 @@ class PlantCore:
         """PlantState's fields that the kernels do not hold: front end, protection, faults."""
         fe = self.fe
         if fe is not None:
-            front = dict(grid_voltage=fe.grid_voltage(self.time), grid_current=fe.grid_current,
-                         rectified_voltage=fe.rectified_voltage, inductor_current=fe.i_L,
-                         boost_duty=fe.applied_duty, boost_switch_enabled=fe.switch_enabled,
-                         energy_grid_input=fe.energy.grid, energy_front_end_loss=fe.energy.losses)
+            FK.front_end_values(fe.fp, fe.fx, self.time, self._fv)
+            front = front_extras(self._fv.tolist())
         else:
             front = dict(grid_voltage=NAN, grid_current=NAN, rectified_voltage=NAN, inductor_current=NAN,
                          boost_duty=0.0, boost_switch_enabled=False, energy_grid_input=0.0,
                          energy_front_end_loss=0.0)
-        faults = self.faults
         return dict(front, protection=self.protection, safe_state=self.in_safe_state,
-                    fault_count=faults.total, fault_counts=tuple(faults.counts),
-                    first_fault_kind=int(faults.first_kind), first_fault_time=faults.first_time)
+                    **fault_extras(self.faults))
 
     def energy_balance_error(self) -> float:
         """input - (stored - stored_0) - losses - mechanical output [J]."""
@@ -498,16 +522,14 @@ class PlantCore:
         return trip.level if (trip.enabled and not trip.tripped) else 0.0
 
     def advance(self) -> None:
-        """Integrate one base tick with the latched commands (one compiled call without the
-        front end: plant_kernel.advance_tick)."""
-        legs = self._effective_legs()
-        if self.fe is None:
-            n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
-                                        self._code(self._legs), self._code(legs), self._off_code)
-            self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
-        else:
-            self._advance_with_front_end(legs)
-            self.finish_ticks(self.step + 1)
+        """Integrate one base tick with the latched commands (one compiled call:
+        plant_kernel.advance_tick, the front end advanced inside each segment)."""
+        fe = self.fe
+        fp, fx = (fe.fp, fe.fx) if fe is not None else (K.NO_FRONT_END, K.NO_FRONT_END)
+        n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
+                                    self._code(self._legs), self._code(self._effective_legs()), self._off_code,
+                                    fp, fx)
+        self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
 
     def finish_ticks(self, step: int, code: int | None = None, events=()) -> None:
         """After compiled ticks up to tick step: the applied legs (leg code code), the located
@@ -535,61 +557,11 @@ class PlantCore:
         legs = memo[0] if memo is not None else self.inverter.legs(switch_on)
         return self._code(legs)
 
-    def _advance_with_front_end(self, legs: tuple) -> None:
-        """advance_tick's schedule from Python: the front end is advanced between a segment's
-        circuit (plant_kernel.segment_electric) and its link and shaft updates."""
-        h = self._h
-        n = self._substeps
-        self._elapsed = 0.0
-        dead = self.inverter.dead_time
-        if dead > 0.0 and legs != self._legs:
-            k, piece, rest = K.dead_time_split(dead, h, n)
-            self._legs = self.inverter.dead_time_legs(self._legs, legs)
-            for _ in range(k):
-                self._integrate(piece)
-            self._legs = legs   # as advance_tick: the rest of the step takes the target legs
-            self._integrate(rest)
-            n -= k
-        else:
-            self._legs = legs
-        for _ in range(n):
-            self._integrate(h)
-
-    def _integrate(self, dt: float) -> None:
-        """Integrate dt [s], splitting at located events (plant_kernel.integrate with a front end).
-
-        A run of more than _MAX_EVENTS_PER_STEP events inside one step (a
-        chattering circuit) finishes the step without further splitting and
-        logs it, instead of stalling the time master.
-        """
-        remaining = dt
-        events = 0
-        while remaining > 1e-15:
-            locate = events < _MAX_EVENTS_PER_STEP
-            if not locate and events == _MAX_EVENTS_PER_STEP:
-                self._record_event(self.time + self._elapsed, K.EV_LIMIT, -1, 0.0)
-            done = self._segment(remaining, remaining == self._h, locate)
-            remaining -= done
-            self._elapsed += done
-            events += 1
-
-    def _segment(self, T: float, nominal: bool, locate: bool = True) -> float:
-        """One segment of at most T [s] with the front end feeding the link; returns the time
-        integrated (circuit, link, shaft: plant_kernel.segment_electric / segment_mechanics)."""
-        buf = self._buf
-        T = K.segment_circuit(buf, self._lut, T, nominal, locate, self._code(self._legs),
-                              self._trip_level())
-        te, vp, q_p, q_m, kind, q, draw = self._res[:K.RS_SIZE].tolist()
-        if draw:
-            self.dc.source_current = self.fe.advance(self.time + self._elapsed, T, vp) / T
-        K.segment_finish(buf, T)
-        if kind != K.EV_NONE:
-            q = int(q)
-            self._record_event(self.time + self._elapsed + T, int(kind), q, self.i[q])
-        return T
-
     def _record_event(self, when: float, kind: int, q: int, current: float) -> None:
-        """Act on and log an event (plant_kernel EV_*) located at sim time when [s]."""
+        """Act on and log an event (plant_kernel EV_*, or a front-end event) located at sim time when [s]."""
+        if kind >= FK.EV_FRONT_END:
+            self.fe.take_event(when, kind, current)
+            return
         if len(self.events) > 10000:
             del self.events[:5000]
         if kind == K.EV_LIMIT:

@@ -21,9 +21,10 @@ import numpy as np
 
 from drive_common.compiled import interpreted, njit
 
+from . import front_end_kernel as FK
 from .inverter import MIDPOINT, OFF, RAIL_M, RAIL_P, resolve_legs
 from .link_kernel import (CURRENT_FED, DC_CL, DC_CU, DC_ES, DC_IS, DC_SIZE, DC_VL, DC_VU, IDEAL, LD_SIZE,
-                          link_draw, link_stored_energy, link_voltages, shaft_step)
+                          DC_SRC, link_draw, link_stored_energy, link_voltages, shaft_step)
 
 # st slots
 ST_I, ST_W, ST_TH, ST_ACC, ST_TL, ST_CU, ST_DEV, ST_FRIC, ST_MECH, ST_EL = 0, 3, 4, 5, 6, 7, 8, 9, 10, 11
@@ -287,41 +288,29 @@ def finish_segment(T, st, dcx, load, prm, res):
         segment_mechanics(T, res[RS_TE], st, prm, load)
 
 
-@njit
-def segment_circuit(buf, lut, T, nominal, locate, legs_code, level):
-    """segment_electric on the core's buffer (the front-end path: one call before, one after
-    the front end); returns the time integrated."""
-    return segment_electric(T, nominal, locate, legs_of_code(legs_code), buf[B_ST:B_DC],
-                            buf[B_DC:B_LOAD], buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE])
+_log = FK.log_event
+NO_FRONT_END = np.zeros(0)     # fp / fx of a plant without the front end
 
 
 @njit
-def segment_finish(buf, T):
-    """finish_segment on the core's buffer."""
-    finish_segment(T, buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM], buf[B_PRM:B_SV],
-                   buf[B_RES:B_SIZE])
-
-
-@njit
-def _log(ev, n_ev, when, kind, phase, current):
-    if n_ev < ev.shape[0]:
-        ev[n_ev, 0], ev[n_ev, 1], ev[n_ev, 2], ev[n_ev, 3] = when, kind, phase, current
-    return n_ev + 1
-
-
-@njit
-def integrate(dt, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev):
-    """dt [s] of segments split at located events, the soft link drawn without a front end
-    (more than MAX_EVENTS_PER_STEP events finish the step unsplit, logged as EV_LIMIT).
-    A trip opens all legs (legs <- all_off) and disables the level. Returns (n_ev, level)."""
+def integrate(dt, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev, fp, fx):
+    """dt [s] of segments split at located events, the soft link drawn (more than
+    MAX_EVENTS_PER_STEP events finish the step unsplit, logged as EV_LIMIT); with a front end
+    (fp, fx not empty) it is advanced over each segment between the circuit and the link
+    (:func:`.front_end_kernel.advance`, its events logged in ev too). A trip opens all legs
+    (legs <- all_off) and disables the level. Returns (n_ev, level)."""
     remaining = dt
     events = 0
     h = prm[PR_H]
+    front_end = fp.shape[0] != 0
     while remaining > 1e-15:
         locate = events < MAX_EVENTS_PER_STEP
         if not locate and events == MAX_EVENTS_PER_STEP:
             n_ev = _log(ev, n_ev, time + st[ST_EL], EV_LIMIT, -1, 0.0)
         T = segment_electric(remaining, remaining == h, locate, legs, st, dcx, prm, lut, level, res)
+        if front_end and res[RS_DRAW] != 0.0:
+            q, n_ev = FK.advance(fp, fx, ev, n_ev, time + st[ST_EL], T, res[RS_VP])
+            dcx[DC_SRC] = q / T
         finish_segment(T, st, dcx, load, prm, res)
         kind = int(res[RS_KIND])
         if kind != EV_NONE:
@@ -368,25 +357,27 @@ def legs_of_code(code):
 
 
 @njit
-def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code):
-    """One base tick without a front end (PlantCore.advance) on the core's buffer (B_* parts):
-    the applied legs move to the target through the dead time. Returns (number of events logged
-    in ev (when, kind, phase, current), leg code applied at the end)."""
+def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code, fp, fx):
+    """One base tick (PlantCore.advance) on the core's buffer (B_* parts) and the front end's
+    arrays (NO_FRONT_END without): the applied legs move to the target through the dead time.
+    Returns (number of events logged in ev (when, kind, phase, current), leg code applied at
+    the end)."""
     legs = legs_of_code(legs_code)
-    n_ev = advance_legs(buf, lut, ev, time, level, legs, legs_of_code(target_code), legs_of_code(off_code))
+    n_ev = advance_legs(buf, lut, ev, time, level, legs, legs_of_code(target_code), legs_of_code(off_code),
+                        fp, fx)
     return n_ev, code_of(legs)
 
 
 @njit
-def advance_legs(buf, lut, ev, time, level, legs, target, all_off):
+def advance_legs(buf, lut, ev, time, level, legs, target, all_off, fp, fx):
     """advance_tick on leg arrays (legs updated in place; a caller looping over ticks keeps
     them): returns the number of events logged in ev."""
     return _advance(legs, target, all_off, time, buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM],
-                    buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE], ev)
+                    buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE], ev, fp, fx)
 
 
 @njit
-def _advance(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, ev):
+def _advance(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, ev, fp, fx):
     n = int(prm[PR_N])
     h = prm[PR_H]
     st[ST_EL] = 0.0
@@ -399,14 +390,15 @@ def _advance(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, e
             o, nw = legs[x], target[x]
             legs[x] = nw if nw == o or nw == OFF or nw == MIDPOINT else OFF
         for _ in range(k):
-            n_ev, level = integrate(piece, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev)
+            n_ev, level = integrate(piece, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev,
+                                    fp, fx)
         legs[:] = target   # as interpreted: the rest of the step takes the target legs
-        n_ev, level = integrate(rest, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev)
+        n_ev, level = integrate(rest, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev, fp, fx)
         n -= k
     else:
         legs[:] = target
     for _ in range(n):
-        n_ev, level = integrate(h, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev)
+        n_ev, level = integrate(h, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev, fp, fx)
     return n_ev
 
 

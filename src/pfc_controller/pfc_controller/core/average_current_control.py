@@ -219,7 +219,18 @@ class PfcCore:
         avg = self._average
         pfc_step(self._prm, self._st, avg.buffer, avg.state, avg.n, float(sample.rectified_voltage),
                  float(sample.output_voltage), float(sample.inductor_current), self._out)
-        (enabled, v_ref, a, b, c, i_ref, c_loop, duty, vsat, csat, oc, ov, switch) = self._out.tolist()
-        return (DutySample(sample.step, duty, switch != 0.0),
-                PfcStatusSample(sample.step, enabled != 0.0, v_ref, a, b, c, i_ref, c_loop, duty,
-                                vsat != 0.0, csat != 0.0, oc != 0.0, ov != 0.0))
+        return samples_of(sample.step, self._out.tolist())
+
+    def fused_arrays(self) -> tuple:
+        """(parameters, loop state, average ring, average state, window n, outputs): what a fused
+        loop passes to :func:`pfc_step` for this core (updated in place)."""
+        avg = self._average
+        return self._prm, self._st, avg.buffer, avg.state, avg.n, self._out
+
+
+def samples_of(step: int, out: list) -> tuple[DutySample, PfcStatusSample]:
+    """The duty command and status of a sample from :func:`pfc_step`'s outputs (O_* order)."""
+    (enabled, v_ref, a, b, c, i_ref, c_loop, duty, vsat, csat, oc, ov, switch) = out
+    return (DutySample(step, duty, switch != 0.0),
+            PfcStatusSample(step, enabled != 0.0, v_ref, a, b, c, i_ref, c_loop, duty,
+                            vsat != 0.0, csat != 0.0, oc != 0.0, ov != 0.0))
