@@ -56,25 +56,22 @@ def _positive(*names: str):
     return check
 
 
-def _ro(name, default, description, unit='', **limits) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, read_only=True, **limits)
-
 
 LIVE_VIEW_SCHEMA = schema([
-    _ro('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
-    _ro('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
-    _ro('topic_periods', ['/diagnostics=0'], 'per-topic name=seconds overrides of decimation_period'),
-    _ro('time_period', 0.001, 'server-time broadcasts from /clock, at most one per this much sim time', 's'),
-    _ro('host', '127.0.0.1', 'address the WebSocket server listens on'),
-    _ro('port', 8765, 'WebSocket port (0 = any free port; the log says which)', min_value=0, max_value=65535),
-    _ro('qos_depth', 1, 'depth of the best-effort subscriptions to the served topics', min_value=1),
-    _ro('queue_depth', 256, 'frames between the receive and the send thread', min_value=1),
-    _ro('message_backlog_size', 1024, "the SDK's outbox per client", min_value=1),
-    _ro('parameter_timeout', 5.0, 'per ROS parameter service call', 's'),
-    _ro('diagnostics_period', 1.0, 'period of /diagnostics (wall time)', 's'),
-    _ro('batch_period', 0.005, 'rest after a wake-up that took messages (wall time)', 's',
-        min_value=0.0, max_value=0.1),
-], _positive('parameter_timeout', 'diagnostics_period'))
+    ParameterSpec('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
+    ParameterSpec('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
+    ParameterSpec('topic_periods', ['/diagnostics=0'], 'per-topic name=seconds overrides of decimation_period'),
+    ParameterSpec('time_period', 0.001, 'server-time broadcasts from /clock, at most one per this much sim time', 's'),
+    ParameterSpec('host', '127.0.0.1', 'address the WebSocket server listens on'),
+    ParameterSpec('port', 8765, 'WebSocket port (0 = any free port; the log says which)', min_value=0, max_value=65535),
+    ParameterSpec('qos_depth', 1, 'depth of the best-effort subscriptions to the served topics', min_value=1),
+    ParameterSpec('queue_depth', 256, 'frames between the receive and the send thread', min_value=1),
+    ParameterSpec('message_backlog_size', 1024, "the SDK's outbox per client", min_value=1),
+    ParameterSpec('parameter_timeout', 5.0, 'per ROS parameter service call', 's'),
+    ParameterSpec('diagnostics_period', 1.0, 'period of /diagnostics (wall time)', 's'),
+    ParameterSpec('batch_period', 0.005, 'rest after a wake-up that took messages (wall time)', 's',
+                  min_value=0.0, max_value=0.1),
+], _positive('parameter_timeout', 'diagnostics_period'), read_only=True)
 """The live view's parameters (all read-only, set at start); see the module docstring."""
 
 

@@ -69,29 +69,26 @@ class _Topic:
         self.callback = None
 
 
-def _spec(name, default, description, unit='', lo=None, hi=None, **kw) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True, **kw)
-
 
 RECORDER_SCHEMA = schema([
-    _spec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
-    _spec('all_topics', False, 'also record every topic that appears later'),
-    _spec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
-    _spec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
-    _spec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
-    _spec('qos_depth', 10000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
-    _spec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
-          's', 0.0, 60.0),
-    _spec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
-    _spec('batch_period', 0.005, 'rest after a wake-up that took messages', 's', 0.0, 0.1),
-    _spec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
-          choices=LOG_TIME_SOURCES),
-    _spec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
-    _spec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
-          'derived from the blocks'),
-    _spec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
-          's', 0.0, 1.0),
-])
+    ParameterSpec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
+    ParameterSpec('all_topics', False, 'also record every topic that appears later'),
+    ParameterSpec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
+    ParameterSpec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
+    ParameterSpec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
+    ParameterSpec('qos_depth', 10000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
+    ParameterSpec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
+                  's', 0.0, 60.0),
+    ParameterSpec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
+    ParameterSpec('batch_period', 0.005, 'rest after a wake-up that took messages', 's', 0.0, 0.1),
+    ParameterSpec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
+                  choices=LOG_TIME_SOURCES),
+    ParameterSpec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
+    ParameterSpec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
+                  'derived from the blocks'),
+    ParameterSpec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
+                  's', 0.0, 1.0),
+], read_only=True)
 
 
 class RecorderNode(Node):

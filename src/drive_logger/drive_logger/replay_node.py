@@ -51,25 +51,22 @@ def parse_remaps(items) -> dict[str, str]:
     return out
 
 
-def _spec(name, default, description, unit='', lo=None, hi=None) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True)
-
 
 REPLAY_SCHEMA = schema([
-    _spec('bag', '', 'bag directory or .mcap file (required)'),
-    _spec('rate', 1.0, 'speed factor (<= 0: as fast as possible)', '', -1e6, 1e6),
-    _spec('loop', False, 'start over at the end'),
-    _spec('topics', [''], "topics to replay (['']: all)"),
-    _spec('remap', [''], 'from:=to topic renames'),
-    _spec('publish_clock', True, 'publish /clock (recorded, or from the header stamps)'),
-    _spec('salvage', False, 'replay the intact part of a truncated or corrupt bag'),
-    _spec('wait_for_subscribers', 0.0, 'wait up to this long for a subscriber on every topic',
-          's', 0.0, 3600.0),
-    _spec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
-          's', 0.0, 1e9),
-    _spec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
-    _spec('namespace', '', "the drive's namespace in a bag of several ('': the only one)"),
-])
+    ParameterSpec('bag', '', 'bag directory or .mcap file (required)'),
+    ParameterSpec('rate', 1.0, 'speed factor (<= 0: as fast as possible)', '', -1e6, 1e6),
+    ParameterSpec('loop', False, 'start over at the end'),
+    ParameterSpec('topics', [''], "topics to replay (['']: all)"),
+    ParameterSpec('remap', [''], 'from:=to topic renames'),
+    ParameterSpec('publish_clock', True, 'publish /clock (recorded, or from the header stamps)'),
+    ParameterSpec('salvage', False, 'replay the intact part of a truncated or corrupt bag'),
+    ParameterSpec('wait_for_subscribers', 0.0, 'wait up to this long for a subscriber on every topic',
+                  's', 0.0, 3600.0),
+    ParameterSpec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
+                  's', 0.0, 1e9),
+    ParameterSpec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
+    ParameterSpec('namespace', '', "the drive's namespace in a bag of several ('': the only one)"),
+], read_only=True)
 
 
 class ReplayNode(Node):
