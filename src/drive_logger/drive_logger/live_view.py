@@ -38,7 +38,7 @@ from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
-from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
+from drive_logger.message_definitions import DefinitionNotFoundError, cdr_stamp_ns, type_definition
 
 DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
 DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by the queue depth
@@ -73,13 +73,6 @@ LIVE_VIEW_SCHEMA = schema([
                   min_value=0.0, max_value=0.1),
 ], _positive('parameter_timeout', 'diagnostics_period'), read_only=True)
 """The live view's parameters (all read-only, set at start); see the module docstring."""
-
-
-def _plain(value):
-    """rclpy parameter value -> plain Python (arrays -> lists)."""
-    if isinstance(value, (str, bytes, bool, int, float)) or value is None:
-        return value
-    return [v.item() if hasattr(v, 'item') else v for v in value]
 
 
 class _Stream:
@@ -182,7 +175,7 @@ class LiveViewNode(Node):
 
         def on_message(data: bytes) -> None:
             try:
-                stamp = core.stamp_ns(data)
+                stamp = cdr_stamp_ns(data)
             except ValueError:
                 return
             if decimator.due(stamp):
@@ -190,7 +183,7 @@ class LiveViewNode(Node):
         return on_message
 
     def _on_clock(self, data: bytes) -> None:
-        stamp = core.stamp_ns(data)
+        stamp = cdr_stamp_ns(data)
         self.sim_time_ns = stamp
         if self._time_decimator.due(stamp):
             self.outbox.put((None, None, stamp))
@@ -303,7 +296,7 @@ class LiveViewNode(Node):
                 raise
             for name, value in zip(names, response.values):
                 if value.type != 0:                    # PARAMETER_NOT_SET: not declared
-                    values[core.parameter_name(node, name)] = _plain(parameter_value_to_python(value))
+                    values[core.parameter_name(node, name)] = ros_types.plain(parameter_value_to_python(value))
         return values
 
     def set_ros_parameters(self, changes: dict[str, object]) -> dict[str, object]:
@@ -330,7 +323,7 @@ class LiveViewNode(Node):
     def _on_parameter_event(self, event: ParameterEvent) -> None:
         if event.node == self.get_fully_qualified_name():
             return
-        values = {core.parameter_name(event.node, p.name): _plain(parameter_value_to_python(p.value))
+        values = {core.parameter_name(event.node, p.name): ros_types.plain(parameter_value_to_python(p.value))
                   for p in (*event.new_parameters, *event.changed_parameters)}
         if values:
             self.server.publish_parameter_values(self._fg_parameters(values))
@@ -344,7 +337,7 @@ class LiveViewNode(Node):
     @staticmethod
     def _from_fg(parameter):
         value = parameter.get_value()
-        return _plain(value) if isinstance(value, (list, tuple)) else value
+        return ros_types.plain(value) if isinstance(value, (list, tuple)) else value
 
     def _status(self, message: str, level: str) -> None:
         self.get_logger().warning(message)

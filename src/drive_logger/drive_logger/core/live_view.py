@@ -1,9 +1,5 @@
 """What the live_view node decides without ROS: decimation, the bounded hand-off, parameter names.
 
-- :func:`stamp_ns` reads the sim time of a serialized message (CDR) whose
-  first field is a ``std_msgs/Header`` or a ``builtin_interfaces/Time`` (as
-  ``rosgraph_msgs/Clock``), so the node decimates without deserializing
-  every sample.
 - :class:`Decimator` forwards a topic at most once per period of sim time,
   on a fixed grid (the same samples are forwarded on every run).
 - :class:`Outbox` is the bounded queue between the ROS receive side and the
@@ -16,22 +12,11 @@
 """
 from __future__ import annotations
 
-import struct
 import threading
 from collections import deque
 from typing import Any, Iterable
 
 SEPARATOR = '.'
-_TIME = struct.Struct('<iI')
-_TIME_BE = struct.Struct('>iI')
-
-
-def stamp_ns(cdr: bytes) -> int:
-    """Sim time (ns) of the leading stamp of a CDR message; ValueError if it has none."""
-    if len(cdr) < 12 or cdr[0] != 0 or cdr[1] not in (0, 1):
-        raise ValueError('not a CDR message with a leading time stamp')
-    sec, nanosec = (_TIME if cdr[1] == 1 else _TIME_BE).unpack_from(cdr, 4)
-    return sec * 1_000_000_000 + nanosec
 
 
 def period_ns(seconds: float) -> int:
