@@ -36,6 +36,7 @@ from drive_common.lockstep_io import DirectReceiver
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.waiting import future_result
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, cdr_stamp_ns, type_definition
@@ -254,14 +255,6 @@ class LiveViewNode(Node):
             return None
         return client
 
-    def _wait(self, future, what: str, timeout: float | None = None):
-        timeout = self.parameter_timeout if timeout is None else timeout
-        done = threading.Event()
-        future.add_done_callback(lambda _f: done.set())
-        if not done.wait(timeout):
-            raise TimeoutError(f'{what}: no answer within {timeout} s')
-        return future.result()
-
     def graph_nodes(self) -> list[str]:
         """Fully qualified names of the other nodes that serve parameters."""
         own = {self.get_fully_qualified_name(), self._io.get_fully_qualified_name()}
@@ -286,9 +279,10 @@ class LiveViewNode(Node):
             try:
                 if names is None:
                     # a node that does not answer within 1 s is left out (not everyone waits for it)
-                    names = list(self._wait(client.list_parameters(), f'{node} list_parameters',
-                                            min(1.0, self.parameter_timeout)).result.names)
-                response = self._wait(client.get_parameters(names), f'{node} get_parameters')
+                    names = list(future_result(client.list_parameters(), min(1.0, self.parameter_timeout),
+                                               f'{node} list_parameters').result.names)
+                response = future_result(client.get_parameters(names), self.parameter_timeout,
+                                         f'{node} get_parameters')
             except TimeoutError as exc:
                 if not full_names:             # listing everything: leave out a node that does not answer
                     self.get_logger().info(f'{exc}; its parameters are left out')   # (the recorder: no executor)
@@ -314,7 +308,7 @@ class LiveViewNode(Node):
             params = [RosParameter(name, value=core.coerce(changes[core.parameter_name(node, name)],
                                                            current.get(core.parameter_name(node, name))))
                       for name in names]
-            response = self._wait(client.set_parameters(params), f'{node} set_parameters')
+            response = future_result(client.set_parameters(params), self.parameter_timeout, f'{node} set_parameters')
             for param, result in zip(params, response.results):
                 if not result.successful:
                     self._status(f'{node} refused {param.name} = {param.value!r}: {result.reason}', 'Warning')
