@@ -43,14 +43,6 @@ class RecorderConfigError(RuntimeError):
     """Bad recorder configuration detected at start (nothing was written)."""
 
 
-def message_class(type_name: str):
-    """The message class, or RecorderConfigError naming the unknown type."""
-    try:
-        return ros_types.message_class(type_name)
-    except ros_types.UnknownTypeError as exc:
-        raise RecorderConfigError(str(exc)) from exc
-
-
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
@@ -63,7 +55,7 @@ class _Topic:
         self.paced = definition is not None and graph_topics.is_paced(type_name)
         # the message class whose bytes need canonicalize(); None: canonical at the source
         self.canonical_of = (None if definition is None or type_name in graph_topics.CANONICAL_AT_SOURCE_TYPES
-                             else message_class(type_name))
+                             else ros_types.message_class(type_name))
         self.subscription = None
         self.record = None
         self.callback = None
@@ -154,7 +146,7 @@ class RecorderNode(Node):
                 f'graph within {timeout} s; give it as name:pkg/msg/Type')
         out = {}
         for name, type_name in resolved.items():
-            message_class(type_name)
+            ros_types.message_class(type_name)
             try:
                 out[name] = (normalize_type_name(type_name), type_definition(type_name))
             except (DefinitionNotFoundError, ValueError) as exc:
@@ -178,7 +170,7 @@ class RecorderNode(Node):
         topic = _Topic(name, type_name, definition, self._subscription_qos(name))
         topic.callback = self._callback_for(topic)
         topic.subscription = self.create_subscription(
-            message_class(type_name), name, topic.callback, topic.qos, raw=True,
+            ros_types.message_class(type_name), name, topic.callback, topic.qos, raw=True,
             callback_group=self._not_spun)
         self.topics[name] = topic
 
@@ -200,10 +192,10 @@ class RecorderNode(Node):
                 self.topics[name] = _Topic(name, types[0], None, None)
                 continue
             try:
-                message_class(types[0])
+                ros_types.message_class(types[0])
                 self._subscribe(name, normalize_type_name(types[0]), type_definition(types[0]))
                 self.get_logger().info(f'recording discovered topic {name} ({types[0]})')
-            except (RecorderConfigError, DefinitionNotFoundError, ValueError) as exc:
+            except (ros_types.UnknownTypeError, DefinitionNotFoundError, ValueError) as exc:
                 self.topics[name] = _Topic(name, types[0], None, None)  # remember, do not retry
                 self.get_logger().warning(f'cannot record {name}: {exc}')
 
@@ -325,7 +317,7 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
 
 
 def main(args=None) -> int:
-    return run_node(RecorderNode, args, work=run, errors=(RecorderConfigError,))
+    return run_node(RecorderNode, args, work=run, errors=(RecorderConfigError, ros_types.UnknownTypeError))
 
 
 if __name__ == '__main__':
