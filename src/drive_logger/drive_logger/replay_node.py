@@ -29,8 +29,7 @@ from drive_common.waiting import wait_until
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
-from drive_logger.message_definitions import cdr_stamp_ns
-from drive_logger.message_definitions import first_field_is_header as has_header, message_text
+from drive_logger.message_definitions import carries_sim_stamp, cdr_stamp_ns
 
 CLOCK_TOPIC = '/clock'
 
@@ -124,14 +123,13 @@ class ReplayNode(Node):
         return self.reader.messages(self.topic_names)
 
     def _header_topics(self) -> set[str]:
-        topics = set()
-        for schema_name in set(self.topic_types.values()):
+        """The topics whose messages lead with their sample's sim stamp (a type not installed: not)."""
+        def stamped(type_name: str) -> bool:
             try:
-                if has_header(message_text(schema_name)):
-                    topics.update(t for t, n in self.topic_types.items() if n == schema_name)
+                return carries_sim_stamp(type_name)
             except LookupError:
-                pass
-        return topics
+                return False
+        return {t for t, n in self.topic_types.items() if stamped(n)}
 
     def _wait_for_subscribers(self, stop: threading.Event) -> None:
         if not wait_until(lambda: stop.is_set() or all(
