@@ -36,6 +36,7 @@ from drive_common.lockstep_io import DirectReceiver
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.telemetry import Decimator
 from drive_common.waiting import future_result
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
@@ -94,8 +95,8 @@ class LiveViewNode(Node):
         self.parameter_timeout = float(p['parameter_timeout'])
         self.batch_period = float(p['batch_period'])
         try:
-            default_period = core.period_ns(float(p['decimation_period']))
-            self._time_decimator = core.Decimator(core.period_ns(float(p['time_period'])))
+            default_period = core.check_period(float(p['decimation_period']))
+            self._time_decimator = Decimator(core.check_period(float(p['time_period'])))
             overrides = self._topic_periods(p['topic_periods'] or [])
         except ValueError as exc:
             raise LiveViewConfigError(str(exc)) from exc
@@ -117,7 +118,7 @@ class LiveViewNode(Node):
             channel = foxglove.Channel(
                 name, message_encoding='cdr', context=self.context_fg,
                 schema=foxglove.Schema(name=type_name, encoding='ros2msg', data=definition.text.encode()))
-            stream = _Stream(name, channel, core.Decimator(overrides.get(name, default_period)))
+            stream = _Stream(name, channel, Decimator(overrides.get(name, default_period)))
             self.streams.append(stream)
             self._stream_subscriptions.append(self._io.create_subscription(
                 ros_types.message_class(type_name), name, self._receiver_for(stream),
@@ -141,14 +142,14 @@ class LiveViewNode(Node):
             f'{[s.name for s in self.streams]}')
 
     # ---------------------------------------------------------------- set-up
-    def _topic_periods(self, specs) -> dict[str, int]:
+    def _topic_periods(self, specs) -> dict[str, float]:
         out = {}
         for spec in specs:
             name, sep, seconds = spec.partition('=')
             if not sep or not name.strip():
                 raise ValueError(f'topic_periods entry {spec!r} is not name=seconds')
             try:
-                out[self.resolve_topic_name(name.strip())] = core.period_ns(float(seconds))
+                out[self.resolve_topic_name(name.strip())] = core.check_period(float(seconds))
             except ValueError as exc:
                 raise ValueError(f'topic_periods entry {spec!r}: {exc}') from exc
         return out
@@ -179,14 +180,14 @@ class LiveViewNode(Node):
                 stamp = cdr_stamp_ns(data)
             except ValueError:
                 return
-            if decimator.due(stamp):
+            if decimator.keep(stamp):
                 outbox.put((stream, data, stamp))
         return on_message
 
     def _on_clock(self, data: bytes) -> None:
         stamp = cdr_stamp_ns(data)
         self.sim_time_ns = stamp
-        if self._time_decimator.due(stamp):
+        if self._time_decimator.keep(stamp):
             self.outbox.put((None, None, stamp))
 
     def receive_loop(self, stop: threading.Event) -> None:
