@@ -58,18 +58,11 @@ def _recorded_columns(reader: BagReader, topics: list[str]) -> dict[str, dict[st
     return {topic: _arrays(cols) for topic, cols in rows.items()}
 
 
-def block_problems(blocks_by_topic: dict[str, list]) -> list[str]:
-    """'<topic>: <problem>' for every skip or repeat of steps between consecutive blocks of a topic."""
-    from drive_common.telemetry_blocks import step_gaps
-    return [f'{topic}: {problem}' for topic, blocks in blocks_by_topic.items()
-            for problem in step_gaps(blocks)]
-
-
 def _block_columns(reader: BagReader, wanted: dict[str, tuple[str, int]]) -> dict[str, dict[str, np.ndarray]]:
     """Columns of the wanted per-sample topics {topic: (block topic, part)} from every block sample."""
-    from drive_common.telemetry_blocks import block_columns
+    from drive_common.telemetry_blocks import block_columns, step_gaps
     blocks = read_blocks(reader, sorted({block for block, _ in wanted.values()}))
-    problems = block_problems(blocks)
+    problems = [f'{topic}: {problem}' for topic, msgs in blocks.items() for problem in step_gaps(msgs)]
     if problems:
         raise BagReadError(f'bag {str(reader.path)!r}: blocks skip or repeat steps, not analysed: '
                            + '; '.join(problems[:5]) + (f' (+{len(problems) - 5} more)' if len(problems) > 5 else ''))

@@ -249,14 +249,11 @@ class GraphRunner:
         after the recorder, matching them too is the proxy (plus a short
         settle), so the first samples are not lost to discovery.
         """
-        from drive_logger.graph_topics import known_type
+        from drive_logger.graph_topics import GRAPH_TOPIC_TYPES, is_paced, known_type
         from drive_logger.ros_types import message_class
-        streamed = {_absolute_topic(n) for n in (topics.DRIVE_MEASUREMENT, topics.GATE_COMMAND,
-                                                 topics.PLANT_STATE, topics.DTC_STATUS, topics.CLOCK,
-                                                 topics.PLANT_STATE_BLOCK, topics.DTC_STATUS_BLOCK)}
-        if 'pfc_controller' in self.scenario.nodes:
-            streamed |= {_absolute_topic(n) for n in (topics.PFC_MEASUREMENT, topics.DUTY_COMMAND,
-                                                      topics.PFC_STATUS, topics.PFC_STATUS_BLOCK)}
+        pfc = 'pfc_controller' in self.scenario.nodes
+        streamed = {_absolute_topic(n) for n, type_name in GRAPH_TOPIC_TYPES.items()   # the dtc_msgs topics, /clock
+                    if is_paced(type_name) and (pfc or not n.startswith('pfc/'))}
         wanted = [t for t in record_topics(self.scenario) if t in streamed and known_type(t)]
         if self.scenario.controller is not None:
             # Your own controller may publish no status (a core returning None): its status

@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
@@ -90,14 +89,10 @@ class SplitHostRunner(GraphRunner):
                      pfc_enabled='pfc_controller' in self.scenario.nodes)
         ticks = LockstepSchedule.from_params(plant, plant['base_tick']).state_ticks
         last = final_step - final_step % ticks
-        deadline = time.monotonic() + 30.0
-        while self._state_seen < last:
-            executor.spin_once(timeout_sec=0.05)
-            self._check_alive()
-            if time.monotonic() > deadline:
-                self.progress(f'warning: plant/state_block step {last} did not reach the supervisor '
-                              f'host within 30 s (last seen {self._state_seen})')
-                return
+        if not self._spin_while_waiting(executor, lambda: self._state_seen >= last, 30.0, 'the last sample',
+                                        raise_timeout=False):
+            self.progress(f'warning: plant/state_block step {last} did not reach the supervisor '
+                          f'host within 30 s (last seen {self._state_seen})')
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         cut = self.cut_controller_at

@@ -19,6 +19,10 @@ from rclpy.serialization import deserialize_message, serialize_message
 ENCAPSULATION_HEADER = 4   # bytes; alignment counts from its end
 PRIMITIVE_SIZES = {'boolean': 1, 'octet': 1, 'char': 1, 'int8': 1, 'uint8': 1, 'int16': 2, 'uint16': 2,
                    'int32': 4, 'uint32': 4, 'float': 4, 'int64': 8, 'uint64': 8, 'double': 8}
+STRUCT_CODES = {'boolean': '?', 'octet': 'B', 'char': 'B', 'int8': 'b', 'uint8': 'B', 'int16': 'h',
+                'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q', 'float': 'f',
+                'double': 'd'}
+"""rosidl primitive -> struct (and numpy dtype) code of its CDR encoding."""
 
 
 def padding(body_offset: int, size: int) -> int:

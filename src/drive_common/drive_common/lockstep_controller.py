@@ -132,7 +132,7 @@ class LockstepControllerNode(Node):
                 if self._receiver.poll(POLL):
                     idle_since = time.monotonic()
                 elif time.monotonic() - idle_since >= HOLD_FLUSH:
-                    self._flush_block()      # no measurement for a while: the plant holds
+                    self._telemetry.flush()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
                     return
@@ -159,7 +159,7 @@ class LockstepControllerNode(Node):
         self._stop.set()
         self._thread.join(timeout=STOP_WAIT)
         try:
-            self._flush_block()
+            self._telemetry.flush()
         except Exception:  # noqa: BLE001 - the context may already be shut down
             pass
 
@@ -238,7 +238,3 @@ class LockstepControllerNode(Node):
         if self._telemetry.append(sec * 1_000_000_000 + nanosec, status, measurement, command):
             self._status_pub.publish(self._status_msg.fill(status, stamp=Time(sec=sec,
                                                                               nanosec=nanosec)))
-
-    def _flush_block(self) -> None:
-        """Publish the partial status block, if any."""
-        self._telemetry.flush()

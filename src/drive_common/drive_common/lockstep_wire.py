@@ -19,16 +19,9 @@ from dataclasses import fields as dataclass_fields
 from functools import lru_cache
 from typing import Any
 
-from drive_common.cdr_padding import ENCAPSULATION_HEADER, PRIMITIVE_SIZES, padding
+from drive_common.cdr_padding import ENCAPSULATION_HEADER, PRIMITIVE_SIZES, STRUCT_CODES, padding
 
 ENCAPSULATION = b'\x00\x01\x00\x00'     # CDR, little endian
-
-# rosidl primitive -> struct code (sizes: cdr_padding.PRIMITIVE_SIZES)
-_STRUCT_CODE = {
-    'boolean': '?', 'octet': 'B', 'char': 'B', 'int8': 'b', 'uint8': 'B', 'int16': 'h',
-    'uint16': 'H', 'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q', 'float': 'f',
-    'double': 'd',
-}
 
 
 @lru_cache(maxsize=None)
@@ -43,7 +36,7 @@ def _fields(msg_type: type) -> tuple[tuple[str, str, int], ...]:
         if kind.endswith(']') and '[' in kind and not kind.endswith('[]'):
             element, count = kind[:-1].split('[')
             count = int(count)
-        if element not in _STRUCT_CODE:
+        if element not in STRUCT_CODES:
             raise TypeError(f'{msg_type.__name__}.{name}: {kind} has no fixed CDR size')
         out.append((name, element, count))
     return tuple(out)
@@ -53,7 +46,7 @@ def _tail_format(fields, offset: int) -> tuple[str, int]:
     """struct format ('<'-less) of the fields from body offset `offset`; the end offset."""
     parts = []
     for _, element, count in fields:
-        code, size = _STRUCT_CODE[element], PRIMITIVE_SIZES[element]
+        code, size = STRUCT_CODES[element], PRIMITIVE_SIZES[element]
         pad = padding(offset, size)
         if pad:
             parts.append(f'{pad}x')

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import array
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Iterable, Mapping
 
 from drive_common.uris import resolve_path
@@ -219,6 +219,6 @@ class ParameterSchema:
         return self.validate_changes(self.defaults(), overrides, running=False)
 
 
-def schema(specs: Iterable[ParameterSpec], *cross_checks: CrossCheck) -> ParameterSchema:
-    """Shorthand constructor."""
-    return ParameterSchema(tuple(specs), tuple(cross_checks))
+def schema(specs: Iterable[ParameterSpec], *cross_checks: CrossCheck, read_only: bool = False) -> ParameterSchema:
+    """Shorthand constructor; read_only: every parameter is fixed at start."""
+    return ParameterSchema(tuple(replace(s, read_only=True) if read_only else s for s in specs), tuple(cross_checks))

@@ -126,8 +126,9 @@ class PeerBinding:
                  report: Callable[[str, dict[str, str]], None] | None = None,
                  may_bind: Callable[[], bool] = lambda: True) -> None:
         self._node = node
-        self.received, self.sent = self._resolve(received), self._resolve(sent)
-        self.watched = tuple(self._resolve(t) for t in (watched or (received, sent)))
+        resolve = node.resolve_topic_name
+        self.received, self.sent = resolve(received), resolve(sent)
+        self.watched = tuple(resolve(t) for t in (watched or (received, sent)))
         self._report = report
         self._may_bind = may_bind
         self._lock = threading.Lock()
@@ -136,9 +137,6 @@ class PeerBinding:
         self._me = (node.get_name(), node.get_namespace())
         self._reported: set[bytes] = set()
         self.intruders: list[str] = []           # node names reported, in order
-
-    def _resolve(self, topic: str) -> str:
-        return self._node.resolve_topic_name(topic)
 
     @property
     def bound(self) -> bool:

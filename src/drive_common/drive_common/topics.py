@@ -28,12 +28,15 @@ STREAM_DEPTH = 10000
 BLOCK_DEPTH = 1000
 LIVE_DEPTH = 100
 
-LOCKSTEP_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=LOCKSTEP_DEPTH,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+
+def _reliable(depth: int | None) -> QoSProfile:
+    """RELIABLE, VOLATILE; KEEP_LAST depth, or KEEP_ALL for depth None."""
+    history = ({'history': HistoryPolicy.KEEP_ALL} if depth is None
+               else {'history': HistoryPolicy.KEEP_LAST, 'depth': depth})
+    return QoSProfile(**history, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+
+
+LOCKSTEP_QOS = _reliable(LOCKSTEP_DEPTH)
 """QoS of the measurement/command handshake: nothing lost, nothing stale replayed.
 
 At most one message per controller is outstanding in the handshake; the
@@ -44,11 +47,7 @@ recorder starved of CPU for a few hundred samples lost the start of a run
 with a depth of 64.
 """
 
-LOCKSTEP_READER_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_ALL,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+LOCKSTEP_READER_QOS = _reliable(None)
 """QoS of the plant's and a controller's own lockstep readers (compatible with LOCKSTEP_QOS).
 
 KEEP_LAST's depth is shared by every writer of a topic: a burst from another
@@ -57,12 +56,7 @@ out of the reader before it is taken. KEEP_ALL keeps it; the intruder's
 messages are taken and dropped (drive_common.peer_binding).
 """
 
-STREAM_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=STREAM_DEPTH,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+STREAM_QOS = _reliable(STREAM_DEPTH)
 """QoS of per-sample streamed topics nobody waits on, recorded at full rate (raw lockstep copies).
 
 The writer keeps up to STREAM_DEPTH unacknowledged samples, so a reader
@@ -70,12 +64,7 @@ that falls behind for a while (the recorder during a disk flush) still
 receives every sample; the plant never blocks on it.
 """
 
-BLOCK_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=BLOCK_DEPTH,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+BLOCK_QOS = _reliable(BLOCK_DEPTH)
 """QoS of the full-rate telemetry blocks (plant/state_block, dtc/status_block, pfc/status_block).
 
 RELIABLE, KEEP_LAST BLOCK_DEPTH: 1000 blocks are 2 s of sim time at the
@@ -86,12 +75,7 @@ loop on a slow reader). The writer's history grows only as far as a reader
 lags (about 23 kB per PlantStateBlock of 80 samples).
 """
 
-LIVE_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=LIVE_DEPTH,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+LIVE_QOS = _reliable(LIVE_DEPTH)
 """QoS of the decimated per-sample live topics (plant/state, dtc/status, pfc/status).
 
 Shallow: about 1 kHz of sim time for people and live tools; a reader that

@@ -6,6 +6,7 @@ or does useful work instead (``pause``: spin an executor, take messages).
 """
 from __future__ import annotations
 
+import threading
 import time
 from typing import Any, Callable
 
@@ -34,3 +35,13 @@ def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0
                 return value
             raise WaitTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
         pause(interval)
+
+
+def future_result(future, timeout: float, what: str = 'answer') -> Any:
+    """The result of a future that an executor spinning elsewhere completes; WaitTimeout
+    naming ``what`` if it is not done within timeout s."""
+    done = threading.Event()
+    future.add_done_callback(lambda _f: done.set())
+    if not done.wait(timeout):
+        raise WaitTimeout(f'{what}: no answer within {timeout} s')
+    return future.result()

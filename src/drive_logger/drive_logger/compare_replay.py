@@ -27,12 +27,12 @@ from pathlib import Path
 import yaml
 
 from drive_common.processes import NodeProcess
-from drive_common.waiting import WaitTimeout, wait_until
+from drive_common.waiting import WaitTimeout, future_result, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.message_definitions import cdr_stamp_ns
-from drive_logger.replay_node import clock_cdr
+from drive_logger.replay_node import clock_cdr, parse_remaps
 
 
 class CompareError(RuntimeError):
@@ -193,10 +193,9 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
             raise CompareError(f'{controller_node} parameter services not available')
         for index, (step, stamp, data) in enumerate(measurements):
             if index in changes:
-                future = params.set_parameters([Parameter(n, value=v) for n, v in changes[index]])
-                done = threading.Event()
-                future.add_done_callback(lambda _f: done.set())
-                if not done.wait(timeout) or not all(r.successful for r in future.result().results):
+                results = future_result(params.set_parameters([Parameter(n, value=v) for n, v in changes[index]]),
+                                        timeout, f'{controller_node} set_parameters').results
+                if not all(r.successful for r in results):
                     raise CompareError(f'the controller refused the recorded change {changes[index]}')
                 report.parameter_changes += 1
             clock_pub.publish(clock_cdr(stamp))
@@ -240,8 +239,7 @@ def _parse_param(text: str):
 
 def _run(args) -> ComparisonReport:
     """Start the controller, replay the bag into it, stop it."""
-    remaps = dict(r.split(':=', 1) for r in args.remap)
-    process = dict(parameters=dict(args.param), remappings=remaps, env=dict(os.environ),
+    process = dict(parameters=dict(args.param), remappings=parse_remaps(args.remap), env=dict(os.environ),
                    params_files=[args.params_file] if args.params_file else [])
     if args.command:
         controller = NodeProcess('command', Path(args.command[0]).name, argv=args.command, **process)
@@ -288,7 +286,7 @@ def main(argv=None) -> int:
         if args.params_file:
             read_params_file(args.params_file)      # one-line error before starting anything
         report = _run(args)
-    except (CompareError, ParameterFileError, BagReadError, WaitTimeout, OSError) as exc:
+    except (CompareError, ParameterFileError, BagReadError, WaitTimeout, OSError, ValueError) as exc:
         print(f'[compare_replay] error: {exc}', file=sys.stderr)
         return 2
     summary = asdict(report) | {'identical': report.identical}

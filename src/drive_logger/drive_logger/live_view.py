@@ -36,9 +36,11 @@ from drive_common.lockstep_io import DirectReceiver
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.telemetry import Decimator
+from drive_common.waiting import future_result
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
-from drive_logger.message_definitions import DefinitionNotFoundError, type_definition
+from drive_logger.message_definitions import DefinitionNotFoundError, cdr_stamp_ns, type_definition
 
 DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
 DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by the queue depth
@@ -56,33 +58,23 @@ def _positive(*names: str):
     return check
 
 
-def _ro(name, default, description, unit='', **limits) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, read_only=True, **limits)
-
 
 LIVE_VIEW_SCHEMA = schema([
-    _ro('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
-    _ro('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
-    _ro('topic_periods', ['/diagnostics=0'], 'per-topic name=seconds overrides of decimation_period'),
-    _ro('time_period', 0.001, 'server-time broadcasts from /clock, at most one per this much sim time', 's'),
-    _ro('host', '127.0.0.1', 'address the WebSocket server listens on'),
-    _ro('port', 8765, 'WebSocket port (0 = any free port; the log says which)', min_value=0, max_value=65535),
-    _ro('qos_depth', 1, 'depth of the best-effort subscriptions to the served topics', min_value=1),
-    _ro('queue_depth', 256, 'frames between the receive and the send thread', min_value=1),
-    _ro('message_backlog_size', 1024, "the SDK's outbox per client", min_value=1),
-    _ro('parameter_timeout', 5.0, 'per ROS parameter service call', 's'),
-    _ro('diagnostics_period', 1.0, 'period of /diagnostics (wall time)', 's'),
-    _ro('batch_period', 0.005, 'rest after a wake-up that took messages (wall time)', 's',
-        min_value=0.0, max_value=0.1),
-], _positive('parameter_timeout', 'diagnostics_period'))
+    ParameterSpec('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
+    ParameterSpec('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
+    ParameterSpec('topic_periods', ['/diagnostics=0'], 'per-topic name=seconds overrides of decimation_period'),
+    ParameterSpec('time_period', 0.001, 'server-time broadcasts from /clock, at most one per this much sim time', 's'),
+    ParameterSpec('host', '127.0.0.1', 'address the WebSocket server listens on'),
+    ParameterSpec('port', 8765, 'WebSocket port (0 = any free port; the log says which)', min_value=0, max_value=65535),
+    ParameterSpec('qos_depth', 1, 'depth of the best-effort subscriptions to the served topics', min_value=1),
+    ParameterSpec('queue_depth', 256, 'frames between the receive and the send thread', min_value=1),
+    ParameterSpec('message_backlog_size', 1024, "the SDK's outbox per client", min_value=1),
+    ParameterSpec('parameter_timeout', 5.0, 'per ROS parameter service call', 's'),
+    ParameterSpec('diagnostics_period', 1.0, 'period of /diagnostics (wall time)', 's'),
+    ParameterSpec('batch_period', 0.005, 'rest after a wake-up that took messages (wall time)', 's',
+                  min_value=0.0, max_value=0.1),
+], _positive('parameter_timeout', 'diagnostics_period'), read_only=True)
 """The live view's parameters (all read-only, set at start); see the module docstring."""
-
-
-def _plain(value):
-    """rclpy parameter value -> plain Python (arrays -> lists)."""
-    if isinstance(value, (str, bytes, bool, int, float)) or value is None:
-        return value
-    return [v.item() if hasattr(v, 'item') else v for v in value]
 
 
 class _Stream:
@@ -103,8 +95,8 @@ class LiveViewNode(Node):
         self.parameter_timeout = float(p['parameter_timeout'])
         self.batch_period = float(p['batch_period'])
         try:
-            default_period = core.period_ns(float(p['decimation_period']))
-            self._time_decimator = core.Decimator(core.period_ns(float(p['time_period'])))
+            default_period = core.check_period(float(p['decimation_period']))
+            self._time_decimator = Decimator(core.check_period(float(p['time_period'])))
             overrides = self._topic_periods(p['topic_periods'] or [])
         except ValueError as exc:
             raise LiveViewConfigError(str(exc)) from exc
@@ -126,7 +118,7 @@ class LiveViewNode(Node):
             channel = foxglove.Channel(
                 name, message_encoding='cdr', context=self.context_fg,
                 schema=foxglove.Schema(name=type_name, encoding='ros2msg', data=definition.text.encode()))
-            stream = _Stream(name, channel, core.Decimator(overrides.get(name, default_period)))
+            stream = _Stream(name, channel, Decimator(overrides.get(name, default_period)))
             self.streams.append(stream)
             self._stream_subscriptions.append(self._io.create_subscription(
                 ros_types.message_class(type_name), name, self._receiver_for(stream),
@@ -150,14 +142,14 @@ class LiveViewNode(Node):
             f'{[s.name for s in self.streams]}')
 
     # ---------------------------------------------------------------- set-up
-    def _topic_periods(self, specs) -> dict[str, int]:
+    def _topic_periods(self, specs) -> dict[str, float]:
         out = {}
         for spec in specs:
             name, sep, seconds = spec.partition('=')
             if not sep or not name.strip():
                 raise ValueError(f'topic_periods entry {spec!r} is not name=seconds')
             try:
-                out[self.resolve_topic_name(name.strip())] = core.period_ns(float(seconds))
+                out[self.resolve_topic_name(name.strip())] = core.check_period(float(seconds))
             except ValueError as exc:
                 raise ValueError(f'topic_periods entry {spec!r}: {exc}') from exc
         return out
@@ -185,17 +177,17 @@ class LiveViewNode(Node):
 
         def on_message(data: bytes) -> None:
             try:
-                stamp = core.stamp_ns(data)
+                stamp = cdr_stamp_ns(data)
             except ValueError:
                 return
-            if decimator.due(stamp):
+            if decimator.keep(stamp):
                 outbox.put((stream, data, stamp))
         return on_message
 
     def _on_clock(self, data: bytes) -> None:
-        stamp = core.stamp_ns(data)
+        stamp = cdr_stamp_ns(data)
         self.sim_time_ns = stamp
-        if self._time_decimator.due(stamp):
+        if self._time_decimator.keep(stamp):
             self.outbox.put((None, None, stamp))
 
     def receive_loop(self, stop: threading.Event) -> None:
@@ -264,14 +256,6 @@ class LiveViewNode(Node):
             return None
         return client
 
-    def _wait(self, future, what: str, timeout: float | None = None):
-        timeout = self.parameter_timeout if timeout is None else timeout
-        done = threading.Event()
-        future.add_done_callback(lambda _f: done.set())
-        if not done.wait(timeout):
-            raise TimeoutError(f'{what}: no answer within {timeout} s')
-        return future.result()
-
     def graph_nodes(self) -> list[str]:
         """Fully qualified names of the other nodes that serve parameters."""
         own = {self.get_fully_qualified_name(), self._io.get_fully_qualified_name()}
@@ -296,9 +280,10 @@ class LiveViewNode(Node):
             try:
                 if names is None:
                     # a node that does not answer within 1 s is left out (not everyone waits for it)
-                    names = list(self._wait(client.list_parameters(), f'{node} list_parameters',
-                                            min(1.0, self.parameter_timeout)).result.names)
-                response = self._wait(client.get_parameters(names), f'{node} get_parameters')
+                    names = list(future_result(client.list_parameters(), min(1.0, self.parameter_timeout),
+                                               f'{node} list_parameters').result.names)
+                response = future_result(client.get_parameters(names), self.parameter_timeout,
+                                         f'{node} get_parameters')
             except TimeoutError as exc:
                 if not full_names:             # listing everything: leave out a node that does not answer
                     self.get_logger().info(f'{exc}; its parameters are left out')   # (the recorder: no executor)
@@ -306,7 +291,7 @@ class LiveViewNode(Node):
                 raise
             for name, value in zip(names, response.values):
                 if value.type != 0:                    # PARAMETER_NOT_SET: not declared
-                    values[core.parameter_name(node, name)] = _plain(parameter_value_to_python(value))
+                    values[core.parameter_name(node, name)] = ros_types.plain(parameter_value_to_python(value))
         return values
 
     def set_ros_parameters(self, changes: dict[str, object]) -> dict[str, object]:
@@ -324,7 +309,7 @@ class LiveViewNode(Node):
             params = [RosParameter(name, value=core.coerce(changes[core.parameter_name(node, name)],
                                                            current.get(core.parameter_name(node, name))))
                       for name in names]
-            response = self._wait(client.set_parameters(params), f'{node} set_parameters')
+            response = future_result(client.set_parameters(params), self.parameter_timeout, f'{node} set_parameters')
             for param, result in zip(params, response.results):
                 if not result.successful:
                     self._status(f'{node} refused {param.name} = {param.value!r}: {result.reason}', 'Warning')
@@ -333,7 +318,7 @@ class LiveViewNode(Node):
     def _on_parameter_event(self, event: ParameterEvent) -> None:
         if event.node == self.get_fully_qualified_name():
             return
-        values = {core.parameter_name(event.node, p.name): _plain(parameter_value_to_python(p.value))
+        values = {core.parameter_name(event.node, p.name): ros_types.plain(parameter_value_to_python(p.value))
                   for p in (*event.new_parameters, *event.changed_parameters)}
         if values:
             self.server.publish_parameter_values(self._fg_parameters(values))
@@ -347,7 +332,7 @@ class LiveViewNode(Node):
     @staticmethod
     def _from_fg(parameter):
         value = parameter.get_value()
-        return _plain(value) if isinstance(value, (list, tuple)) else value
+        return ros_types.plain(value) if isinstance(value, (list, tuple)) else value
 
     def _status(self, message: str, level: str) -> None:
         self.get_logger().warning(message)

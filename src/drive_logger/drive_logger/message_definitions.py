@@ -198,6 +198,12 @@ def is_sim_stamp(stamp_ns: int) -> bool:
 
 
 def cdr_stamp_ns(data: bytes) -> int:
-    """The leading builtin_interfaces/Time of a CDR message, in ns (see :func:`carries_sim_stamp`)."""
+    """The leading builtin_interfaces/Time of a CDR message, in ns (see :func:`carries_sim_stamp`).
+
+    Read without deserializing (the live view decimates every sample by it);
+    ValueError for bytes that are not CDR with room for a leading stamp.
+    """
+    if len(data) < 12 or data[0] != 0 or data[1] not in (0, 1):
+        raise ValueError('not a CDR message with a leading time stamp')
     sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)
     return sec * 1_000_000_000 + nanosec

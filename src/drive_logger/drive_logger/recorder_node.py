@@ -43,14 +43,6 @@ class RecorderConfigError(RuntimeError):
     """Bad recorder configuration detected at start (nothing was written)."""
 
 
-def message_class(type_name: str):
-    """The message class, or RecorderConfigError naming the unknown type."""
-    try:
-        return ros_types.message_class(type_name)
-    except ros_types.UnknownTypeError as exc:
-        raise RecorderConfigError(str(exc)) from exc
-
-
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
@@ -63,35 +55,32 @@ class _Topic:
         self.paced = definition is not None and graph_topics.is_paced(type_name)
         # the message class whose bytes need canonicalize(); None: canonical at the source
         self.canonical_of = (None if definition is None or type_name in graph_topics.CANONICAL_AT_SOURCE_TYPES
-                             else message_class(type_name))
+                             else ros_types.message_class(type_name))
         self.subscription = None
         self.record = None
         self.callback = None
 
 
-def _spec(name, default, description, unit='', lo=None, hi=None, **kw) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True, **kw)
-
 
 RECORDER_SCHEMA = schema([
-    _spec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
-    _spec('all_topics', False, 'also record every topic that appears later'),
-    _spec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
-    _spec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
-    _spec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
-    _spec('qos_depth', 10000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
-    _spec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
-          's', 0.0, 60.0),
-    _spec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
-    _spec('batch_period', 0.005, 'rest after a wake-up that took messages', 's', 0.0, 0.1),
-    _spec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
-          choices=LOG_TIME_SOURCES),
-    _spec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
-    _spec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
-          'derived from the blocks'),
-    _spec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
-          's', 0.0, 1.0),
-])
+    ParameterSpec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
+    ParameterSpec('all_topics', False, 'also record every topic that appears later'),
+    ParameterSpec('output', '', "bag directory to create ('': bags/<YYYYmmdd-HHMMSS>)"),
+    ParameterSpec('compression', 'lz4', 'MCAP chunk compression', choices=('lz4', 'zstd', 'none')),
+    ParameterSpec('chunk_size', 1 << 20, 'MCAP chunk size', 'byte', 1, 1 << 30),
+    ParameterSpec('qos_depth', 10000, 'KEEP_LAST depth of the subscriptions (0: KEEP_ALL)', '', 0, 1 << 20),
+    ParameterSpec('type_discovery_timeout', 2.0, 'time to look up the type of a topic outside the drive graph',
+                  's', 0.0, 60.0),
+    ParameterSpec('drain_timeout', 2.0, 'at stop, take queued messages for at most this long', 's', 0.0, 60.0),
+    ParameterSpec('batch_period', 0.005, 'rest after a wake-up that took messages', 's', 0.0, 0.1),
+    ParameterSpec('log_time', 'sim', "clock of the bag's log times: 'sim' (sample stamps) or 'wall'",
+                  choices=LOG_TIME_SOURCES),
+    ParameterSpec('flush_period', 0.5, 'close the chunk and fsync at least this often (wall time)', 's', 0.01, 60.0),
+    ParameterSpec('viewer_topics', True, 'add per-sample viewer topics (plant/state, dtc/status, pfc/status) '
+                  'derived from the blocks'),
+    ParameterSpec('viewer_period', DEFAULT_LIVE_PERIOD, 'sim time between samples of the viewer topics; 0 = every sample',
+                  's', 0.0, 1.0),
+], read_only=True)
 
 
 class RecorderNode(Node):
@@ -157,7 +146,7 @@ class RecorderNode(Node):
                 f'graph within {timeout} s; give it as name:pkg/msg/Type')
         out = {}
         for name, type_name in resolved.items():
-            message_class(type_name)
+            ros_types.message_class(type_name)
             try:
                 out[name] = (normalize_type_name(type_name), type_definition(type_name))
             except (DefinitionNotFoundError, ValueError) as exc:
@@ -181,7 +170,7 @@ class RecorderNode(Node):
         topic = _Topic(name, type_name, definition, self._subscription_qos(name))
         topic.callback = self._callback_for(topic)
         topic.subscription = self.create_subscription(
-            message_class(type_name), name, topic.callback, topic.qos, raw=True,
+            ros_types.message_class(type_name), name, topic.callback, topic.qos, raw=True,
             callback_group=self._not_spun)
         self.topics[name] = topic
 
@@ -203,10 +192,10 @@ class RecorderNode(Node):
                 self.topics[name] = _Topic(name, types[0], None, None)
                 continue
             try:
-                message_class(types[0])
+                ros_types.message_class(types[0])
                 self._subscribe(name, normalize_type_name(types[0]), type_definition(types[0]))
                 self.get_logger().info(f'recording discovered topic {name} ({types[0]})')
-            except (RecorderConfigError, DefinitionNotFoundError, ValueError) as exc:
+            except (ros_types.UnknownTypeError, DefinitionNotFoundError, ValueError) as exc:
                 self.topics[name] = _Topic(name, types[0], None, None)  # remember, do not retry
                 self.get_logger().warning(f'cannot record {name}: {exc}')
 
@@ -328,7 +317,7 @@ def run(node: RecorderNode, stop: threading.Event) -> None:
 
 
 def main(args=None) -> int:
-    return run_node(RecorderNode, args, work=run, errors=(RecorderConfigError,))
+    return run_node(RecorderNode, args, work=run, errors=(RecorderConfigError, ros_types.UnknownTypeError))
 
 
 if __name__ == '__main__':

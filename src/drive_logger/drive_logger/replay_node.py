@@ -29,8 +29,7 @@ from drive_common.waiting import wait_until
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
-from drive_logger.message_definitions import cdr_stamp_ns
-from drive_logger.message_definitions import first_field_is_header as has_header, message_text
+from drive_logger.message_definitions import carries_sim_stamp, cdr_stamp_ns
 
 CLOCK_TOPIC = '/clock'
 
@@ -51,25 +50,22 @@ def parse_remaps(items) -> dict[str, str]:
     return out
 
 
-def _spec(name, default, description, unit='', lo=None, hi=None) -> ParameterSpec:
-    return ParameterSpec(name, default, description, unit, lo, hi, read_only=True)
-
 
 REPLAY_SCHEMA = schema([
-    _spec('bag', '', 'bag directory or .mcap file (required)'),
-    _spec('rate', 1.0, 'speed factor (<= 0: as fast as possible)', '', -1e6, 1e6),
-    _spec('loop', False, 'start over at the end'),
-    _spec('topics', [''], "topics to replay (['']: all)"),
-    _spec('remap', [''], 'from:=to topic renames'),
-    _spec('publish_clock', True, 'publish /clock (recorded, or from the header stamps)'),
-    _spec('salvage', False, 'replay the intact part of a truncated or corrupt bag'),
-    _spec('wait_for_subscribers', 0.0, 'wait up to this long for a subscriber on every topic',
-          's', 0.0, 3600.0),
-    _spec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
-          's', 0.0, 1e9),
-    _spec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
-    _spec('namespace', '', "the drive's namespace in a bag of several ('': the only one)"),
-])
+    ParameterSpec('bag', '', 'bag directory or .mcap file (required)'),
+    ParameterSpec('rate', 1.0, 'speed factor (<= 0: as fast as possible)', '', -1e6, 1e6),
+    ParameterSpec('loop', False, 'start over at the end'),
+    ParameterSpec('topics', [''], "topics to replay (['']: all)"),
+    ParameterSpec('remap', [''], 'from:=to topic renames'),
+    ParameterSpec('publish_clock', True, 'publish /clock (recorded, or from the header stamps)'),
+    ParameterSpec('salvage', False, 'replay the intact part of a truncated or corrupt bag'),
+    ParameterSpec('wait_for_subscribers', 0.0, 'wait up to this long for a subscriber on every topic',
+                  's', 0.0, 3600.0),
+    ParameterSpec('start_offset', 0.0, 'start this far into the bag (log time; ros2 bag play --start-offset)',
+                  's', 0.0, 1e9),
+    ParameterSpec('expand_blocks', False, 'publish the per-sample topics from the block topics instead of the blocks'),
+    ParameterSpec('namespace', '', "the drive's namespace in a bag of several ('': the only one)"),
+], read_only=True)
 
 
 class ReplayNode(Node):
@@ -127,14 +123,13 @@ class ReplayNode(Node):
         return self.reader.messages(self.topic_names)
 
     def _header_topics(self) -> set[str]:
-        topics = set()
-        for schema_name in set(self.topic_types.values()):
+        """The topics whose messages lead with their sample's sim stamp (a type not installed: not)."""
+        def stamped(type_name: str) -> bool:
             try:
-                if has_header(message_text(schema_name)):
-                    topics.update(t for t, n in self.topic_types.items() if n == schema_name)
+                return carries_sim_stamp(type_name)
             except LookupError:
-                pass
-        return topics
+                return False
+        return {t for t, n in self.topic_types.items() if stamped(n)}
 
     def _wait_for_subscribers(self, stop: threading.Event) -> None:
         if not wait_until(lambda: stop.is_set() or all(

@@ -48,6 +48,13 @@ def replay_qos(profiles: list, depth: int = 1000) -> QoSProfile:
         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
+def plain(value):
+    """A message field or parameter value as plain Python (arrays -> lists of Python numbers)."""
+    if isinstance(value, (str, bytes, bool, int, float)) or value is None:
+        return value
+    return [v.item() if hasattr(v, 'item') else v for v in value]
+
+
 def fields_of(msg, exclude=('header',)) -> dict:
     """A message's fields as plain Python values (arrays -> lists), header excluded."""
     out = {}
@@ -55,9 +62,5 @@ def fields_of(msg, exclude=('header',)) -> dict:
         if name in exclude:
             continue
         value = getattr(msg, name)
-        if hasattr(value, 'get_fields_and_field_types'):
-            value = fields_of(value, ())
-        elif not isinstance(value, (str, bytes, int, float, bool)):
-            value = [v.item() if hasattr(v, 'item') else v for v in value]
-        out[name] = value
+        out[name] = fields_of(value, ()) if hasattr(value, 'get_fields_and_field_types') else plain(value)
     return out

@@ -23,7 +23,7 @@ import numpy as np
 from mcap.reader import make_reader
 from rclpy.serialization import deserialize_message, serialize_message
 
-from drive_common.cdr_padding import canonical_bytes
+from drive_common.cdr_padding import ENCAPSULATION_HEADER, PRIMITIVE_SIZES, STRUCT_CODES, canonical_bytes, padding
 from drive_common.telemetry import Decimator
 from drive_common.telemetry_blocks import block_columns, check_lengths, expand, layout, sample_stamps_ns
 from drive_logger import qos_yaml
@@ -104,36 +104,26 @@ class SampleTopics:
                 yield topic, log_time + offset, publish_time + offset, rows[part][j]
 
 
-_CDR_DTYPES = {'double': '<f8', 'float': '<f4', 'int64': '<i8', 'uint64': '<u8', 'int32': '<i4',
-               'uint32': '<u4', 'int16': '<i2', 'uint16': '<u2', 'int8': 'i1', 'uint8': 'u1',
-               'boolean': 'u1', 'octet': 'u1', 'char': 'u1'}
-_SIZES = {kind: int(dtype[-1]) for kind, dtype in _CDR_DTYPES.items()}   # bytes per element
-ENCAPSULATION = 4
-"""Bytes of the CDR encapsulation header; alignment counts from its end."""
-
-
 def _field_offsets(msg) -> tuple[dict[str, int], int]:
     """({field: byte offset after the encapsulation header}, end) of msg's little-endian CDR.
 
     For the per-sample telemetry messages: a std_msgs/Header, then primitives,
     fixed arrays of primitives and strings (each item aligned to its size).
     """
-    def align(pos: int, size: int) -> int:
-        return (pos + size - 1) // size * size
     offsets, pos = {}, 0
     for name, kind in type(msg).get_fields_and_field_types().items():
         if kind == 'std_msgs/Header':
             offsets['header.stamp.sec'], offsets['header.stamp.nanosec'] = pos, pos + 4
-            pos = align(pos + 8, 4) + 4 + len(msg.header.frame_id.encode()) + 1
+            pos += 8 + padding(pos + 8, 4) + 4 + len(msg.header.frame_id.encode()) + 1
         elif kind == 'string':
-            pos = align(pos, 4) + 4 + len(getattr(msg, name).encode()) + 1
+            pos += padding(pos, 4) + 4 + len(getattr(msg, name).encode()) + 1
         else:
             element, _, width = kind.rstrip(']').partition('[')
-            if element not in _SIZES:
+            if element not in PRIMITIVE_SIZES:
                 raise TypeError(f'{type(msg).__name__}.{name}: {kind} has no fixed CDR layout here')
-            pos = align(pos, _SIZES[element])
+            pos += padding(pos, PRIMITIVE_SIZES[element])
             offsets[name] = pos
-            pos += _SIZES[element] * int(width or 1)
+            pos += PRIMITIVE_SIZES[element] * int(width or 1)
     return offsets, pos
 
 
@@ -153,7 +143,7 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
     if cached is None:
         first = next(expand(block, indices[:1]))[part]
         cached = canonical_bytes(first, serialize_message(first)), _field_offsets(first)
-        if cached[0][1] != 1 or ENCAPSULATION + cached[1][1] != len(cached[0]):
+        if cached[0][1] != 1 or ENCAPSULATION_HEADER + cached[1][1] != len(cached[0]):
             raise ValueError(f'{type(first).__name__}: unexpected CDR layout ({len(cached[0])} bytes)')
         if templates is not None:
             templates[key] = cached
@@ -165,7 +155,7 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
 
     def put(field: str, values) -> None:
         raw = np.ascontiguousarray(values).view(np.uint8).reshape(len(index), -1)
-        start = ENCAPSULATION + offsets[field]
+        start = ENCAPSULATION_HEADER + offsets[field]
         rows[:, start:start + raw.shape[1]] = raw
     stamps = sample_stamps_ns(block)[index]
     put('header.stamp.sec', (stamps // 1_000_000_000).astype('<i4'))
@@ -174,24 +164,24 @@ def sample_cdr(block, part: int, indices: list[int], templates: dict | None = No
     put('step', columns['step'][index].astype('<u8'))
     for column in lay.columns:
         if column.part == part:
-            put(column.source, columns[column.name][index].astype(_CDR_DTYPES[column.element]))
+            put(column.source, columns[column.name][index].astype('<' + STRUCT_CODES[column.element]))
     return [row.tobytes() for row in rows]
 
 
 FEW_SAMPLES = 8
 """Up to this many samples of a block (the recorder's decimated viewer topics), sample_cdr packs each
 row with struct: fewer calls than numpy's per column, which pays off for many samples."""
-_STRUCT = {'double': 'd', 'float': 'f', 'int64': 'q', 'uint64': 'Q', 'int32': 'i', 'uint32': 'I', 'int16': 'h',
-           'uint16': 'H', 'int8': 'b', 'uint8': 'B', 'boolean': '?', 'octet': 'B', 'char': 'B'}
 
 
 def _packed_rows(block, part: int, indices: list[int], template: bytes, offsets: dict[str, int]) -> list[bytes]:
     """sample_cdr's rows for a few samples, each value packed at its field's offset."""
     lay = layout(type(block))
     check_lengths(block, lay)
-    fields = [(ENCAPSULATION + offsets[c.source], f'<{c.width}{_STRUCT[c.element]}', getattr(block, c.name), c.width)
+    fields = [(ENCAPSULATION_HEADER + offsets[c.source], f'<{c.width}{STRUCT_CODES[c.element]}',
+               getattr(block, c.name), c.width)
               for c in lay.columns if c.part == part]
-    stamp_at, step_at = ENCAPSULATION + offsets['header.stamp.sec'], ENCAPSULATION + offsets['step']
+    stamp_at = ENCAPSULATION_HEADER + offsets['header.stamp.sec']
+    step_at = ENCAPSULATION_HEADER + offsets['step']
     stamps = sample_stamps_ns(block).tolist()
     rows = []
     for i in indices:

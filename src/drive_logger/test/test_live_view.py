@@ -36,24 +36,27 @@ def _cdr(sec: int, nanosec: int, big_endian: bool = False) -> bytes:
 def test_stamp_is_read_from_the_serialized_header():
     from rclpy.serialization import serialize_message
     from dtc_msgs.msg import PlantState
+    from drive_logger.message_definitions import cdr_stamp_ns
     msg = PlantState(step=7)
     msg.header.stamp.sec, msg.header.stamp.nanosec = 3, 250_000
-    assert core.stamp_ns(serialize_message(msg)) == 3_000_250_000
-    assert core.stamp_ns(_cdr(1, 5, big_endian=True)) == 1_000_000_005
+    assert cdr_stamp_ns(serialize_message(msg)) == 3_000_250_000
+    assert cdr_stamp_ns(_cdr(1, 5, big_endian=True)) == 1_000_000_005
     with pytest.raises(ValueError):
-        core.stamp_ns(b'\x00\x01\x00')
+        cdr_stamp_ns(b'\x00\x01\x00')
 
 
 def test_decimator_passes_one_message_per_period_on_a_fixed_grid():
-    decimator = core.Decimator(core.period_ns(0.001))
+    from drive_common.telemetry import Decimator
+    decimator = Decimator(core.check_period(0.001))
     stamps = [k * 25_000 for k in range(400)]              # 25 us samples, 10 ms
-    passed = [s for s in stamps if decimator.due(s)]
+    passed = [s for s in stamps if decimator.keep(s)]
     assert passed == [k * 1_000_000 for k in range(10)]
-    assert decimator.due(0)                                # time went back: a new run starts over
-    every = core.Decimator(0)
-    assert all(every.due(s) for s in (5, 5, 6))
-    with pytest.raises(ValueError):
-        core.period_ns(-1.0)
+    assert decimator.keep(0)                               # time went back: a new run starts over
+    every = Decimator(0.0)
+    assert all(every.keep(s) for s in (5, 5, 6))
+    for bad in (-1.0, 10.5):
+        with pytest.raises(ValueError):
+            core.check_period(bad)
 
 
 def test_outbox_drops_the_oldest_and_counts_it():

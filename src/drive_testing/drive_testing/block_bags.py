@@ -72,17 +72,6 @@ def headless_samples(scenario) -> HeadlessSamples:
     return out
 
 
-def _message_types():
-    from dtc_msgs.msg import (DriveMeasurement, DtcStatus, DutyCommand, GateCommand, PfcMeasurement,
-                              PfcStatus, PlantState)
-    return {
-        names.PLANT_STATE: (PlantState,), names.DRIVE_MEASUREMENT: (DriveMeasurement,),
-        names.GATE_COMMAND: (GateCommand,), names.DTC_STATUS: (DtcStatus,),
-        names.PFC_MEASUREMENT: (PfcMeasurement,), names.DUTY_COMMAND: (DutyCommand,),
-        names.PFC_STATUS: (PfcStatus,),
-    }
-
-
 class _Bag:
     """A BagWriter on sim log times whose topics are registered on first use."""
 
@@ -117,16 +106,18 @@ def _fill(msg_type, data, stamp_ns: int):
 
 def _per_sample_streams(samples: HeadlessSamples):
     """(stamp_ns, order, topic, message) of every per-sample message of the run."""
-    types = _message_types()
+    from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
+    from drive_logger.ros_types import message_class
+    types = {topic: message_class(type_name) for topic, type_name in GRAPH_TOPIC_TYPES.items()}
     for stamp, state in samples.states:
-        yield stamp, 3, names.PLANT_STATE, _fill(types[names.PLANT_STATE][0], state, stamp)
+        yield stamp, 3, names.PLANT_STATE, _fill(types[names.PLANT_STATE], state, stamp)
     for records, (meas, cmd, status) in (
             (samples.dtc, (names.DRIVE_MEASUREMENT, names.GATE_COMMAND, names.DTC_STATUS)),
             (samples.pfc, (names.PFC_MEASUREMENT, names.DUTY_COMMAND, names.PFC_STATUS))):
         for stamp, sample, command, stat in records:
-            yield stamp, 0, meas, _fill(types[meas][0], sample, stamp)
-            yield stamp, 1, cmd, _fill(types[cmd][0], command, stamp)
-            yield stamp, 2, status, _fill(types[status][0], stat, stamp)
+            yield stamp, 0, meas, _fill(types[meas], sample, stamp)
+            yield stamp, 1, cmd, _fill(types[cmd], command, stamp)
+            yield stamp, 2, status, _fill(types[status], stat, stamp)
 
 
 PARAMETER_EVENTS = names.PARAMETER_EVENTS.lstrip('/')   # _Bag.write adds the '/'
@@ -164,7 +155,7 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
     lockstep topics if asked), as the nodes publish them; blocks logged at their first stamp;
     and the parameter events."""
     from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
-    from drive_common.telemetry_blocks import BlockPacker
+    from drive_common.telemetry_blocks import BlockPacker, stamp_ns
     packers = {names.PLANT_STATE: (names.PLANT_STATE_BLOCK, BlockPacker(PlantStateBlock, block_size)),
                names.DTC_STATUS: (names.DTC_STATUS_BLOCK, BlockPacker(DtcStatusBlock, block_size)),
                names.PFC_STATUS: (names.PFC_STATUS_BLOCK, BlockPacker(PfcStatusBlock, block_size))}
@@ -183,13 +174,13 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
         parts = (msg, *(sample_parts.pop(t) for t in _CARRIED[topic]))
         block = packer.append(stamp, *parts)
         if block is not None:
-            bag.write(block_topic, block, _first_ns(block))
+            bag.write(block_topic, block, stamp_ns(block.header.stamp))
         if topic in decimators and decimators[topic].keep(stamp):
             bag.write(topic, msg, stamp)
     for block_topic, packer in packers.values():
         block = packer.flush()
         if block is not None:
-            bag.write(block_topic, block, _first_ns(block))
+            bag.write(block_topic, block, stamp_ns(block.header.stamp))
     bag.close()
     return Path(path)
 
@@ -202,11 +193,6 @@ def scenario_bags(name: str, duration: float, root: Path, block_size: int = 16):
     samples = headless_samples(scenario)
     return scenario, {'per_sample': write_per_sample_bag(samples, root / 'per_sample'),
                       'blocks': write_block_bag(samples, root / 'blocks', block_size=block_size)}
-
-
-def _first_ns(block) -> int:
-    from drive_common.telemetry_blocks import stamp_ns
-    return stamp_ns(block.header.stamp)
 
 
 def recorded_samples(bag: Path) -> dict[str, list[bytes]]:

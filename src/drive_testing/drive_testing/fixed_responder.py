@@ -38,14 +38,10 @@ class FixedResponderCore(FixedGateCore):
         self.reconfigure(params)
 
 
-def make_core(params: dict) -> FixedGateCore:
-    return FixedResponderCore(params)
-
-
 class FixedResponder(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
         from dtc_msgs.msg import DriveMeasurement, GateCommand
-        super().__init__('fixed_responder', schema=FIXED_RESPONDER_SCHEMA, make_core=make_core,
+        super().__init__('fixed_responder', schema=FIXED_RESPONDER_SCHEMA, make_core=FixedResponderCore,
                          channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
                                                    DriveSample, GateCommand, topics.GATE_COMMAND,
                                                    None, topics.DTC_STATUS), **kwargs)

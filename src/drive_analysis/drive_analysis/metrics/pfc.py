@@ -46,10 +46,20 @@ def _grid(arrays: dict, t_start=None, t_end=None, cycles=None,
     return v, i, periods
 
 
-def line_power_factor(arrays, t_start=None, t_end=None, cycles=None,
-                      line_frequency=LINE_FREQUENCY) -> float:
-    v, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return signals.power_factor(v, i)
+def _line_metric(quantity):
+    """A metric of (v, i, periods) over the last whole line cycles of the window (see :func:`_grid`)."""
+    def metric(arrays, t_start=None, t_end=None, cycles=None, line_frequency=LINE_FREQUENCY) -> float:
+        return float(quantity(*_grid(arrays, t_start, t_end, cycles, line_frequency)))
+    return metric
+
+
+line_power_factor = _line_metric(lambda v, i, periods: signals.power_factor(v, i))
+line_displacement_factor = _line_metric(signals.displacement_factor)
+line_current_rms_A = _line_metric(lambda v, i, periods: signals.rms(i))
+line_voltage_rms_V = _line_metric(lambda v, i, periods: signals.rms(v))
+line_real_power_W = _line_metric(lambda v, i, periods: np.mean(v * i))
+line_current_mean_A = _line_metric(lambda v, i, periods: np.mean(i))
+"""DC component of the line current over whole cycles (0 when both half cycles conduct alike)."""
 
 
 def line_current_thd_pct(arrays, t_start=None, t_end=None, cycles=None,
@@ -58,52 +68,20 @@ def line_current_thd_pct(arrays, t_start=None, t_end=None, cycles=None,
     return 100.0 * signals.thd(i, periods, max_harmonic)
 
 
-def line_displacement_factor(arrays, t_start=None, t_end=None, cycles=None,
-                             line_frequency=LINE_FREQUENCY) -> float:
-    v, i, periods = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return signals.displacement_factor(v, i, periods)
+def _window_metric(name: str, reduce):
+    """A metric reducing plant/state.<name> over the window (NaN when it holds no sample)."""
+    def metric(arrays, t_start=None, t_end=None) -> float:
+        x = _plant(arrays, name, t_start, t_end)[1]
+        return float(reduce(x)) if len(x) else math.nan
+    return metric
 
 
-def line_current_rms_A(arrays, t_start=None, t_end=None, cycles=None,
-                       line_frequency=LINE_FREQUENCY) -> float:
-    _, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return signals.rms(i)
-
-
-def line_voltage_rms_V(arrays, t_start=None, t_end=None, cycles=None,
-                       line_frequency=LINE_FREQUENCY) -> float:
-    v, _, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return signals.rms(v)
-
-
-def line_real_power_W(arrays, t_start=None, t_end=None, cycles=None,
-                      line_frequency=LINE_FREQUENCY) -> float:
-    v, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return float(np.mean(v * i))
-
-
-def _output(arrays, t_start, t_end) -> np.ndarray:
-    return _plant(arrays, 'dc_link_voltage', t_start, t_end)[1]
-
-
-def mean_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
-    v = _output(arrays, t_start, t_end)
-    return float(np.mean(v)) if len(v) else math.nan
-
-
-def output_voltage_ripple_pp_V(arrays, t_start=None, t_end=None) -> float:
-    v = _output(arrays, t_start, t_end)
-    return float(np.ptp(v)) if len(v) else math.nan
-
-
-def max_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
-    v = _output(arrays, t_start, t_end)
-    return float(np.max(v)) if len(v) else math.nan
-
-
-def min_output_voltage_V(arrays, t_start=None, t_end=None) -> float:
-    v = _output(arrays, t_start, t_end)
-    return float(np.min(v)) if len(v) else math.nan
+mean_output_voltage_V = _window_metric('dc_link_voltage', np.mean)
+output_voltage_ripple_pp_V = _window_metric('dc_link_voltage', np.ptp)
+max_output_voltage_V = _window_metric('dc_link_voltage', np.max)
+min_output_voltage_V = _window_metric('dc_link_voltage', np.min)
+boost_switch_enabled_fraction = _window_metric('boost_switch_enabled', np.mean)
+peak_inductor_current_A = _window_metric('inductor_current', np.max)
 
 
 def _averaged_output(arrays, t_start, t_end, line_frequency):
@@ -139,23 +117,6 @@ def output_voltage_deviation_V(arrays, t_event=None, reference=80.0, t_start=Non
     return float(np.max(np.abs(avg - reference))) if len(t) else math.nan
 
 
-def boost_switch_enabled_fraction(arrays, t_start=None, t_end=None) -> float:
-    on = _plant(arrays, 'boost_switch_enabled', t_start, t_end)[1]
-    return float(np.mean(on)) if len(on) else math.nan
-
-
-def peak_inductor_current_A(arrays, t_start=None, t_end=None) -> float:
-    i = _plant(arrays, 'inductor_current', t_start, t_end)[1]
-    return float(np.max(i)) if len(i) else math.nan
-
-
 def final_time_s(arrays) -> float:
     t = np.asarray(arrays['plant/state.time'], dtype=float)
     return float(t[-1]) if len(t) else math.nan
-
-
-def line_current_mean_A(arrays, t_start=None, t_end=None, cycles=None,
-                        line_frequency=LINE_FREQUENCY) -> float:
-    """DC component of the line current over whole cycles (0 when both half cycles conduct alike)."""
-    _, i, _ = _grid(arrays, t_start, t_end, cycles, line_frequency)
-    return float(np.mean(i))

@@ -24,16 +24,16 @@ from . import RATED_TORQUE_000
 PROTECTION_MOTOR_OVER_CURRENT = 1
 
 
-def _rms_pct_rated(err: np.ndarray, rated_torque: float) -> float:
-    return 100.0 * signals.rms(err) / rated_torque
+def _rms_error_pct_rated(arrays: Arrays, value: str, reference: str, t_start, t_end, rated_torque: float) -> float:
+    """RMS of paired value - reference, % of rated torque (NaN without samples)."""
+    d = paired(arrays, t_start, t_end)
+    return 100.0 * signals.rms(d[value] - d[reference]) / rated_torque if len(d) else math.nan
 
 
 def torque_estimation_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
                                           rated_torque: float = RATED_TORQUE_000) -> float:
-    d = paired(arrays, t_start, t_end)
-    if not len(d):
-        return math.nan
-    return _rms_pct_rated(d['dtc.torque_estimate'] - d['plant.electromagnetic_torque'], rated_torque)
+    return _rms_error_pct_rated(arrays, 'dtc.torque_estimate', 'plant.electromagnetic_torque', t_start, t_end,
+                                rated_torque)
 
 
 def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
@@ -43,10 +43,8 @@ def mean_torque_N_m(arrays: Arrays, t_start=None, t_end=None) -> float:
 
 def torque_tracking_rms_error_pct_rated(arrays: Arrays, t_start=None, t_end=None,
                                         rated_torque: float = RATED_TORQUE_000) -> float:
-    d = paired(arrays, t_start, t_end)
-    if not len(d):
-        return math.nan
-    return _rms_pct_rated(d['plant.electromagnetic_torque'] - d['dtc.torque_reference'], rated_torque)
+    return _rms_error_pct_rated(arrays, 'plant.electromagnetic_torque', 'dtc.torque_reference', t_start, t_end,
+                                rated_torque)
 
 
 def rise_time_s(arrays: Arrays, t_start=None, t_end=None, fraction: float = 0.9,

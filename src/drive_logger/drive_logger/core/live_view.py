@@ -1,11 +1,8 @@
 """What the live_view node decides without ROS: decimation, the bounded hand-off, parameter names.
 
-- :func:`stamp_ns` reads the sim time of a serialized message (CDR) whose
-  first field is a ``std_msgs/Header`` or a ``builtin_interfaces/Time`` (as
-  ``rosgraph_msgs/Clock``), so the node decimates without deserializing
-  every sample.
-- :class:`Decimator` forwards a topic at most once per period of sim time,
-  on a fixed grid (the same samples are forwarded on every run).
+- :func:`check_period` bounds a decimation period; the node decimates with the
+  live topics' :class:`drive_common.telemetry.Decimator` (a fixed grid of sim
+  time: the same samples are forwarded on every run).
 - :class:`Outbox` is the bounded queue between the ROS receive side and the
   WebSocket send side: when it is full the oldest frame is dropped and
   counted; the receive side never waits.
@@ -16,54 +13,18 @@
 """
 from __future__ import annotations
 
-import struct
 import threading
 from collections import deque
 from typing import Any, Iterable
 
 SEPARATOR = '.'
-_TIME = struct.Struct('<iI')
-_TIME_BE = struct.Struct('>iI')
 
 
-def stamp_ns(cdr: bytes) -> int:
-    """Sim time (ns) of the leading stamp of a CDR message; ValueError if it has none."""
-    if len(cdr) < 12 or cdr[0] != 0 or cdr[1] not in (0, 1):
-        raise ValueError('not a CDR message with a leading time stamp')
-    sec, nanosec = (_TIME if cdr[1] == 1 else _TIME_BE).unpack_from(cdr, 4)
-    return sec * 1_000_000_000 + nanosec
-
-
-def period_ns(seconds: float) -> int:
-    """A decimation period in s -> ns; ValueError unless 0 <= seconds <= 10."""
+def check_period(seconds: float) -> float:
+    """A decimation period in s; ValueError unless 0 <= seconds <= 10."""
     if not 0.0 <= seconds <= 10.0:
         raise ValueError(f'decimation period {seconds!r} s must be in [0, 10] s')
-    return round(seconds * 1e9)
-
-
-class Decimator:
-    """Pass a topic's messages at most once per ``period`` ns of sim time.
-
-    The first message at or after each multiple of the period passes; a
-    stamp earlier than the last one passed (a new run in the same graph)
-    starts over. Period 0 passes everything.
-    """
-
-    __slots__ = ('period', '_next', '_last')
-
-    def __init__(self, period: int) -> None:
-        if period < 0:
-            raise ValueError(f'decimation period {period} ns must be >= 0')
-        self.period = period
-        self._next: int | None = None
-        self._last = 0
-
-    def due(self, stamp: int) -> bool:
-        if self._next is not None and self._last <= stamp < self._next:
-            return False
-        self._last = stamp
-        self._next = (stamp // self.period + 1) * self.period if self.period else stamp
-        return True
+    return seconds
 
 
 class Outbox:
