@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from bldc_plant_sim.core.dc_link import DcLink
-from bldc_plant_sim.core.front_end import (BLOCK, BOOST_OVER_CURRENT, BOOST_OVER_VOLTAGE,
-                                           PARAMETER_NAMES, FrontEnd)
+from bldc_plant_sim.core.front_end import PARAMETER_NAMES, FrontEnd
+from bldc_plant_sim.core.front_end_kernel import BLOCK, BOOST_OVER_CURRENT, BOOST_OVER_VOLTAGE
 from drive_common.samples import PfcSample
 from pfc_controller.core import PfcCore
 from pfc_controller.grid_metrics import analyze, dc_ripple

@@ -2,7 +2,8 @@
 import numpy as np
 
 from bldc_plant_sim.core.dc_link import DcLink
-from bldc_plant_sim.core.front_end import FrontEnd, filter_substeps
+from bldc_plant_sim.core.front_end import FrontEnd
+from bldc_plant_sim.core.front_end_kernel import filter_substeps
 from drive_common.compiled import jit_disabled
 from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
 

@@ -17,13 +17,15 @@ from .link_kernel import (DC_CL, DC_CU, DC_ES, DC_IM, DC_IP, DC_IS, DC_SIZE, DC_
 MODES = ('ideal', 'split_capacitors', 'current_fed')
 
 
-def array_slot(index: int, doc: str, array: str = 'x') -> property:
-    """A float attribute stored in self.<array>[index] (a compiled kernel's state array)."""
+def array_slot(index: int, doc: str, array: str = 'x', kind: type = float) -> property:
+    """A kind (float, int or bool) attribute stored as a float in self.<array>[index] (a
+    compiled kernel's state array; a bool as 0.0 / 1.0)."""
     def get(self):
-        return float(getattr(self, array)[index])
+        value = getattr(self, array)[index]
+        return value != 0.0 if kind is bool else kind(value)
 
     def set_(self, value):
-        getattr(self, array)[index] = value
+        getattr(self, array)[index] = float(value)
     return property(get, set_, doc=doc)
 
 

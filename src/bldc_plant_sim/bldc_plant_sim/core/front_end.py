@@ -23,8 +23,7 @@ from drive_common.compiled import interpreted
 
 from . import front_end_kernel as FK
 from .dc_link import array_slot
-from .front_end_kernel import (BLOCK, BOOST_OVER_CURRENT, BOOST_OVER_VOLTAGE, COND,  # noqa: F401
-                               KIND_NAMES, OVERLAP, carrier, filter_substeps)
+from .front_end_kernel import BLOCK, KIND_NAMES
 
 TWO_PI = 2.0 * math.pi
 SQRT2 = math.sqrt(2.0)
@@ -87,26 +86,6 @@ class FrontEndLedger:
         return float(_losses(self.x))
 
 
-def _flag(index: int, doc: str) -> property:
-    """A bool attribute stored as 0.0 / 1.0 in self.fx[index]."""
-    def get(self):
-        return self.fx[index] != 0.0
-
-    def set_(self, value):
-        self.fx[index] = 1.0 if value else 0.0
-    return property(get, set_, doc=doc)
-
-
-def _int(index: int, doc: str) -> property:
-    """An int attribute stored in self.fx[index]."""
-    def get(self):
-        return int(self.fx[index])
-
-    def set_(self, value):
-        self.fx[index] = value
-    return property(get, set_, doc=doc)
-
-
 class FrontEnd:
     """Grid + EMI filter + diode bridge + boost stage, integrated by :meth:`advance`.
 
@@ -119,13 +98,13 @@ class FrontEnd:
     v_c = array_slot(FK.FX_VC, 'V, C2 (bridge input) voltage', 'fx')
     i_L = array_slot(FK.FX_IL, 'A, boost inductor current', 'fx')
     duty = array_slot(FK.FX_DUTY, 'duty command', 'fx')
-    s = _int(FK.FX_S, 'bridge polarity of the conducting diagonal (+-1)')
-    mode = _int(FK.FX_MODE, 'BLOCK / COND / OVERLAP')
-    _oc_period = _int(FK.FX_OC_PERIOD, 'PWM period index of the last over-current trip')
-    gate = _flag(FK.FX_GATE, 'boost switch state at self.time')
-    enable = _flag(FK.FX_ENABLE, 'enable command')
-    over_current = _flag(FK.FX_OC, 'over-current protection active')
-    over_voltage = _flag(FK.FX_OV, 'over-voltage protection active')
+    s = array_slot(FK.FX_S, 'bridge polarity of the conducting diagonal (+-1)', 'fx', int)
+    mode = array_slot(FK.FX_MODE, 'BLOCK / COND / OVERLAP', 'fx', int)
+    _oc_period = array_slot(FK.FX_OC_PERIOD, 'PWM period index of the last over-current trip', 'fx', int)
+    gate = array_slot(FK.FX_GATE, 'boost switch state at self.time', 'fx', bool)
+    enable = array_slot(FK.FX_ENABLE, 'enable command', 'fx', bool)
+    over_current = array_slot(FK.FX_OC, 'over-current protection active', 'fx', bool)
+    over_voltage = array_slot(FK.FX_OV, 'over-voltage protection active', 'fx', bool)
 
     def __init__(self, *, line_voltage: float = 25.4, line_frequency: float = 60.0,
                  line_phase: float = 0.0, line_resistance: float = 0.0,
