@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The whole test suite, from a fresh clone: sets up what it needs, then pytest.
-#   bash scripts/test.sh [pytest args]
+# The whole test suite, from a fresh clone: sets up what it needs, then pytest on two
+# workers (pytest-xdist), each running whole test files (module fixtures are set up once).
+#   bash scripts/test.sh [pytest args]        (-n 0: in this process, one test at a time)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -11,4 +12,4 @@ if [ ! -d test/js/node_modules ] && command -v npm >/dev/null 2>&1; then
 fi
 # shellcheck disable=SC1091
 source scripts/env.sh
-exec python -m pytest "$@"
+exec python -m pytest -n 2 --dist loadfile --no-loadscope-reorder "$@"
