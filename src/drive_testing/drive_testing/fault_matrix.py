@@ -34,6 +34,7 @@ import yaml
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.03            # s of sim time per run
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
+SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bound
 BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
@@ -69,10 +70,21 @@ class Injection:
                 return pid
         raise LookupError(f'no {executable} process in domain {self.domain_id}')
 
-    def publish(self, msg_type, topic: str, messages, period: float = 0.002) -> None:
-        """Publish messages (objects or raw CDR bytes) on topic as an outsider."""
+    def publish(self, msg_type, topic: str, messages, at: float = INJECT_AT,
+                period: float = 0.002) -> None:
+        """Publish messages (objects or raw CDR bytes) on topic as an outsider at sim time at [s].
+
+        The publisher is made once sim time runs (the graph's peers are bound: it cannot be
+        taken for one) and sends once matched with the graph's readers: on a loaded machine a
+        publisher made only at the injection time could still be unmatched when the short run
+        ends, and its messages would reach nobody.
+        """
         from drive_common import topics
+        from drive_common.waiting import wait_until
+        self.wait_sim(SIM_STARTED)
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
+        self.wait_sim(at)
+        wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, raise_timeout=False)
         for msg in messages:
             pub.publish(msg)
             time.sleep(period)    # an outsider's pace, not a synchronisation
@@ -144,7 +156,6 @@ def _signal(executable: str, sig: int, resume_after: float | None = None):
 def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], bytes]):
     def inject(ctx: Injection) -> None:
         from drive_logger.ros_types import message_class
-        ctx.wait_sim(INJECT_AT)
         rng = random.Random(7)
         ctx.publish(message_class(msg_type_name), topic, [make(rng) for _ in range(20)])
     return inject
@@ -154,7 +165,6 @@ def _valid_messages(msg_type_name: str, topic: str):
     def inject(ctx: Injection) -> None:
         from drive_logger.ros_types import message_class
         cls = message_class(msg_type_name)
-        ctx.wait_sim(INJECT_AT)
         messages = []
         for step in range(0, 2000, 100):
             msg = cls()
