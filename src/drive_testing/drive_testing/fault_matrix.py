@@ -38,7 +38,6 @@ SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bou
 BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
-BLOCK_TOPICS = ('/plant/state_block', '/dtc/status_block')
 LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
 
 # What a case must report: 'fault' -> log + diagnostics + a failed result naming it (headless:
@@ -264,12 +263,14 @@ def _scenario_file(case: Case, directory: Path) -> Path:
     return path
 
 
-def _block_data(bag: Path) -> list[bytes]:
-    from drive_logger.bag_reader import BagReader
-    return [msg.data for msg in BagReader(bag).messages(BLOCK_TOPICS)]
+def _block_data(bag: Path) -> dict[str, list[bytes]]:
+    """Every sample the bag's block topics carry, per topic: where a block ends does not count
+    (a partial block goes out whenever the plant stalls for HOLD_FLUSH of wall time)."""
+    from drive_testing.block_bags import recorded_samples
+    return recorded_samples(bag)
 
 
-def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) -> Outcome:
+def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outcome:
     """Run one case; its Outcome (``reference``: a clean run's block data, for outsiders)."""
     where = 'headless' if case.headless else 'graph'
     outcome = Outcome(case.name, where, case.expect)
@@ -408,7 +409,7 @@ def _in_a_free_domain(run: Callable[[int], tuple]) -> tuple:
     return result
 
 
-def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
+def clean_reference(directory: Path, duration: float = DURATION) -> dict[str, list[bytes]]:
     """The block data of the scenario run without a fault (what outsiders must not change)."""
     clean = Case(f'clean {duration:g} s', 'outsider', duration=duration)
     scenario = _scenario_file(clean, directory)
