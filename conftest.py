@@ -6,6 +6,19 @@ os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 pytest_plugins = ['drive_testing.pytest_fixtures']
 
+# The longest test files (minutes each on 2 cores), started first under pytest-xdist: its workers
+# take whole files in collection order (scripts/test.sh), so the two finish close together.
+LONGEST_FIRST = ('test/test_fault_matrix.py', 'test/test_interrupts.py',
+                 'src/drive_ros2cli/test/test_ros2_graph.py', 'test/test_scenario_runner.py',
+                 'test/test_peer_binding.py', 'test/test_pipelined_lockstep.py')
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under xdist, the LONGEST_FIRST files go first; every other test keeps its place."""
+    if hasattr(config, 'workerinput'):
+        rank = {path: i for i, path in enumerate(LONGEST_FIRST)}
+        items.sort(key=lambda item: rank.get(item.nodeid.split('::')[0], len(rank)))
+
 # Property-based tests: a fixed example sequence in CI (a failure there is reproducible), new
 # examples on every local run (HYPOTHESIS_PROFILE=deep for a longer hunt).
 from hypothesis import settings as _hypothesis_settings  # noqa: E402

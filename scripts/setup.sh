@@ -77,7 +77,9 @@ fi
 source scripts/env.sh --no-workspace
 say "colcon build (symlink install)"
 BUILD_LOG=$(mktemp)
-if ! colcon build --symlink-install --event-handlers console_direct- \
+# One compile job per core, whatever the load average: colcon's default adds make's -l<cores>,
+# which on a busy machine (or after the installs above) runs dtc_msgs' C/C++ one file at a time.
+if ! MAKEFLAGS="${MAKEFLAGS:--j$(nproc)}" colcon build --symlink-install --event-handlers console_direct- \
       --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$ROOT/.venv/bin/python" \
       >"$BUILD_LOG" 2>&1; then
   cat "$BUILD_LOG"

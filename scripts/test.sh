@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # The whole test suite, from a fresh clone: sets up what it needs, then pytest.
 #   bash scripts/test.sh [pytest args]
+#   DTC_TEST_WORKERS=2 bash scripts/test.sh   # on 2 pytest-xdist workers, whole test files each
+#                                             # (module fixtures set up once), longest files first
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
+WORKERS="${DTC_TEST_WORKERS:-0}"
+[[ "$WORKERS" =~ ^[0-9]+$ ]] || { echo "DTC_TEST_WORKERS must be a number of workers, got '$WORKERS'" >&2; exit 2; }
 bash scripts/setup.sh
 # Foxglove's JavaScript bag readers for test/test_viewer_bags.py (pinned in test/js/package-lock.json)
 if [ ! -d test/js/node_modules ] && command -v npm >/dev/null 2>&1; then
@@ -11,4 +15,7 @@ if [ ! -d test/js/node_modules ] && command -v npm >/dev/null 2>&1; then
 fi
 # shellcheck disable=SC1091
 source scripts/env.sh
+if [ "$WORKERS" -gt 0 ]; then
+  exec python -m pytest -n "$WORKERS" --dist loadfile --no-loadscope-reorder "$@"
+fi
 exec python -m pytest "$@"

@@ -274,6 +274,10 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     states = _states(ros_session, 'state_probe')
     client = ActionClient(ros_session.node('client'), Run, topics.RUN_ACTION)
     wait_until(client.server_is_ready, 30.0, what='plant/run')
+    # The goal once the controller's endpoints are in the graph (the plant's startup_timeout
+    # is only 3 s, less than a node's start on a loaded machine).
+    wait_until(lambda: node.count_subscribers(topics.DRIVE_MEASUREMENT) >= 1
+               and node.count_publishers(topics.GATE_COMMAND) >= 1, 60.0, what='fixed_responder up')
     result = run_to(client, 0.002)
     assert result.success and result.final_step == 80, result.message
     wait_until(lambda: states and states[-1].step == 80, 30.0, what='the last state')

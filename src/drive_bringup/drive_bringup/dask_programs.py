@@ -72,11 +72,22 @@ class DaskPrograms:
         self.procs[name].wait()
 
     def close(self, timeout: float = 20.0) -> None:
-        for proc in self.procs.values():
+        """SIGTERM the workers, then the scheduler; SIGKILL what is still running after timeout [s].
+
+        Workers go first: a worker whose scheduler closes under it starts its own close, and a
+        SIGTERM arriving during that close leaves it hanging until the SIGKILL.
+        """
+        workers = [proc for name, proc in self.procs.items() if name != 'scheduler']
+        self._terminate(workers, timeout)
+        self._terminate([self.procs[name] for name in self.procs if name == 'scheduler'], timeout)
+
+    @staticmethod
+    def _terminate(procs: list[subprocess.Popen], timeout: float) -> None:
+        for proc in procs:
             if proc.poll() is None:
                 os.killpg(proc.pid, signal.SIGTERM)
         deadline = time.monotonic() + timeout
-        for proc in self.procs.values():
+        for proc in procs:
             try:
                 proc.wait(timeout=max(0.1, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:

@@ -61,6 +61,9 @@ def test_study_runs_on_a_separately_started_cluster(tmp_path, cluster):
     workers = set(table['worker'])
     assert all(w.split(':')[-1].isdigit() for w in workers)
     assert {str(cluster.pid(f'worker{i}')) for i in range(2)} >= {w.split(':')[-1] for w in workers}
+    cluster.close()   # each program ends on its SIGTERM (exit 0), none needs the SIGKILL
+    assert {name: proc.returncode for name, proc in cluster.procs.items()} == {
+        'scheduler': 0, 'worker0': 0, 'worker1': 0}
 
 
 def test_killing_a_worker_mid_study_still_runs_every_point_once(tmp_path, cluster):

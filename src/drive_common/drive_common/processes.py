@@ -26,7 +26,9 @@ from typing import Any, Iterator, Mapping, Sequence
 
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
-_LOCK_DIR = Path(tempfile.gettempdir()) / 'dtc_drive_ros_domains'
+# Machine-wide, as the domain ids are: not under TMPDIR, which a caller may set per run (the
+# tutorial blocks of test_docs do), so that two runs at once never hand out the same id.
+_LOCK_DIR = Path('/tmp/dtc_drive_ros_domains')
 
 
 @contextmanager

@@ -34,10 +34,10 @@ import yaml
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.03            # s of sim time per run
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
+SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bound
 BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
-BLOCK_TOPICS = ('/plant/state_block', '/dtc/status_block')
 LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
 
 # What a case must report: 'fault' -> log + diagnostics + a failed result naming it (headless:
@@ -69,10 +69,21 @@ class Injection:
                 return pid
         raise LookupError(f'no {executable} process in domain {self.domain_id}')
 
-    def publish(self, msg_type, topic: str, messages, period: float = 0.002) -> None:
-        """Publish messages (objects or raw CDR bytes) on topic as an outsider."""
+    def publish(self, msg_type, topic: str, messages, at: float = INJECT_AT,
+                period: float = 0.002) -> None:
+        """Publish messages (objects or raw CDR bytes) on topic as an outsider at sim time at [s].
+
+        The publisher is made once sim time runs (the graph's peers are bound: it cannot be
+        taken for one) and sends once matched with the graph's readers: on a loaded machine a
+        publisher made only at the injection time could still be unmatched when the short run
+        ends, and its messages would reach nobody.
+        """
         from drive_common import topics
+        from drive_common.waiting import wait_until
+        self.wait_sim(SIM_STARTED)
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
+        self.wait_sim(at)
+        wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, raise_timeout=False)
         for msg in messages:
             pub.publish(msg)
             time.sleep(period)    # an outsider's pace, not a synchronisation
@@ -144,7 +155,6 @@ def _signal(executable: str, sig: int, resume_after: float | None = None):
 def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], bytes]):
     def inject(ctx: Injection) -> None:
         from drive_logger.ros_types import message_class
-        ctx.wait_sim(INJECT_AT)
         rng = random.Random(7)
         ctx.publish(message_class(msg_type_name), topic, [make(rng) for _ in range(20)])
     return inject
@@ -154,7 +164,6 @@ def _valid_messages(msg_type_name: str, topic: str):
     def inject(ctx: Injection) -> None:
         from drive_logger.ros_types import message_class
         cls = message_class(msg_type_name)
-        ctx.wait_sim(INJECT_AT)
         messages = []
         for step in range(0, 2000, 100):
             msg = cls()
@@ -254,12 +263,14 @@ def _scenario_file(case: Case, directory: Path) -> Path:
     return path
 
 
-def _block_data(bag: Path) -> list[bytes]:
-    from drive_logger.bag_reader import BagReader
-    return [msg.data for msg in BagReader(bag).messages(BLOCK_TOPICS)]
+def _block_data(bag: Path) -> dict[str, list[bytes]]:
+    """Every sample the bag's block topics carry, per topic: where a block ends does not count
+    (a partial block goes out whenever the plant stalls for HOLD_FLUSH of wall time)."""
+    from drive_testing.block_bags import recorded_samples
+    return recorded_samples(bag)
 
 
-def run_case(case: Case, directory: Path, reference: list[bytes] | None = None) -> Outcome:
+def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outcome:
     """Run one case; its Outcome (``reference``: a clean run's block data, for outsiders)."""
     where = 'headless' if case.headless else 'graph'
     outcome = Outcome(case.name, where, case.expect)
@@ -400,7 +411,7 @@ def _in_a_free_domain(run: Callable[[int], tuple]) -> tuple:
     return result
 
 
-def clean_reference(directory: Path, duration: float = DURATION) -> list[bytes]:
+def clean_reference(directory: Path, duration: float = DURATION) -> dict[str, list[bytes]]:
     """The block data of the scenario run without a fault (what outsiders must not change)."""
     clean = Case(f'clean {duration:g} s', 'outsider', duration=duration)
     scenario = _scenario_file(clean, directory)

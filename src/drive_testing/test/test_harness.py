@@ -102,6 +102,24 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
     assert processes_with_env(marker) == []
 
 
+def test_a_domain_held_here_is_held_for_a_run_with_another_tmpdir(tmp_path):
+    """The locks are machine-wide: a program started with its own TMPDIR sees the same ones."""
+    probe = textwrap.dedent('''
+        import fcntl, os, sys
+        from drive_common import processes
+        fd = os.open(processes._LOCK_DIR / f'{sys.argv[1]}.lock', os.O_CREAT | os.O_RDWR, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            print('free')
+        except OSError:
+            print('held')
+    ''')
+    with reserve_domain() as domain:
+        out = subprocess.run([sys.executable, '-c', probe, str(domain)], capture_output=True, text=True,
+                             env=dict(os.environ, TMPDIR=str(tmp_path)), timeout=60)
+    assert out.stdout.strip() == 'held', out.stdout + out.stderr
+
+
 def test_a_released_domain_rests_before_reuse():
     with reserve_domain() as first:
         pass
