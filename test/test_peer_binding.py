@@ -9,7 +9,9 @@ plant are started under other node names; the intruders are reported on
 """
 from __future__ import annotations
 
+import os
 import random
+import signal
 from collections import Counter
 import subprocess
 import sys
@@ -139,10 +141,16 @@ def test_a_second_run_in_the_domain_refuses_before_it_touches_the_first(alone, r
         for line in first.stdout:            # the first run's graph is up: a second run comes
             if 'graph up' in line:
                 break
-        second = subprocess.run([sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO,
-                                 '--duration', DURATION, '--domain-id', str(ros_domain),
-                                 '--out', str(tmp_path / 'second')],
-                                capture_output=True, text=True, timeout=120)
+        # The first runner is paused while the second one looks: its graph stays up however
+        # fast its short run ends (the plant finishes the goal; the runner collects it later).
+        os.kill(first.pid, signal.SIGSTOP)
+        try:
+            second = subprocess.run([sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO,
+                                     '--duration', DURATION, '--domain-id', str(ros_domain),
+                                     '--out', str(tmp_path / 'second')],
+                                    capture_output=True, text=True, timeout=120)
+        finally:
+            os.kill(first.pid, signal.SIGCONT)
         out, _ = first.communicate(timeout=600)
     finally:
         if first.poll() is None:

@@ -7,9 +7,9 @@ a ROS-agnostic core (``update(sample) -> (command, status)``, ``reconfigure``),
 and this class converts CDR bytes to and from the core's samples
 (:mod:`drive_common.lockstep_wire`), declares the parameter schema and swaps
 accepted changes in at the next sample boundary. A repeated measurement is
-answered with the same command; before its first measurement a second graph in
-the domain makes it refuse (exit 2); then it is bound to its plant
-(:mod:`drive_common.peer_binding`). Telemetry: every sample goes into a status
+answered with the same command; it answers once its view of the graph has
+settled, a second graph in the domain makes it refuse (exit 2), then it is bound
+to its plant (:mod:`drive_common.peer_binding`). Telemetry: every sample goes into a status
 block, the status topic carries the decimated live samples, and a partial block
 goes out after HOLD_FLUSH s without a measurement and at stop (docs/architecture.md
 "Time and lockstep", "Telemetry: blocks and live topics").
@@ -27,6 +27,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from drive_common.conversions import ReusedMessage
+from drive_common.domain_guard import wait_for_stable_graph
 from drive_common.lockstep_io import (DirectCallbackGroup, DirectReceiver, GraphConflict,
                                       graph_conflict, readers_matched)
 from drive_common.lockstep_wire import LockstepWire
@@ -126,6 +127,11 @@ class LockstepControllerNode(Node):
 
     def _answer_samples(self) -> None:
         import rclpy
+        # Discovery first: a node started late in a running graph must see its namesake and
+        # the graph's controller before it binds to that graph's plant (it then refuses).
+        if not wait_for_stable_graph(self, stop=lambda: self._stop.is_set()
+                                     or not rclpy.ok(context=self.context)):
+            return
         idle_since = time.monotonic()
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
