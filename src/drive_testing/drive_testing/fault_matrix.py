@@ -32,7 +32,7 @@ from typing import Callable
 import yaml
 
 SCENARIO = 'two_phase_six_switch_torque_step'
-DURATION = 0.03            # s of sim time per run
+DURATION = 0.3             # s of sim time per run (long enough in wall time for an injection at INJECT_AT)
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
 SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bound
 BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
