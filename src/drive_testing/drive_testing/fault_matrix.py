@@ -31,11 +31,12 @@ from typing import Callable
 
 import yaml
 
+from drive_testing.block_bags import recorded_samples
+
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.3             # s of sim time per run (long enough in wall time for an injection at INJECT_AT)
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
 SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bound
-BUSY_DOMAIN = 'already runs a drive graph'   # run_scenario's refusal of an occupied domain
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
 LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
@@ -263,13 +264,6 @@ def _scenario_file(case: Case, directory: Path) -> Path:
     return path
 
 
-def _block_data(bag: Path) -> dict[str, list[bytes]]:
-    """Every sample the bag's block topics carry, per topic: where a block ends does not count
-    (a partial block goes out whenever the plant stalls for HOLD_FLUSH of wall time)."""
-    from drive_testing.block_bags import recorded_samples
-    return recorded_samples(bag)
-
-
 def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outcome:
     """Run one case; its Outcome (``reference``: a clean run's block data, for outsiders)."""
     where = 'headless' if case.headless else 'graph'
@@ -284,7 +278,7 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
         outcome.result = _names_fault(code, text, case)
         outcome.crashed = _crash(code, text, case)
         return outcome
-    code, text, ctx = _in_a_free_domain(
+    code, text, ctx = _in_a_reserved_domain(
         lambda domain_id: _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id))
     logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
         if (out / 'logs').is_dir() else ''
@@ -301,7 +295,7 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     else:
         outcome.result = _names_fault(code, text, case)
     if case.expect in ('outsider', 'refused') and reference is not None and (out / 'bag').is_dir():
-        outcome.changed = _block_data(out / 'bag') != reference
+        outcome.changed = recorded_samples(out / 'bag') != reference
     outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
     return outcome
 
@@ -397,18 +391,11 @@ def _run_graph(command, case: Case, domain_id: int):
     return code, log.read(), ctx
 
 
-def _in_a_free_domain(run: Callable[[int], tuple]) -> tuple:
-    """run(domain_id) -> (exit code, output, ...) in a reserved domain; again in another one (at
-    most 3 times) while run_scenario finds the domain occupied by a graph that is not the run's."""
+def _in_a_reserved_domain(run: Callable[[int], tuple]) -> tuple:
+    """run(domain_id) in a ROS domain reserved for it (drive_common.processes.reserve_domain)."""
     from drive_testing.harness import reserve_domain
-    for _ in range(3):
-        with reserve_domain() as domain_id:
-            result = run(domain_id)
-        if not (result[0] == 2 and BUSY_DOMAIN in result[1]):
-            break
-        refusal = next(ln for ln in result[1].splitlines() if BUSY_DOMAIN in ln)
-        print(f'fault matrix: {refusal}; running again in another domain', file=sys.stderr)
-    return result
+    with reserve_domain() as domain_id:
+        return run(domain_id)
 
 
 def clean_reference(directory: Path, duration: float = DURATION) -> dict[str, list[bytes]]:
@@ -417,12 +404,12 @@ def clean_reference(directory: Path, duration: float = DURATION) -> dict[str, li
     scenario = _scenario_file(clean, directory)
     out = directory / f'clean_{duration:g}'
     from drive_testing.harness import isolated_env
-    code, text = _in_a_free_domain(lambda domain_id: _run(
+    code, text = _in_a_reserved_domain(lambda domain_id: _run(
         [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
          '--overwrite', '--domain-id', str(domain_id)], isolated_env(domain_id)))
     if code != 0:
         raise RuntimeError(f'the clean run failed (exit {code}): {text[-2000:]}')
-    return _block_data(out / 'bag')
+    return recorded_samples(out / 'bag')
 
 
 def run_matrix(directory: Path, select: Callable[[Case], bool] = lambda case: True,
