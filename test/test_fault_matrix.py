@@ -9,7 +9,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.timeout(1800)]
 
 
 def test_every_injected_fault_is_reported_and_no_outsider_changes_a_run(tmp_path):
-    outcomes = run_matrix(tmp_path)
+    outcomes = run_matrix(tmp_path, workers=2)    # two cases at once: a loaded machine too
     print(table(outcomes))
     assert len(outcomes) == len(cases())
     assert {o.expect for o in outcomes} == {'fault', 'outsider', 'refused', 'node lost'}

@@ -389,3 +389,40 @@ def test_a_scenario_that_expects_its_fault_passes_and_says_so(tmp_path):
     refused = run_cli(str(bad), '--headless', '--out', str(tmp_path / 'b'))
     assert refused.returncode == 2
     assert "expect_faults[0]: unknown fault kind 'overheat'" in refused.stderr
+
+
+def test_a_paused_run_holds_until_resumed_and_records_the_same_samples(recorded_run, tmp_path,
+                                                                        ros_session):
+    """--pause-at holds the plant at a sim time until /scenario_runner/resume is called (the
+    service is up only while held); the run then goes on to the same data as without a pause."""
+    from std_srvs.srv import Trigger
+    from drive_common.waiting import future_result
+    from drive_testing.block_bags import recorded_samples
+    out = tmp_path / 'paused'
+    process = subprocess.Popen(
+        [sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO, '--duration', str(DURATION),
+         '--pause-at', '0.005', '--domain-id', str(ros_session.domain_id), '--out', str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        client = ros_session.node('resumer').create_client(Trigger, '/scenario_runner/resume')
+        wait_until(lambda: client.service_is_ready() or process.poll() is not None, 120.0,
+                   what='the run held at 0.005 s')
+        assert process.poll() is None, process.stdout.read()
+        response = future_result(client.call_async(Trigger.Request()), 30.0, 'the resume call')
+        assert response.success and response.message == 'resumed at t = 0.005000 s'
+        output, _ = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 0, output
+    assert 'paused at t = 0.005000 s: resume with ros2 service call /scenario_runner/resume' in output
+    assert recorded_samples(out / 'bag') == recorded_samples(recorded_run[0] / 'bag')
+
+
+def test_a_pause_outside_the_run_or_headless_is_refused_before_anything_starts(tmp_path):
+    late = run_cli(SCENARIO, '--duration', str(DURATION), '--pause-at', '0.5', '--out', str(tmp_path / 'a'))
+    assert late.returncode == 2 and '--pause-at 0.5: must be inside the run' in late.stderr
+    headless = run_cli(SCENARIO, '--headless', '--pause-at', '0.005', '--out', str(tmp_path / 'b'))
+    assert headless.returncode == 2 and 'cannot be combined with --headless' in headless.stderr
+    assert not (tmp_path / 'a').exists() and not (tmp_path / 'b').exists()

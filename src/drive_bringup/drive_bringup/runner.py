@@ -7,7 +7,9 @@ would, then drives the plant's ``plant/run`` action from event to event so
 each event's parameter change lands at its exact sim time (the plant holds
 time between goals). Shows progress, detects a crashed node (reported with
 the end of its output), and always shuts every process down, also on
-Ctrl-C or SIGTERM.
+Ctrl-C or SIGTERM. ``pause_at`` holds the plant at given sim times until a
+``~/resume`` (std_srvs/Trigger) call, so a user (or a test) can look at or
+disturb the held graph.
 """
 from __future__ import annotations
 
@@ -116,7 +118,8 @@ class GraphRunner:
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
                  record: bool | None = None, progress: Callable[[str], None] = _progress,
-                 step_timeout: float = 60.0, live: bool = False, namespace: str = '') -> None:
+                 step_timeout: float = 60.0, live: bool = False, namespace: str = '',
+                 pause_at: tuple[float, ...] = ()) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.domain_id = domain_id
@@ -125,6 +128,7 @@ class GraphRunner:
         self.step_timeout = step_timeout
         self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
         self.namespace = normalized(namespace)   # '/NAME': the drive's nodes run in it
+        self.pause_at = tuple(sorted(pause_at))  # s of sim time: hold there until ~/resume
         self.processes: dict[str, NodeProcess] = {}
         self._crashed = False
         self.log_dir = self.out_dir / 'logs'
@@ -328,11 +332,16 @@ class GraphRunner:
         started = time.monotonic()
         self._end_state, self._fault_kinds = 'ended normally', ()
         final_step, final_time = 0, 0.0
-        held = 0.0      # s of wall time spent waiting for partial blocks at holds
-        for event in sc.events:
-            if event.time > final_time:
-                final_step, final_time = self._run_goal(executor, event.time, started)
+        held = 0.0      # s of wall time spent waiting for partial blocks and paused at holds
+        pauses = [(t, 1, None) for t in self.pause_at]    # at equal times: events, then the pause
+        for time_s, _, event in sorted([(e.time, 0, e) for e in sc.events] + pauses,
+                                       key=lambda point: point[:2]):
+            if time_s > final_time:
+                final_step, final_time = self._run_goal(executor, time_s, started)
                 held += self._wait_status_blocks(executor, block_ends, final_step)
+            if event is None:
+                held += self._pause(node, executor, final_time)
+                continue
             self._set_parameters(node, executor, event.node, event.parameters)
             self.progress(f'[{sc.name}] t = {event.time:.6f} s: {event.node} '
                           + ', '.join(f'{k} = {v}' for k, v in event.parameters.items()))
@@ -347,6 +356,27 @@ class GraphRunner:
         return RunResult(sc.name, bag_dir if self.record else None, final_time, final_step, wall,
                          final_step / wall if wall > 0 else 0.0, self.log_dir,
                          end_state=self._end_state, fault_kinds=self._fault_kinds)
+
+    def _pause(self, node, executor, sim_time: float) -> float:
+        """Hold the plant at sim_time until a ~/resume call (a node that dies meanwhile fails
+        the run; Ctrl-C stops it); the wall time paused."""
+        from std_srvs.srv import Trigger
+        begun = time.monotonic()
+        released = []
+
+        def resume(_request, response):
+            released.append(True)
+            response.success, response.message = True, f'resumed at t = {sim_time:.6f} s'
+            return response
+        # The service exists only while the plant is held: a client waiting for it waits for the pause.
+        service = node.create_service(Trigger, '~/resume', resume)
+        self.progress(f'[{self.scenario.name}] paused at t = {sim_time:.6f} s: resume with '
+                      f'ros2 service call {service.service_name} std_srvs/srv/Trigger')
+        try:
+            self._spin_while_waiting(executor, lambda: released, float('inf'), 'a resume call')
+        finally:
+            node.destroy_service(service)
+        return time.monotonic() - begun
 
     def _watch_status_blocks(self, node) -> dict[str, list[int]]:
         """Follow the controllers' status blocks: topic -> [last step seen] (-1: none yet)."""

@@ -85,6 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument('--namespace', default='', metavar='NAME',
                         help='run the drive under the ROS namespace /NAME (its /clock, /diagnostics '
                              'and /parameter_events too), so several drives share a domain')
+    parser.add_argument('--pause-at', type=float, action='append', default=[], metavar='T',
+                        help='hold the plant at sim time T s (repeatable) until '
+                             '`ros2 service call /scenario_runner/resume std_srvs/srv/Trigger`; '
+                             'look at or change the held graph meanwhile')
     return parser
 
 
@@ -148,13 +152,17 @@ def _main(argv=None) -> int:
     if args.live and args.headless:
         print('run_scenario: --live watches the ROS graph; it cannot be combined with --headless', file=sys.stderr)
         return 2
+    if args.pause_at and args.headless:
+        print('run_scenario: --pause-at holds the ROS graph; it cannot be combined with --headless',
+              file=sys.stderr)
+        return 2
     try:
         normalized(args.namespace)
     except ValueError as exc:
         print(f'[run_scenario] error: --namespace: {exc}', file=sys.stderr)
         return 2
     try:
-        scenario, out = prepare_run(args)
+        scenario, out = prepare_run(args, check=lambda sc: _check_pauses(sc, args.pause_at))
     except (ScenarioError, ParameterFileError) as exc:
         print(f'[run_scenario] error: {exc}', file=sys.stderr)
         return 2
@@ -168,18 +176,26 @@ def _main(argv=None) -> int:
             if args.domain_id is not None:
                 os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
             result = GraphRunner(scenario, out, record=not args.no_record, live=args.live,
-                                 namespace=args.namespace).run()
+                                 namespace=args.namespace, pause_at=args.pause_at).run()
         else:   # default: a private domain, so two runs never mix their graphs
             from drive_common.processes import reserve_domain
             with reserve_domain() as domain:
                 result = GraphRunner(scenario, out, domain_id=domain, namespace=args.namespace,
-                                     record=not args.no_record, live=args.live).run()
+                                     record=not args.no_record, live=args.live,
+                                     pause_at=args.pause_at).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)
             print_summary(summary, out)
         return _judge(scenario, result.end_state, result.fault_kinds)
 
     return main_guard(run)
+
+
+def _check_pauses(scenario: Scenario, pause_at: list[float]) -> None:
+    """ScenarioError for a --pause-at time the run never reaches (0 < T < duration)."""
+    for t in pause_at:
+        if not 0.0 < t < scenario.duration:
+            raise ScenarioError(f'--pause-at {t}: must be inside the run, 0 < T < {scenario.duration:g} s')
 
 
 def _run_headless(scenario, out: Path) -> int:

@@ -2,7 +2,8 @@
 
 Each case runs ``run_scenario`` (graph: plant, controller and recorder as
 processes in a private domain; or ``--headless``) on a short scenario and
-injects one fault at a known sim time: a signal to the controller or the
+injects one fault at a known sim time, where the graph run is paused
+(``--pause-at``) so the injection never races the simulation: a signal to the controller or the
 recorder, bytes or messages from an outsider on a lockstep topic, a bad
 parameter through the parameter service, or a scenario event that makes the
 drive itself fault (shoot-through, a protection trip). Per case it records
@@ -36,8 +37,8 @@ from drive_testing.block_bags import recorded_samples
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.3             # s of sim time per run (long enough in wall time for an injection at INJECT_AT)
 INJECT_AT = 0.01           # s of sim time at which a fault is injected
-SIM_STARTED = 1e-6         # s of sim time: the lockstep runs, its peers are bound
 COMMAND_TIMEOUT = 1.0      # s of wall time (plant), so a late controller faults quickly
+SECOND_NODE_LOOK = 20.0    # s of wall time a late node gets to find the paused graph and refuse
 RUN_TIMEOUT = 240.0        # s of wall time for one run_scenario
 LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
 
@@ -55,7 +56,8 @@ class Injection:
     domain_id: int
     node: object                      # an rclpy node in the run's domain
     diagnostics: list
-    wait_sim: Callable[[float], None]
+    wait_paused: Callable[[], None]   # until the run is held at INJECT_AT
+    resume: Callable[[], None]        # let the held run go on (once)
     notes: list = field(default_factory=list)
 
     def pid(self, executable: str) -> int:
@@ -70,22 +72,23 @@ class Injection:
                 return pid
         raise LookupError(f'no {executable} process in domain {self.domain_id}')
 
-    def publish(self, msg_type, topic: str, messages, at: float = INJECT_AT,
-                period: float = 0.002) -> None:
-        """Publish messages (objects or raw CDR bytes) on topic as an outsider at sim time at [s].
+    def publish(self, msg_type, topic: str, messages, period: float = 0.002) -> None:
+        """Publish messages (objects or raw CDR bytes) on topic as an outsider: the first half
+        while the run is paused at INJECT_AT, the rest once it runs again.
 
-        The publisher is made once sim time runs (the graph's peers are bound: it cannot be
-        taken for one) and sends once matched with the graph's readers: on a loaded machine a
-        publisher made only at the injection time could still be unmatched when the short run
-        ends, and its messages would reach nobody.
+        The publisher is made while the run is held (the graph's peers are bound: it cannot be
+        taken for one) and sends once matched with the graph's readers, so its messages reach
+        the graph however loaded the machine is.
         """
         from drive_common import topics
         from drive_common.waiting import wait_until
-        self.wait_sim(SIM_STARTED)
+        self.wait_paused()
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
-        self.wait_sim(at)
-        wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, raise_timeout=False)
-        for msg in messages:
+        wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, what=f'a reader of {topic}')
+        half = len(messages) // 2
+        for index, msg in enumerate(messages):
+            if index == half:
+                self.resume()
             pub.publish(msg)
             time.sleep(period)    # an outsider's pace, not a synchronisation
         self.node.destroy_publisher(pub)
@@ -112,7 +115,7 @@ class Case:
     events: list = field(default_factory=list)         # extra scenario events
     controller: dict | None = None                     # scenario controller entry instead of DTC
     exit_codes: tuple = (0,)
-    kind: str = ''                                     # the fault kind the result must name
+    kind: str = ''                                     # what the run's verdict line must name
     duration: float = DURATION                         # s of sim time of the run
 
 
@@ -143,9 +146,11 @@ class Outcome:
 
 # --- injectors -------------------------------------------------------------------------------
 def _signal(executable: str, sig: int, resume_after: float | None = None):
+    """The signal right after the paused run goes on: the node is lost mid-run, not at a hold."""
     def inject(ctx: Injection) -> None:
-        ctx.wait_sim(INJECT_AT)
+        ctx.wait_paused()
         pid = ctx.pid(executable)
+        ctx.resume()
         os.kill(pid, sig)
         if resume_after is not None:
             time.sleep(resume_after)    # the controller stays stopped past command_timeout
@@ -184,20 +189,24 @@ def _random(rng: random.Random) -> bytes:
 
 def _parameter(node: str, name: str, value):
     def inject(ctx: Injection) -> None:
-        ctx.wait_sim(INJECT_AT)
+        ctx.wait_paused()
         ok, reason = ctx.set_parameter(node, name, value)
         ctx.notes.append(('refused' if not ok and reason else 'taken', f'{name}={value!r}: {reason}'))
     return inject
 
 
 def _second_node(package: str, executable: str, node_name: str):
+    """A late node started while the run is paused; the run goes on once the node has refused
+    (exited) or, if it stays, after SECOND_NODE_LOOK s, so it can intrude while the run runs."""
     def inject(ctx: Injection) -> None:
         from drive_common.processes import NodeProcess
+        from drive_common.waiting import wait_until
         from drive_testing.harness import isolated_env
-        ctx.wait_sim(INJECT_AT)
+        ctx.wait_paused()
         process = NodeProcess(package, executable, env=isolated_env(ctx.domain_id),
                               node_name=node_name)
         ctx.notes.append(('process', process))
+        wait_until(lambda: not process.alive(), SECOND_NODE_LOOK, 0.05, raise_timeout=False)
     return inject
 
 
@@ -211,12 +220,15 @@ SHOOT_THROUGH_CONTROLLER = {'package': 'drive_testing', 'executable': 'fixed_res
 def cases() -> list[Case]:
     """The matrix: every fault kind over the graph, the scenario-driven ones headless too."""
     out = [
-        Case('controller SIGKILL', 'fault', _signal('dtc_controller', signal.SIGKILL), exit_codes=(1, 3)),
-        Case('controller SIGTERM', 'fault', _signal('dtc_controller', signal.SIGTERM), exit_codes=(1, 3)),
+        Case('controller SIGKILL', 'fault', _signal('dtc_controller', signal.SIGKILL), exit_codes=(1, 3),
+             kind='dtc_controller'),
+        Case('controller SIGTERM', 'fault', _signal('dtc_controller', signal.SIGTERM), exit_codes=(1, 3),
+             kind='dtc_controller'),
         Case('controller SIGSTOP (late commands)', 'fault',
              _signal('dtc_controller', signal.SIGSTOP, resume_after=2.5 * COMMAND_TIMEOUT),
-             exit_codes=(1, 3)),
-        Case('recorder SIGKILL', 'node lost', _signal('recorder', signal.SIGKILL), exit_codes=(1,)),
+             exit_codes=(1, 3), kind='no gate command'),
+        Case('recorder SIGKILL', 'node lost', _signal('recorder', signal.SIGKILL), exit_codes=(1,),
+             kind='recorder'),
     ]
     for type_name, topic in LOCKSTEP:
         short = type_name.rsplit('/', 1)[1]
@@ -272,6 +284,8 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     out = directory / f'out_{where}_{scenario.stem}'
     command = [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
                '--overwrite']
+    if not case.headless:
+        command += ['--pause-at', str(INJECT_AT)]
     if case.headless:
         command.append('--headless')
         code, text = _run(command, None)
@@ -288,8 +302,8 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     if refused:            # a late node that found the running graph refused to join it
         outcome.log = outcome.diagnostics = True
         outcome.detail = refused
-    outcome.crashed = _crash(code, text + logs, case) or next(
-        (f'injection failed: {why}' for kind, why in ctx.notes if kind == 'injection failed'), '')
+    outcome.crashed = next((f'injection failed: {why}' for kind, why in ctx.notes
+                            if kind == 'injection failed'), '') or _crash(code, text + logs, case)
     if case.expect == 'refused':
         outcome.result = any(kind == 'refused' for kind, _ in ctx.notes)
     else:
@@ -317,11 +331,18 @@ def _level(status) -> int:
 
 
 def _names_fault(code: int, text: str, case: Case) -> bool:
+    """Whether the run's exit code and verdict line say what the case did."""
     if case.expect == 'outsider':
         return code == 0
-    if case.expect == 'node lost':
-        return code in case.exit_codes and code != 0 and 'recorder' in text
-    return code in case.exit_codes and code != 0 and 'fault' in text and case.kind in text
+    return code in case.exit_codes and code != 0 and case.kind in verdict(text)
+
+
+def verdict(text: str) -> str:
+    """The line in which run_scenario says how the run ended ('' if none): a failed run,
+    a fault state, or the end state."""
+    ends = [line for line in text.splitlines()
+            if line.startswith(('run failed:', 'run_scenario:', '[run_scenario]'))]
+    return ends[-1] if ends else ''
 
 
 def _crash(code: int | None, text: str, case: Case) -> str:
@@ -345,8 +366,9 @@ def _run(command, env) -> tuple[int | None, str]:
 def _run_graph(command, case: Case, domain_id: int):
     """Start run_scenario in domain_id, inject while it runs, wait for its end."""
     from diagnostic_msgs.msg import DiagnosticArray
-    from rosgraph_msgs.msg import Clock
+    from std_srvs.srv import Trigger
     from drive_common import topics
+    from drive_common.domain_guard import RUNNER_NODE
     from drive_common.waiting import wait_until
     from drive_testing.harness import RosSession, isolated_env
     env = isolated_env(domain_id)
@@ -356,23 +378,50 @@ def _run_graph(command, case: Case, domain_id: int):
     session = RosSession(domain_id)
     node = session.node('fault_injector')
     diagnostics: list = []
-    node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
-                             lambda m: diagnostics.extend(m.status), 100)
-    clock = [0.0]
-    node.create_subscription(Clock, topics.CLOCK,
-                             lambda m: clock.__setitem__(0, m.clock.sec + m.clock.nanosec * 1e-9), 10)
+    diagnostics_reader = node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
+                                                  lambda m: diagnostics.extend(m.status), 100)
+    resume_client = node.create_client(Trigger, f'/{RUNNER_NODE}/resume')   # up while held
 
-    def wait_sim(t: float) -> None:
-        wait_until(lambda: clock[0] >= t or runner.poll() is not None, RUN_TIMEOUT,
-                   what=f'sim time {t} s')
+    def wait_paused() -> None:
+        wait_until(lambda: resume_client.service_is_ready() or runner.poll() is not None,
+                   RUN_TIMEOUT, what=f'the run held at {INJECT_AT} s')
 
-    ctx = Injection(domain_id, node, diagnostics, wait_sim)
+    def reporters_matched() -> bool:
+        """This reader is matched with every /diagnostics publisher, the plant's and the
+        controller's (the publisher of its commands) among them."""
+        reporters = {info.node_name for info in node.get_publishers_info_by_topic(topics.DIAGNOSTICS)}
+        controllers = {info.node_name for info in node.get_publishers_info_by_topic(topics.GATE_COMMAND)
+                       } - {node.get_name()}      # (this injector's own outsider publisher)
+        return (bool(controllers) and {'plant', *controllers} <= reporters
+                and diagnostics_reader.get_publisher_count() >= len(reporters))
+
+    resumed = []
+
+    def resume() -> None:
+        """Once this reader has every /diagnostics publisher (none of the fault's reports is
+        lost to discovery), let the held run go on; at most once, never after its end."""
+        if resumed:
+            return
+        resumed.append(True)
+        wait_paused()
+        wait_until(lambda: runner.poll() is not None or reporters_matched(), 60.0,
+                   what="the plant's and the controller's /diagnostics publishers")
+        while runner.poll() is None and resume_client.service_is_ready():
+            future = resume_client.call_async(Trigger.Request())
+            if wait_until(lambda: future.done() or runner.poll() is not None, 30.0,
+                          raise_timeout=False) and future.done() and future.result().success:
+                return
+
+    ctx = Injection(domain_id, node, diagnostics, wait_paused, resume)
     try:
-        if case.inject is not None:
-            try:
+        try:
+            if case.inject is not None:
                 case.inject(ctx)
-            except Exception as exc:  # noqa: BLE001 - the run ended before the fault could go in
-                ctx.notes.append(('injection failed', f'{type(exc).__name__}: {exc}'))
+            ctx.resume()      # a case whose injector did not let the run go on
+        except Exception as exc:  # noqa: BLE001 - the run ended before the fault could go in
+            ctx.notes.append(('injection failed', f'{type(exc).__name__}: {exc}'))
+            if runner.poll() is None:
+                os.killpg(runner.pid, signal.SIGINT)     # paused for ever otherwise
         try:
             code = runner.wait(timeout=RUN_TIMEOUT)
         except subprocess.TimeoutExpired:
