@@ -14,6 +14,7 @@ disturb the held graph.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -131,6 +132,7 @@ class GraphRunner:
         self.pause_at = tuple(sorted(pause_at))  # s of sim time: hold there until ~/resume
         self.processes: dict[str, NodeProcess] = {}
         self._crashed = False
+        self._sim_time = 0.0      # s: the plant's last reported sim time (goal feedback, result)
         self.log_dir = self.out_dir / 'logs'
 
     # --- processes ------------------------------------------------------------
@@ -156,7 +158,9 @@ class GraphRunner:
             if not process.alive():
                 self._crashed = True
                 tail = '\n'.join(process.output().splitlines()[-15:])
-                raise RunFailed(f'node {key} exited with code {process.process.returncode}:\n{tail}')
+                code = process.process.returncode
+                how = f'was killed by {signal.Signals(-code).name}' if code < 0 else f'exited with code {code}'
+                raise RunFailed(f'node {key} {how}; the plant had reached t = {self._sim_time:.6f} s:\n{tail}')
 
     def _stop_all(self) -> None:
         """Recorder first: sim time is held, so the producers are idle but still
@@ -420,6 +424,7 @@ class GraphRunner:
 
         def feedback(msg) -> None:
             fb = msg.feedback
+            self._sim_time = fb.sim_time
             now = time.monotonic()
             if now - last[0] >= 1.0:
                 last[0] = now
@@ -438,6 +443,7 @@ class GraphRunner:
         if not handle.accepted:
             raise RunFailed(f'plant rejected the Run goal to {target} s')
         result = run_goal_result(handle, wait=wait)
+        self._sim_time = result.final_time
         if (result.fault_count and result.message.startswith('reached t =')
                 and ' with faults: ' not in result.message):
             # The target was reached in a fault state of the simulated drive (a protection,
