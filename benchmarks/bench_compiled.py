@@ -10,6 +10,10 @@ Each figure is measured in a subprocess twice, compiled (warm cache) and with
   compensation), goal <= 15 us each;
 * PfcCore.update per sample (bench_pfc_core's line cycle): goal <= 12.5 us (80 kHz real time);
 * FrontEnd alone ('fe only' of bench_front_end, EMI filter on): goal >= 1x real time;
+* your own controller beside the DTC: the example core (drive_examples
+  hysteresis_current_controller, its comparator compiled the same way) per sample on
+  bench_dtc_core's samples, and its scenario ``example_hysteresis_current_control``
+  headless (no goal: reported);
 * headless ``two_phase_six_switch_torque_step`` (plant + DtcCore at 33.3 us),
   ``fstp_voltage_model_proposed_compensation`` and ``three_phase_dtifc_sensorless``, the whole
   ``run_headless`` with its set-up (files read, cores built): goal >= 1x real time;
@@ -98,8 +102,13 @@ def child_figures(duration: float) -> dict:
     import bench_front_end
     import bench_pfc_core
     bench_front_end.print = lambda *a, **k: None      # its bench() prints a line per case
+    from drive_examples.hysteresis_current_controller import HysteresisCurrentCore
+    from timing import per_call_us
     fe_rate = bench_front_end.bench('fe only', duration, 2, 25.4, 100.0, 80.0, False, duty=0.55)
+    own = HysteresisCurrentCore({'torque_reference': 1.0})
     return {'dtc_us': bench_dtc_core.bench('two_phase_six_switch', 20000, {}),
+            'own_us': per_call_us(own.update, bench_dtc_core.samples(), 20000),
+            'own_real_time': _real_time('example_hysteresis_current_control', duration),
             **{f'dtc_{mode}_us': bench_dtc_core.bench(mode, 20000, extra) for mode, extra in THREE_PHASE},
             'pfc_us': bench_pfc_core.bench(20000, {}),
             'fe_real_time': fe_rate * bench_front_end.TICK,
@@ -174,12 +183,15 @@ def main() -> None:
     c, i = fig['compiled'], fig['interpreted']
     rows = [('DtcCore.update, two-phase six-switch [us/sample]', 'dtc_us', '<= 15'),
             *((f'DtcCore.update, {mode} [us/sample]', f'dtc_{mode}_us', '<= 15') for mode, _ in THREE_PHASE),
+            ('your own controller: example HysteresisCurrentCore.update [us/sample]', 'own_us', ''),
             ('PfcCore.update [us/sample]', 'pfc_us', '<= 12.5'),
             ('FrontEnd alone, filter on [x real time]', 'fe_real_time', '>= 1'),
             ('headless two_phase_six_switch_torque_step [x real time]', 'dtc_real_time', '>= 1'),
             ('headless fstp_voltage_model_proposed_compensation [x real time]', 'fstp_real_time', '>= 1'),
             ('headless three_phase_dtifc_sensorless [x real time]', 'dtifc_real_time', '>= 1'),
             ('headless pfc_no_load_fig_3_5 [x real time]', 'pfc_real_time', '>= 5'),
+            ('headless example_hysteresis_current_control (your own controller) [x real time]',
+             'own_real_time', ''),
             ('headless loop, default scenario, every sample recorded [samples/s]', 'loop_recorded', '>= 300k'),
             ('headless loop, default scenario, no recording [samples/s]', 'loop_unrecorded', '>= 600k')]
     print(f"{'figure':66s} {'compiled':>10s} {'interpreted':>12s} {'goal':>8s}")

@@ -27,14 +27,19 @@ def table() -> BackEmfTable:
     return BackEmfTable.from_phase_constants(*(0.0573 * trap(th - s) for s in (0, 2 * np.pi / 3, 4 * np.pi / 3)), 2)
 
 
-def bench(mode: str, n: int, extra: dict) -> float:
-    core = DtcCore({'mode': mode, 'torque_reference': 1.0, **extra}, table())
-    samples = []
+def samples() -> list[DriveSample]:
+    """1000 measurements rotating through every sector (any controller core's input)."""
+    out = []
     for k in range(1000):
         th = (k * 0.0123) % (2 * math.pi)
         i_a, i_b = 3 * math.sin(th), 3 * math.sin(th - 2.1)
-        samples.append(DriveSample(k, k * 25e-6, (i_a, i_b, -i_a - i_b), 56.57, 28.28, 0, th, 0, 30.0))
-    return per_call_us(core.update, samples, n)
+        out.append(DriveSample(k, k * 25e-6, (i_a, i_b, -i_a - i_b), 56.57, 28.28, 0, th, 0, 30.0))
+    return out
+
+
+def bench(mode: str, n: int, extra: dict) -> float:
+    core = DtcCore({'mode': mode, 'torque_reference': 1.0, **extra}, table())
+    return per_call_us(core.update, samples(), n)
 
 
 def main() -> None:

@@ -108,12 +108,13 @@ rm -rf .numba_cache
 source scripts/env.sh
 say "compiling the per-sample kernels (numba cache in .numba_cache)"
 python - <<'PY' || die "compiling the kernels failed (numba)"
-# 1 ms of scenarios that use every compiled kernel: two- and three-phase DTC modes, PFC core, front end.
+# 1 ms of scenarios that use every compiled kernel: two- and three-phase DTC modes, PFC core, front end,
+# the example controller's comparator.
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import load_scenario
 from drive_common.uris import resolve_path
 for name in ('two_phase_six_switch_torque_step', 'two_phase_four_switch_torque_step',
-             'three_phase_dtifc_sensorless', 'pfc_no_load_fig_3_5'):
+             'three_phase_dtifc_sensorless', 'pfc_no_load_fig_3_5', 'example_hysteresis_current_control'):
     run_headless(load_scenario(resolve_path(f'package://drive_bringup/scenarios/{name}.yaml')).shortened(1e-3))
 # the per-sample tick as the plant node runs it (plant_kernel.advance_tick with the front end)
 run_headless(load_scenario(resolve_path('package://drive_bringup/scenarios/pfc_no_load_fig_3_5.yaml')).shortened(1e-4),

@@ -8,10 +8,13 @@ flat tops, T = 2 p K I (000 App. A: k_t = 2 p K = 0.2292 N m/A, see
 motors/ozturk_bldc.yaml). Bipolar chopping: +V_dc or -V_dc across the pair.
 
 ``ros2 run drive_examples hysteresis_current_controller`` runs it as a
-node; docs/write_your_own_controller.md walks through this file.
+node; docs/write_your_own_controller.md walks through this file. Its
+per-sample arithmetic, :func:`pair_current_step`, is compiled by numba as the
+stack's own cores are (``NUMBA_DISABLE_JIT=1``: the same code interpreted).
 """
 import math
 
+from drive_common.compiled import njit
 from drive_common.controller_api import GateSample, ParameterSpec, run_controller, schema
 from dtc_controller.core.status import DtcStatusSample
 
@@ -31,6 +34,27 @@ SCHEMA = schema([
 ])
 
 
+@njit
+def pair_current_step(encoder_angle, encoder_offset, i_a, i_b, i_c, torque_reference,
+                      torque_constant, current_band, current_limit, chop):
+    """One sample of the comparator: (theta_e [rad], sector 0..5, pair current [A], chop +-1).
+
+    Sector from theta_e (sector 0 from 30 deg), I* = T*/k_t within +-current_limit, pair
+    current (i_plus - i_minus)/2 against I* +- current_band (chop held inside the band).
+    """
+    theta = (encoder_angle + encoder_offset) % (2.0 * math.pi)
+    sector = int(((theta - math.pi / 6.0) % (2.0 * math.pi)) // (math.pi / 3.0)) % 6
+    plus, minus = PAIRS[sector]
+    currents = (i_a, i_b, i_c)
+    reference = max(-current_limit, min(current_limit, torque_reference / torque_constant))
+    current = 0.5 * (currents[plus] - currents[minus])
+    if current < reference - current_band:
+        chop = 1
+    elif current > reference + current_band:
+        chop = -1
+    return theta, sector, current, chop
+
+
 class HysteresisCurrentCore:
     """ROS-free core: DriveSample of step k -> (GateSample of step k, DtcStatusSample)."""
 
@@ -45,16 +69,11 @@ class HysteresisCurrentCore:
 
     def update(self, sample):
         p = self.p
-        theta = (sample.encoder_angle + p['encoder_offset']) % (2.0 * math.pi)
-        sector = int(((theta - math.pi / 6.0) % (2.0 * math.pi)) // (math.pi / 3.0)) % 6
+        i_a, i_b, i_c = sample.phase_current
+        theta, sector, current, self.chop = pair_current_step(
+            sample.encoder_angle, p['encoder_offset'], i_a, i_b, i_c, p['torque_reference'],
+            p['torque_constant'], p['current_band'], p['current_limit'], self.chop)
         plus, minus = PAIRS[sector]
-        limit = p['current_limit']
-        reference = max(-limit, min(limit, p['torque_reference'] / p['torque_constant']))
-        current = 0.5 * (sample.phase_current[plus] - sample.phase_current[minus])
-        if current < reference - p['current_band']:
-            self.chop = 1
-        elif current > reference + p['current_band']:
-            self.chop = -1
         switch_on = [False] * 6                         # SW1/SW2 = a upper/lower, SW3/4 b, SW5/6 c
         switch_on[2 * plus + (0 if self.chop > 0 else 1)] = True
         switch_on[2 * minus + (1 if self.chop > 0 else 0)] = True

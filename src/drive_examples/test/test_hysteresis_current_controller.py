@@ -18,6 +18,7 @@ import pytest
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.samples import DriveSample
+from drive_testing.compiled_parity import requires_jit
 from drive_examples.hysteresis_current_controller import PAIRS, HysteresisCurrentCore
 
 SCENARIO = 'example_hysteresis_current_control'
@@ -90,3 +91,17 @@ def test_ros_graph_runs_records_analyses_and_equals_headless(headless, tmp_path)
         assert np.array_equal(state[name], headless[f'plant/state.{name}']), name
     assert set(status['mode'].tolist()) == {'hysteresis_current'}
     assert np.array_equal(status['torque_estimate'], headless['dtc/status.torque_estimate'])
+
+
+@requires_jit()
+def test_the_compiled_comparator_gives_the_interpreted_trajectory_bit_for_bit(tmp_path):
+    """The worked case of compiling your own core: pair_current_step under numba and as plain
+    Python (NUMBA_DISABLE_JIT=1) give the same closed-loop run."""
+    from drive_examples.hysteresis_current_controller import pair_current_step
+    from drive_testing.compiled_parity import differing, interpreted_and_compiled
+    assert hasattr(pair_current_step, 'py_func')        # compiled in this process
+    interpreted, compiled = interpreted_and_compiled('drive_testing.compiled_parity:scenario_arrays',
+                                                     [[SCENARIO], 0.02], tmp_path)
+    torque = compiled[f'{SCENARIO}:dtc/status.torque_estimate']
+    assert torque.size > 100 and np.ptp(torque) > 0.0
+    assert differing(interpreted, compiled) == []
