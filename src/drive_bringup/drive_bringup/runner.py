@@ -31,7 +31,7 @@ from drive_bringup.scenario import Scenario
 from drive_common import topics
 from drive_common.domain_guard import RUNNER_NODE, DomainBusy, refuse_if_busy
 from drive_common.namespaces import namespace_arguments, namespace_remappings, normalized
-from drive_common.processes import NodeProcess, isolated_env
+from drive_common.processes import NodeProcess, graph_lock, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
 from dtc_msgs.action import Run
@@ -199,6 +199,14 @@ class GraphRunner:
         return future.result()
 
     def run(self) -> RunResult:
+        if self.domain_id is not None:          # a domain reserved for this run alone
+            return self._run()
+        # A shared domain: one runner per domain and namespace on this machine (a file lock,
+        # whatever discovery shows yet), then the look for any other drive graph (_run).
+        with graph_lock(int(os.environ.get('ROS_DOMAIN_ID') or 0), self.namespace):
+            return self._run()
+
+    def _run(self) -> RunResult:
         bag_dir = self.out_dir / 'bag'
         sc = self.scenario
         context = rclpy.Context()

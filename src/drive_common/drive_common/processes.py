@@ -2,7 +2,8 @@
 
 - :func:`reserve_domain` hands out a ROS_DOMAIN_ID no other process on this
   machine holds (a file lock per id), so parallel runs never see each
-  other's topics; :func:`isolated_env` adds localhost-only discovery.
+  other's topics; :func:`isolated_env` adds localhost-only discovery;
+  :func:`graph_lock` lets one runner at a time drive a graph in a given domain.
 - :class:`NodeProcess` starts ``<prefix>/lib/<package>/<executable> --ros-args ...``
   exactly as ``ros2 run`` does (or any command line), in its own process
   group, and always tears it down (SIGINT, then SIGTERM, then SIGKILL).
@@ -68,6 +69,35 @@ def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
             os.close(fd)
         return
     raise RuntimeError('no free ROS domain id in %s' % DOMAIN_RANGE)
+
+
+@contextmanager
+def graph_lock(domain_id: int, namespace: str = '') -> Iterator[None]:
+    """Hold this machine's lock on the drive graph of (domain_id, namespace) for one runner.
+
+    A second ``run_scenario`` on this machine for the same domain and namespace is refused at
+    once (DomainBusy), however slowly discovery answers on a loaded machine; graphs of other
+    machines and hand-started nodes are found by :mod:`drive_common.domain_guard`'s look.
+    """
+    from drive_common.domain_guard import RUNNER_NODE, DomainBusy
+    _LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    path = _LOCK_DIR / f'graph_{domain_id}{namespace.rstrip("/").replace("/", "_")}.lock'
+    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.pread(fd, 32, 0).decode(errors='replace').strip() or 'unknown'
+            where = f'ROS domain {domain_id}' + (f', namespace {namespace}' if namespace else '')
+            raise DomainBusy(f'run_scenario: {where} already runs a drive graph (nodes: '
+                             f'{namespace.rstrip("/")}/{RUNNER_NODE}, run_scenario pid {holder} on this '
+                             'machine): refusing to start a second one (stop it, or choose another '
+                             '--domain-id)') from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        os.close(fd)                     # the lock goes with the descriptor
 
 
 def isolated_env(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:

@@ -1,6 +1,9 @@
 """drive_common.domain_guard's graph settle against a fake node: it ends when stable, at timeout,
 or at once when its stop predicate turns True (Ctrl-C, shutdown)."""
+import pytest
+
 from drive_common import domain_guard
+from drive_common.domain_guard import DomainBusy
 
 
 class ChangingGraph:
@@ -74,3 +77,22 @@ def test_a_look_lasts_at_least_least_seconds_so_a_late_answer_is_seen():
     # An empty graph is 'stable' at once (settle ~0); least keeps looking until the plant shows.
     assert domain_guard.wait_for_stable_graph(node, settle=1e-6, timeout=60.0, least=2.0) is True
     assert node.looks >= 3 and ('plant', '/') in node.get_node_names_and_namespaces()
+
+
+def test_a_second_runner_on_this_machine_is_refused_at_once_by_the_graph_lock():
+    """One runner per domain and namespace on a machine, whatever discovery shows yet; another
+    namespace of the same domain is free, and a released lock can be taken again."""
+    import os
+    from drive_common.processes import graph_lock
+    domain = 200 + os.getpid() % 30          # above the ids reserve_domain hands out
+    with graph_lock(domain):
+        with pytest.raises(DomainBusy) as refused:
+            with graph_lock(domain):
+                pass
+        message = str(refused.value)
+        assert f'ROS domain {domain} already runs a drive graph' in message
+        assert f'run_scenario pid {os.getpid()}' in message and '/scenario_runner' in message
+        with graph_lock(domain, '/drive2'):   # a namespaced drive beside it
+            pass
+    with graph_lock(domain):                   # released with its holder
+        pass

@@ -289,6 +289,7 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     if case.headless:
         command.append('--headless')
         code, text = _run(command, None)
+        outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
         outcome.result = _names_fault(code, text, case)
         outcome.crashed = _crash(code, text, case)
         return outcome
@@ -309,8 +310,12 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     else:
         outcome.result = _names_fault(code, text, case)
     if case.expect in ('outsider', 'refused') and reference is not None and (out / 'bag').is_dir():
-        outcome.changed = recorded_samples(out / 'bag') != reference
-    outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
+        from drive_logger.bag_reader import BagReadError
+        try:
+            outcome.changed = recorded_samples(out / 'bag') != reference
+        except BagReadError as exc:     # a run that failed: its unfinished bag is the detail
+            outcome.crashed = outcome.crashed or f'bag unreadable: {exc}'
+    outcome.detail = outcome.detail or (text.strip().splitlines()[-1] if text.strip() else '')
     return outcome
 
 
@@ -487,6 +492,8 @@ def table(outcomes: list[Outcome]) -> str:
         rows.append(f'{o.case:42s} {o.where:9s} {o.expect:9s} {_mark(o.log):3s} {_mark(o.diagnostics):4s} '
                     f'{_mark(o.result):6s}  {o.crashed or "-":9s} '
                     f'{"-" if o.changed is None else "YES" if o.changed else "no"}')
+    rows += [f'  {o.case} ({o.where}): {o.detail}' for o in outcomes
+             if not o.reported or o.crashed or o.changed]      # the run's last line, to see why
     rows.append('')
     rows.append(f'faults injected: {len(outcomes)}')
     rows.append(f'reported (as their kind requires): {sum(o.reported for o in outcomes)}')

@@ -27,16 +27,18 @@ __all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isola
 
 
 def processes_with_env(marker: str) -> list[int]:
-    """PIDs (other than this one) whose environment holds marker, e.g. 'KEY=value'.
+    """PIDs (other than this one) whose environment holds the entry marker, 'KEY=value'
+    exactly ('ROS_DOMAIN_ID=1' is not found in a process of domain 12).
 
     Tests put a unique variable in a runner's environment; every node it starts
     inherits it, so leftovers are found even after they were re-parented.
     """
     found = []
+    entry = marker.encode()
     for proc in Path('/proc').iterdir():
         if proc.name.isdigit() and int(proc.name) != os.getpid():
             try:
-                if marker.encode() in (proc / 'environ').read_bytes():
+                if entry in (proc / 'environ').read_bytes().split(b'\0'):
                     found.append(int(proc.name))
             except OSError:
                 continue
