@@ -9,9 +9,10 @@ or endpoint appeared or left for SETTLE s), at least LOOK_AT_LEAST s (on a loade
 machine the first answer of a running graph can take longer than SETTLE) and
 at most DISCOVERY_TIMEOUT s.
 
-Residual race: runs started within one discovery interval of each other both
-find an empty domain; their unbound nodes then find each other and refuse
-(exit 2), never mixed. A graph whose lockstep started is bound to its peers
+Residual race (on one machine a runner's graph_lock refuses the second at
+once): runs started within one discovery interval of each other both find an
+empty domain; their unbound nodes then find each other and refuse (exit 2),
+never mixed. A graph whose lockstep started is bound to its peers
 (drive_common.peer_binding): only the later graph's nodes refuse.
 """
 from __future__ import annotations
