@@ -158,7 +158,7 @@ def test_sigkilled_recorder_bag_is_reindexed_to_what_it_had_flushed(reference_ba
             os.killpg(recorder.pid, signal.SIGKILL)
             killed.set()
 
-    with pytest.raises(RunFailed, match='recorder exited'):
+    with pytest.raises(RunFailed, match='node recorder was killed by SIGKILL'):
         _run(out, 1.0, kill_recorder_mid_run)       # 10 x the reference: still running at the kill
     assert killed.is_set()
     assert not (bag / 'metadata.yaml').exists()
