@@ -2,11 +2,12 @@
 
 Each case runs ``run_scenario`` (graph: plant, controller and recorder as
 processes in a private domain; or ``--headless``) on a short scenario and
-injects one fault at a known sim time, where the graph run is paused
-(``--pause-at``) so the injection never races the simulation: a signal to the controller or the
-recorder, bytes or messages from an outsider on a lockstep topic, a bad
-parameter through the parameter service, or a scenario event that makes the
-drive itself fault (shoot-through, a protection trip). Per case it records
+injects one fault at a known sim time, where a graph run is held
+(``--pause-at``) so the injection never races the simulation: a signal to
+the controller or the recorder, bytes or messages from an outsider on a
+lockstep topic, a bad parameter through the parameter service, or a scenario
+event that makes the drive itself fault (shoot-through, a protection trip).
+Per case it records
 
 - reported: a WARN/ERROR log line of a node, an ERROR/WARN ``/diagnostics``
   status and the run's result (exit code and summary) that name it, as the
