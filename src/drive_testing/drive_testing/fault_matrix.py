@@ -55,6 +55,7 @@ class Injection:
     """What an injector may use during a graph run."""
 
     domain_id: int
+    runner_pid: int                   # the case's run_scenario: its nodes are its children
     node: object                      # an rclpy node in the run's domain
     diagnostics: list
     wait_paused: Callable[[], None]   # until the run is held at INJECT_AT
@@ -62,12 +63,16 @@ class Injection:
     notes: list = field(default_factory=list)
 
     def pid(self, executable: str) -> int:
-        """The pid of the run's node process started as ``executable``."""
+        """The pid of the run's node process started as ``executable`` (a child of this case's
+        runner: a process of an earlier run in the domain, still exiting, is not taken)."""
         from drive_testing.harness import processes_with_env
         for pid in processes_with_env(f'ROS_DOMAIN_ID={self.domain_id}'):
             try:
                 cmdline = Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')
-            except OSError:
+                parent = int(Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[1])
+            except (OSError, ValueError, IndexError):
+                continue
+            if parent != self.runner_pid:
                 continue
             if b'--ros-args' in cmdline and any(part.endswith(executable.encode()) for part in cmdline):
                 return pid
@@ -376,7 +381,7 @@ def _run_graph(command, case: Case, domain_id: int):
     from drive_common import topics
     from drive_common.domain_guard import RUNNER_NODE
     from drive_common.waiting import wait_until
-    from drive_testing.harness import RosSession, isolated_env
+    from drive_testing.harness import RosSession, isolated_env, send_until_answered
     env = isolated_env(domain_id)
     log = tempfile.TemporaryFile(mode='w+')
     runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True, env=env,
@@ -412,13 +417,16 @@ def _run_graph(command, case: Case, domain_id: int):
         wait_paused()
         wait_until(lambda: runner.poll() is not None or reporters_matched(), 60.0,
                    what="the plant's and the controller's /diagnostics publishers")
-        while runner.poll() is None and resume_client.service_is_ready():
-            future = resume_client.call_async(Trigger.Request())
-            if wait_until(lambda: future.done() or runner.poll() is not None, 30.0,
-                          raise_timeout=False) and future.done() and future.result().success:
-                return
+        # The run has gone on once the call is answered or the service (up only while held)
+        # is gone: a reply to a client the brand-new service has not matched yet is lost, and
+        # a lost request is sent again.
+        sent = []
+        send_until_answered(
+            lambda: sent.append(resume_client.call_async(Trigger.Request())),
+            lambda: (runner.poll() is not None or not resume_client.service_is_ready()
+                     or any(f.done() for f in sent)), RUN_TIMEOUT, 2.0, what='the resumed run')
 
-    ctx = Injection(domain_id, node, diagnostics, wait_paused, resume)
+    ctx = Injection(domain_id, runner.pid, node, diagnostics, wait_paused, resume)
     try:
         try:
             if case.inject is not None:
