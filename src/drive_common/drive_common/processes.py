@@ -32,6 +32,17 @@ DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out 
 _LOCK_DIR = Path('/tmp/dtc_drive_ros_domains')
 
 
+def _locked(path: Path) -> tuple[int, bool]:
+    """(descriptor of path, opened or created, whether this process now holds its exclusive
+    lock): a lock file machine-wide, released when the descriptor is closed."""
+    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return fd, False
+    return fd, True
+
+
 @contextmanager
 def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
     """Reserve a ROS_DOMAIN_ID unused by any other holder on this machine.
@@ -55,10 +66,8 @@ def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
     ids.sort(key=recently_used)          # rested ids first, in random order
     for domain_id in ids:
         path = _LOCK_DIR / f'{domain_id}.lock'
-        fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        fd, locked = _locked(path)
+        if not locked:
             os.close(fd)
             continue
         try:
@@ -81,12 +90,9 @@ def graph_lock(domain_id: int, namespace: str = '') -> Iterator[None]:
     """
     from drive_common.domain_guard import RUNNER_NODE, DomainBusy
     _LOCK_DIR.mkdir(parents=True, exist_ok=True)
-    path = _LOCK_DIR / f'graph_{domain_id}{namespace.rstrip("/").replace("/", "_")}.lock'
-    fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
+    fd, locked = _locked(_LOCK_DIR / f'graph_{domain_id}{namespace.rstrip("/").replace("/", "_")}.lock')
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        if not locked:
             holder = os.pread(fd, 32, 0).decode(errors='replace').strip() or 'unknown'
             where = f'ROS domain {domain_id}' + (f', namespace {namespace}' if namespace else '')
             raise DomainBusy(f'run_scenario: {where} already runs a drive graph (nodes: '
