@@ -42,6 +42,10 @@ def test_interrupted_graph_exits_cleanly_every_time(start_node, ros_session, tmp
         bag = tmp_path / f'bag_{attempt}'
         logs = {'log_dir': tmp_path / f'nodes_{attempt}'}
         recorder = start_node('drive_logger', 'recorder', parameters={'output': str(bag)}, **logs)
+        # The hand-started recipe: the plant starts once the recorder is up (a recorder
+        # still importing is not in the graph the plant waits on before its run).
+        wait_until(lambda: 'recorder ready' in recorder.output(), 120.0,
+                   what=f'recorder {attempt} ready')
         controller = start_node('dtc_controller', 'dtc_controller',
                                 parameters={'backemf_table_path': str(BACKEMF_TABLE),
                                             'torque_reference': 0.5}, **logs)

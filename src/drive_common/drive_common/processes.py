@@ -30,6 +30,14 @@ DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out 
 # Machine-wide, as the domain ids are: not under TMPDIR, which a caller may set per run (the
 # tutorial blocks of test_docs do), so that two runs at once never hand out the same id.
 _LOCK_DIR = Path('/tmp/dtc_drive_ros_domains')
+_KEPT: dict[int, int] = {}   # domain id -> lock descriptor, held until this process exits
+
+
+def keep_reserved(domain_id: int) -> None:
+    """Hold domain_id's reservation until this process exits, not just until its
+    :func:`reserve_domain` block ends: for a domain where a participant of this process
+    may outlive the block (a node whose destruction rclpy had to defer)."""
+    _KEPT.setdefault(domain_id, -1)
 
 
 def _locked(path: Path) -> tuple[int, bool]:
@@ -73,9 +81,12 @@ def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
         try:
             yield domain_id
         finally:
-            os.utime(path)               # released now: rests for `cooldown`
-            fcntl.flock(fd, fcntl.LOCK_UN)
-            os.close(fd)
+            if domain_id in _KEPT:
+                _KEPT[domain_id] = fd    # never handed out again while this process lives
+            else:
+                os.utime(path)           # released now: rests for `cooldown`
+                fcntl.flock(fd, fcntl.LOCK_UN)
+                os.close(fd)
         return
     raise RuntimeError('no free ROS domain id in %s' % DOMAIN_RANGE)
 

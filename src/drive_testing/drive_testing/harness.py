@@ -16,7 +16,7 @@ import os
 import time
 from pathlib import Path
 
-from drive_common.processes import (NodeProcess, executable_path, isolated_env, reserve_domain,
+from drive_common.processes import (NodeProcess, executable_path, isolated_env, keep_reserved, reserve_domain,
                                     ros_arguments)
 from drive_common.node_main import spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
@@ -77,15 +77,20 @@ class RosSession:
         """Stop spinning, destroy the nodes and leave the domain, whatever fails on the way: a
         node left alive after its domain is released would be found by the next holder."""
         import rclpy
+        stopped = False
         try:
-            self.executor.shutdown(timeout_sec=2.0)
+            stopped = self.executor.shutdown(timeout_sec=10.0)
         finally:
             try:
                 for node in self._nodes:
                     node.destroy_node()
             finally:
                 rclpy.try_shutdown(context=self.context)
-                self._thread.join(timeout=2.0)
+                self._thread.join(timeout=10.0)
+                if not stopped or self._thread.is_alive():
+                    # The executor still holds a node, whose destruction rclpy then defers:
+                    # its participant stays in the domain, which no later test may be given.
+                    keep_reserved(self.domain_id)
 
     def __enter__(self) -> 'RosSession':
         return self

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from rclpy.parameter import Parameter
 
-from drive_common import topics
+from drive_common import processes, topics
 from drive_testing.fixed_responder import FixedResponder
 from drive_testing.harness import NodeProcess, isolated_env, processes_with_env, reserve_domain, ros_arguments, wait_for_subscribers
 from drive_common.waiting import wait_until
@@ -102,22 +102,40 @@ def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
     assert processes_with_env(marker) == []
 
 
+_LOCK_PROBE = textwrap.dedent('''
+    import fcntl, os, sys
+    from drive_common import processes
+    fd = os.open(processes._LOCK_DIR / f'{sys.argv[1]}.lock', os.O_CREAT | os.O_RDWR, 0o666)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        print('free')
+    except OSError:
+        print('held')
+''')
+
+
+def _held_elsewhere(domain: int, **env) -> bool:
+    """Whether another process finds the lock of domain held."""
+    out = subprocess.run([sys.executable, '-c', _LOCK_PROBE, str(domain)], capture_output=True,
+                         text=True, env=dict(os.environ, **env), timeout=60)
+    assert out.stdout.strip() in ('held', 'free'), out.stdout + out.stderr
+    return out.stdout.strip() == 'held'
+
+
 def test_a_domain_held_here_is_held_for_a_run_with_another_tmpdir(tmp_path):
     """The locks are machine-wide: a program started with its own TMPDIR sees the same ones."""
-    probe = textwrap.dedent('''
-        import fcntl, os, sys
-        from drive_common import processes
-        fd = os.open(processes._LOCK_DIR / f'{sys.argv[1]}.lock', os.O_CREAT | os.O_RDWR, 0o666)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            print('free')
-        except OSError:
-            print('held')
-    ''')
     with reserve_domain() as domain:
-        out = subprocess.run([sys.executable, '-c', probe, str(domain)], capture_output=True, text=True,
-                             env=dict(os.environ, TMPDIR=str(tmp_path)), timeout=60)
-    assert out.stdout.strip() == 'held', out.stdout + out.stderr
+        assert _held_elsewhere(domain, TMPDIR=str(tmp_path))
+
+
+def test_a_kept_domain_stays_reserved_after_its_block():
+    """A session that could not destroy its nodes keeps its domain for the process's life."""
+    with reserve_domain() as released:
+        pass
+    assert not _held_elsewhere(released)
+    with reserve_domain() as kept:
+        processes.keep_reserved(kept)
+    assert _held_elsewhere(kept)
 
 
 def test_a_released_domain_rests_before_reuse():
