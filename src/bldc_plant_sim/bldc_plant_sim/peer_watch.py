@@ -12,11 +12,13 @@ from __future__ import annotations
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 
 from bldc_plant_sim.core.lockstep import ControllerKind
 from bldc_plant_sim.lockstep_loop import CHANNELS, WaitReporter
 from drive_common.domain_guard import wait_for_stable_graph
 from drive_common.lockstep_io import GraphConflict, graph_conflict, readers_matched
+from drive_common.recorder_matching import RecordersMatched
 from drive_common.waiting import wait_until
 
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
@@ -35,7 +37,6 @@ class PeerWatch:
 
     def _watch_graph(self) -> None:
         """Check for a second graph in the domain every GRAPH_CHECK_PERIOD s."""
-        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
         self.create_timer(GRAPH_CHECK_PERIOD, self._check_graph,
                           callback_group=MutuallyExclusiveCallbackGroup())
 
@@ -82,6 +83,19 @@ class PeerWatch:
         """Another publisher on a bound lockstep topic, once (WARN; drive_common.peer_binding)."""
         self._diagnose(DiagnosticStatus.WARN, message, values)
 
+    def _wait_for_recorders(self, outputs, deadline: float) -> None:
+        """Before the first run, until every recorder already in the graph has matched the
+        plant's publishers from its own side (drive_common.recorder_matching)."""
+        matched = RecordersMatched(self, [p.topic_name for p in outputs],
+                                   callback_group=MutuallyExclusiveCallbackGroup())
+        try:
+            if not wait_until(lambda: matched() or self._halted(), max(0.0, deadline - time.monotonic()),
+                              0.01, pause=self._receiver.poll, raise_timeout=False):
+                self.get_logger().warning('recorder(s) ' + ', '.join(matched.waiting_for) + ' had not '
+                                          'matched the plant before the run: they miss its first samples')
+        finally:
+            matched.destroy()
+
     def _wait_for_peers(self, deadline: float, report: WaitReporter) -> str | None:
         """Wait until every required controller is matched; None or the reason it failed."""
         needs = []
@@ -105,7 +119,8 @@ class PeerWatch:
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples; before
         # the first run, discovery of readers started earlier is done once the graph settled.
-        if not self._graph_settled:
+        first_run = not self._graph_settled
+        if first_run:
             settling = time.monotonic()
             if not wait_for_stable_graph(self, stop=lambda: self._halted() is not None):
                 return self._halted() or 'plant shutting down'   # Ctrl-C, shutdown, a second graph
@@ -118,6 +133,8 @@ class PeerWatch:
                           max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
                           raise_timeout=False):
             self.get_logger().warning('some subscribers were not matched before the run')
+        if first_run:
+            self._wait_for_recorders(outputs + [self._clock_pub], deadline)
         for channel in self._scheduled_channels():
             self._sources(channel.kind)          # remembered, should a controller leave mid-run
         conflict = self._graph_conflict()

@@ -34,6 +34,7 @@ from drive_common.namespaces import namespace_arguments, namespace_remappings, n
 from drive_common.processes import NodeProcess, graph_lock, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
+from drive_common.recorder_matching import RecordersMatched
 from dtc_msgs.action import Run
 
 NODE_PROGRAMS = {
@@ -294,29 +295,14 @@ class GraphRunner:
         self._wait_recorder_matched(node, executor, self._recorded(wanted), deadline)
 
     def _wait_recorder_matched(self, node, executor, names: list[str], deadline: float) -> None:
-        """Wait until the recorder's own subscriptions have matched every publisher of names.
-
-        The publishers check their side before sample 0; a subscriber that matches a
-        publisher only after its first samples went out does not get them (volatile).
-        """
-        from dtc_msgs.srv import MatchedPublishers
-        client = node.create_client(MatchedPublishers, topics.RECORDER_MATCHED_SERVICE)
+        """Wait until the recorder's own subscriptions have matched every publisher of names
+        (drive_common.recorder_matching: a volatile subscriber matched late misses samples)."""
+        matched = RecordersMatched(node, names, required=[topics.RECORDER_MATCHED_SERVICE])
         try:
-            self._spin_while_waiting(executor, client.service_is_ready,
-                                     max(0.0, deadline - time.monotonic()), 'the recorder service')
-            counts: list[int] = []
-
-            def matched() -> bool:
-                future = client.call_async(MatchedPublishers.Request(topics=names))
-                executor.spin_until_future_complete(future, timeout_sec=5.0)
-                if future.result() is None:
-                    return False
-                counts[:] = future.result().publishers
-                return all(n >= max(1, node.count_publishers(t)) for t, n in zip(names, counts))
             self._spin_while_waiting(executor, matched, max(0.0, deadline - time.monotonic()),
                                      f'the recorder matched with the publishers of {names}')
         finally:
-            node.destroy_client(client)
+            matched.destroy()
 
     def _set_parameters(self, node, executor, target: str, values: dict) -> None:
         client = self._param_clients[target]
