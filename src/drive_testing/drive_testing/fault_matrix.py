@@ -50,17 +50,64 @@ LOG_LINE = re.compile(r'^\[(WARN|ERROR)\]', re.M)
 EXPECTED = ('fault', 'outsider', 'refused', 'node lost')
 
 
-@dataclass
 class Injection:
-    """What an injector may use during a graph run."""
+    """A graph run held at INJECT_AT, and what an injector may use on it."""
 
-    domain_id: int
-    runner_pid: int                   # the case's run_scenario: its nodes are its children
-    node: object                      # an rclpy node in the run's domain
-    diagnostics: list
-    wait_paused: Callable[[], None]   # until the run is held at INJECT_AT
-    resume: Callable[[], None]        # let the held run go on (once)
-    notes: list = field(default_factory=list)
+    def __init__(self, domain_id: int, runner: subprocess.Popen, node) -> None:
+        """runner: the case's run_scenario (its nodes are its children); node: an rclpy node
+        in the run's domain, spun by its session."""
+        from diagnostic_msgs.msg import DiagnosticArray
+        from std_srvs.srv import Trigger
+        from drive_common import topics
+        from drive_common.domain_guard import RUNNER_NODE
+        self.domain_id, self.runner, self.node = domain_id, runner, node
+        self.runner_pid = runner.pid
+        self.diagnostics: list = []
+        self.notes: list = []
+        self._reader = node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
+                                                lambda m: self.diagnostics.extend(m.status), 100)
+        self._resume_client = node.create_client(Trigger, f'/{RUNNER_NODE}/resume')  # up while held
+        self._resumed = False
+
+    def _ended(self) -> bool:
+        return self.runner.poll() is not None
+
+    def wait_paused(self) -> None:
+        """Until the run is held at INJECT_AT (or has ended)."""
+        from drive_common.waiting import wait_until
+        wait_until(lambda: self._resume_client.service_is_ready() or self._ended(), RUN_TIMEOUT,
+                   what=f'the run held at {INJECT_AT} s')
+
+    def _reporters_matched(self) -> bool:
+        """This reader is matched with every /diagnostics publisher, the plant's and the
+        controller's (the publisher of its commands) among them."""
+        from drive_common import topics
+        reporters = {i.node_name for i in self.node.get_publishers_info_by_topic(topics.DIAGNOSTICS)}
+        controllers = {i.node_name for i in self.node.get_publishers_info_by_topic(topics.GATE_COMMAND)
+                       } - {self.node.get_name()}     # (this injector's own outsider publisher)
+        return (bool(controllers) and {'plant', *controllers} <= reporters
+                and self._reader.get_publisher_count() >= len(reporters))
+
+    def resume(self) -> None:
+        """Once this reader has every /diagnostics publisher (none of the fault's reports is
+        lost to discovery), let the held run go on; at most once, never after its end."""
+        from std_srvs.srv import Trigger
+        from drive_common.waiting import wait_until
+        from drive_testing.harness import send_until_answered
+        if self._resumed:
+            return
+        self._resumed = True
+        self.wait_paused()
+        wait_until(lambda: self._ended() or self._reporters_matched(), 60.0,
+                   what="the plant's and the controller's /diagnostics publishers")
+        # The run has gone on once the call is answered or the service (up only while held)
+        # is gone: a reply to a client the brand-new service has not matched yet is lost, and
+        # a lost request is sent again.
+        sent = []
+        send_until_answered(
+            lambda: sent.append(self._resume_client.call_async(Trigger.Request())),
+            lambda: (self._ended() or not self._resume_client.service_is_ready()
+                     or any(f.done() for f in sent)), RUN_TIMEOUT, 2.0, what='the resumed run')
 
     def pid(self, executable: str) -> int:
         """The pid of the run's node process started as ``executable`` (a child of this case's
@@ -375,58 +422,13 @@ def _run(command, env) -> tuple[int | None, str]:
 
 
 def _run_graph(command, case: Case, domain_id: int):
-    """Start run_scenario in domain_id, inject while it runs, wait for its end."""
-    from diagnostic_msgs.msg import DiagnosticArray
-    from std_srvs.srv import Trigger
-    from drive_common import topics
-    from drive_common.domain_guard import RUNNER_NODE
-    from drive_common.waiting import wait_until
-    from drive_testing.harness import RosSession, isolated_env, send_until_answered
-    env = isolated_env(domain_id)
+    """Start run_scenario in domain_id, inject while it is held, wait for its end."""
+    from drive_testing.harness import RosSession, isolated_env
     log = tempfile.TemporaryFile(mode='w+')
-    runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True, env=env,
-                              start_new_session=True)
+    runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True,
+                              env=isolated_env(domain_id), start_new_session=True)
     session = RosSession(domain_id)
-    node = session.node('fault_injector')
-    diagnostics: list = []
-    diagnostics_reader = node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS,
-                                                  lambda m: diagnostics.extend(m.status), 100)
-    resume_client = node.create_client(Trigger, f'/{RUNNER_NODE}/resume')   # up while held
-
-    def wait_paused() -> None:
-        wait_until(lambda: resume_client.service_is_ready() or runner.poll() is not None,
-                   RUN_TIMEOUT, what=f'the run held at {INJECT_AT} s')
-
-    def reporters_matched() -> bool:
-        """This reader is matched with every /diagnostics publisher, the plant's and the
-        controller's (the publisher of its commands) among them."""
-        reporters = {info.node_name for info in node.get_publishers_info_by_topic(topics.DIAGNOSTICS)}
-        controllers = {info.node_name for info in node.get_publishers_info_by_topic(topics.GATE_COMMAND)
-                       } - {node.get_name()}      # (this injector's own outsider publisher)
-        return (bool(controllers) and {'plant', *controllers} <= reporters
-                and diagnostics_reader.get_publisher_count() >= len(reporters))
-
-    resumed = []
-
-    def resume() -> None:
-        """Once this reader has every /diagnostics publisher (none of the fault's reports is
-        lost to discovery), let the held run go on; at most once, never after its end."""
-        if resumed:
-            return
-        resumed.append(True)
-        wait_paused()
-        wait_until(lambda: runner.poll() is not None or reporters_matched(), 60.0,
-                   what="the plant's and the controller's /diagnostics publishers")
-        # The run has gone on once the call is answered or the service (up only while held)
-        # is gone: a reply to a client the brand-new service has not matched yet is lost, and
-        # a lost request is sent again.
-        sent = []
-        send_until_answered(
-            lambda: sent.append(resume_client.call_async(Trigger.Request())),
-            lambda: (runner.poll() is not None or not resume_client.service_is_ready()
-                     or any(f.done() for f in sent)), RUN_TIMEOUT, 2.0, what='the resumed run')
-
-    ctx = Injection(domain_id, runner.pid, node, diagnostics, wait_paused, resume)
+    ctx = Injection(domain_id, runner, session.node('fault_injector'))
     try:
         try:
             if case.inject is not None:
@@ -443,7 +445,7 @@ def _run_graph(command, case: Case, domain_id: int):
             runner.wait()
             code = None
         deadline = time.monotonic() + 2.0     # diagnostics published at the very end
-        while time.monotonic() < deadline and not diagnostics and case.expect != 'refused':
+        while time.monotonic() < deadline and not ctx.diagnostics and case.expect != 'refused':
             time.sleep(0.05)
     finally:
         for kind, item in ctx.notes:
