@@ -262,11 +262,6 @@ class FrontEnd:
         return _grid_voltage(self.fp, t)
 
     @property
-    def bridge_input_voltage(self) -> float:
-        """V, C2 voltage (filter) or the grid voltage (no filter) at self.time."""
-        return self.v_c if self.filter_enabled else self.grid_voltage(self.time)
-
-    @property
     def rectified_voltage(self) -> float:
         """V, |bridge input| = the rectified line voltage the PFC senses (PfcMeasurement)."""
         return self._value(FK.FV_RECT)

@@ -68,11 +68,6 @@ class Inverter:
             out += [code == UPPER, code == LOWER]
         return tuple(out)
 
-    @staticmethod
-    def dead_time_legs(old, new) -> tuple:
-        """Legs during the dead time after a change old -> new: each turn-on is delayed."""
-        return tuple(n if n == o or n in (OFF, MIDPOINT) else OFF for o, n in zip(old, new))
-
     # ------------------------------------------------------------------ conduction
     def resolve(self, legs, i, e, vp: float, vm: float):
         """Conduction state for phase currents i and EMFs e (constant over a segment).
