@@ -328,3 +328,25 @@ def test_default_recording_takes_the_blocks_and_stays_off_the_lockstep_topics(
     assert [s.step for _, s in viewer] == list(range(0, 400, 40))
     assert [t for t, _ in viewer] == [25_000 * s.step for _, s in viewer]
     assert [s.mechanical_speed for _, s in viewer] == [0.1 * s.step for _, s in viewer]
+
+
+def test_recorders_matched_holds_until_the_recorder_has_matched_the_publisher(ros_session, start_node,
+                                                                             tmp_path):
+    """drive_common.recorder_matching against a real recorder: no recorder, nothing to wait for;
+    a recorder of the topic, until its own subscription has matched the publisher."""
+    from drive_common.recorder_matching import RecordersMatched
+    node = ros_session.node('publisher')
+    matched = RecordersMatched(node, [DRIVE_MEASUREMENT, GATE_COMMAND])
+    assert matched() and matched.waiting_for == []          # no recorder in the graph
+    required = RecordersMatched(node, [DRIVE_MEASUREMENT], required=['recorder/matched_publishers'])
+    assert not required()                                    # the runner's own recorder: not up yet
+    _start_recorder(start_node, tmp_path / 'bag', topics=['drive/measurement'])
+    wait_for_recorder(node, ['drive/measurement'], timeout=30.0)
+    fresh = RecordersMatched(node, [DRIVE_MEASUREMENT, GATE_COMMAND])
+    assert not fresh() and fresh.waiting_for == ['/recorder/matched_publishers']   # no publisher yet
+    pub = node.create_publisher(DriveMeasurement, DRIVE_MEASUREMENT, LOCKSTEP_QOS)
+    wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, what='the recorder, from our side')
+    wait_until(fresh, 30.0, what='the recorder matched the publisher from its side')
+    wait_until(required, 30.0, what='the required recorder answered')
+    for check in (matched, required, fresh):
+        check.destroy()
