@@ -45,6 +45,14 @@ def processes_with_env(marker: str) -> list[int]:
     return found
 
 
+def _still_alive(node) -> bool:
+    """Whether rclpy deferred node's destruction (its handle was in use when destroyed)."""
+    try:
+        return bool(node.handle.pointer)
+    except Exception:       # InvalidHandle: destroyed
+        return False
+
+
 class RosSession:
     """An rclpy context in one domain with an executor spinning in a thread.
 
@@ -87,9 +95,9 @@ class RosSession:
             finally:
                 rclpy.try_shutdown(context=self.context)
                 self._thread.join(timeout=10.0)
-                if not stopped or self._thread.is_alive():
-                    # The executor still holds a node, whose destruction rclpy then defers:
-                    # its participant stays in the domain, which no later test may be given.
+                if not stopped or self._thread.is_alive() or any(map(_still_alive, self._nodes)):
+                    # Something still holds a node, whose destruction rclpy then defers: its
+                    # participant stays in the domain, which no later test may be given.
                     keep_reserved(self.domain_id)
 
     def __enter__(self) -> 'RosSession':

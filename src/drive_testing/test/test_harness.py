@@ -11,7 +11,8 @@ from rclpy.parameter import Parameter
 
 from drive_common import processes, topics
 from drive_testing.fixed_responder import FixedResponder
-from drive_testing.harness import NodeProcess, isolated_env, processes_with_env, reserve_domain, ros_arguments, wait_for_subscribers
+from drive_testing.harness import (NodeProcess, RosSession, isolated_env, processes_with_env, reserve_domain,
+                                   ros_arguments, wait_for_subscribers)
 from drive_common.waiting import wait_until
 
 
@@ -136,6 +137,17 @@ def test_a_kept_domain_stays_reserved_after_its_block():
     with reserve_domain() as kept:
         processes.keep_reserved(kept)
     assert _held_elsewhere(kept)
+
+
+def test_a_session_whose_node_outlives_close_keeps_its_domain():
+    """A node in use while the session closes is destroyed later by rclpy: its participant
+    stays in the domain, so the domain stays reserved."""
+    with reserve_domain() as domain:
+        session = RosSession(domain)
+        node = session.node('in_use_at_close')
+        with node.handle:                  # as a callback still running would hold it
+            session.close()
+    assert _held_elsewhere(domain)
 
 
 def test_a_released_domain_rests_before_reuse():
