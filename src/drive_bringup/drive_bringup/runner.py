@@ -176,7 +176,7 @@ class GraphRunner:
         if recorder is not None:
             code = recorder.stop(timeout=60.0)
             if code not in (0, None):
-                self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-2000:]}')
+                self.progress(f'warning: recorder exited with {code}:\n{recorder.output()[-8000:]}')
         for key, process in self.processes.items():
             if key != 'recorder':
                 process.stop()

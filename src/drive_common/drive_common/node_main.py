@@ -12,9 +12,14 @@ prints its traceback and ends the process with exit 1, as an rclpy node whose
 callback raises does. The node leaves the graph, so nothing keeps waiting on
 a node that will never answer (the plant applies the safe state once its
 command timeout has passed).
+
+A node that does not stop can be asked where it is: SIGUSR1 prints the stack
+of every thread to stderr (:data:`STACK_DUMP_SIGNAL`; drive_common.processes
+sends it before it escalates from SIGINT).
 """
 from __future__ import annotations
 
+import faulthandler
 import os
 import signal
 import sys
@@ -24,6 +29,9 @@ from typing import Callable
 from drive_common.node_help import print_node_help, wants_help
 from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
+
+
+STACK_DUMP_SIGNAL = signal.SIGUSR1
 
 
 def fail(reason: object, code: int = 2) -> int:
@@ -76,6 +84,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
             read_params_file(path)
     except ParameterFileError as exc:
         return fail(exc)
+    faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())

@@ -25,12 +25,26 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
+from drive_common.node_main import STACK_DUMP_SIGNAL
+
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
 # Machine-wide, as the domain ids are: not under TMPDIR, which a caller may set per run (the
 # tutorial blocks of test_docs do), so that two runs at once never hand out the same id.
 _LOCK_DIR = Path('/tmp/dtc_drive_ros_domains')
 _KEPT: dict[int, int] = {}   # domain id -> lock descriptor, held until this process exits
+
+
+def catches_signal(pid: int, sig: int) -> bool:
+    """Whether process pid has a handler for sig (Linux: SigCgt of /proc/pid/status)."""
+    try:
+        with open(f'/proc/{pid}/status') as status:
+            for line in status:
+                if line.startswith('SigCgt:'):
+                    return bool(int(line.split()[1], 16) >> (sig - 1) & 1)
+    except OSError:
+        pass
+    return False
 
 
 def keep_reserved(domain_id: int) -> None:
@@ -228,10 +242,17 @@ class NodeProcess:
             pass
 
     def stop(self, timeout: float = 5.0) -> int | None:
-        """Stop the node (SIGINT, then SIGTERM, then SIGKILL); return its exit code."""
+        """Stop the node (SIGINT, then SIGTERM, then SIGKILL); return its exit code.
+
+        A drive node still running timeout s after SIGINT is first asked for the
+        stacks of its threads (drive_common.node_main.STACK_DUMP_SIGNAL, into its
+        output): where it hangs is then on record.
+        """
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
             if self.process.poll() is not None:
                 break
+            if sig != signal.SIGINT and catches_signal(self.process.pid, STACK_DUMP_SIGNAL):
+                os.kill(self.process.pid, STACK_DUMP_SIGNAL)
             self._signal_group(sig)
             try:
                 self.process.wait(timeout=timeout)

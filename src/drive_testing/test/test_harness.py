@@ -78,6 +78,29 @@ def test_node_process_stops_and_leaves_nothing(ros_domain, tmp_path):
     assert not process.alive() and processes_with_env(marker) == []
 
 
+def test_a_drive_node_that_ignores_sigint_leaves_its_stacks_in_its_output(ros_domain, tmp_path):
+    """stop() asks a node still running after SIGINT where it is (faulthandler, registered by
+    run_node for every drive node) before it escalates."""
+    from drive_common.node_main import STACK_DUMP_SIGNAL
+    node = NodeProcess('drive_testing', 'message_echo', env=isolated_env(ros_domain), log_dir=tmp_path)
+    wait_until(lambda: processes.catches_signal(node.pid, STACK_DUMP_SIGNAL), 30.0,
+               what='the node registered its stack dump')
+    stuck = NodeProcess('stuck', 'stuck', log_dir=tmp_path, argv=[sys.executable, '-c', textwrap.dedent("""
+        import faulthandler, signal, time
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        print('ready', flush=True)
+        def parked_in_here():
+            time.sleep(600)
+        parked_in_here()
+        """)])
+    wait_until(lambda: 'ready' in stuck.output(), 30.0, what='the stuck process')
+    stuck.stop(timeout=1.0)
+    assert not stuck.alive()
+    assert 'parked_in_here' in stuck.output() and 'most recent call first' in stuck.output()
+    node.stop()
+
+
 @pytest.mark.ros
 def test_start_node_fixture_tears_down_when_the_test_fails(tmp_path):
     """A failing test that started a node leaves no process behind."""
