@@ -9,6 +9,7 @@ core dump), logs nothing at ERROR, and the recorder leaves a bag a strict reader
 import os
 import random
 import signal
+import subprocess
 import time
 from pathlib import Path
 
@@ -61,7 +62,12 @@ def test_interrupted_graph_exits_cleanly_every_time(start_node, ros_session, tmp
         for process in graph:
             os.killpg(process.pid, sig)           # its process group, as a terminal does
         for process in graph:
-            code = process.process.wait(timeout=60)
+            try:
+                code = process.process.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                process.stop()                    # its thread stacks go to its output first
+                pytest.fail(f'{attempt} {sig.name}: {process.executable} did not exit within 60 s:\n'
+                            f'{process.output()[-8000:]}')
             assert code == 0, (attempt, sig.name, process.executable, process.output()[-3000:])
             # A clean interrupt is not an error: nothing logged at ERROR (the run's end at INFO).
             errors = [line for line in process.output().splitlines() if '[ERROR]' in line]
