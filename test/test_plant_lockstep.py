@@ -138,7 +138,7 @@ def test_blocks_carry_every_sample_bit_exact_across_holds(start_node, ros_sessio
                what='the partial block flushed at the hold')
     assert client.blocks[-1].count == 125 % 7                # 17 full blocks + the partial one
     assert client.run(0.001, relative=True).success          # hold at step 164
-    wait_until(lambda: client.states[-1].step == 164, 10.0, what='the second partial block')
+    wait_until(lambda: client.states and client.states[-1].step == 164, 30.0, what='the second partial block')
 
     # Every sample once, in order: none lost, none doubled by the hold.
     assert [s.step for s in client.states] == list(range(165))
@@ -163,7 +163,7 @@ def test_run_action_stops_exactly_and_holds(start_node, ros_session):
     wait_until(lambda: client.states and client.states[-1].step == 124, 10.0, what='state at the first hold')
     second = client.run(0.001, relative=True)
     assert second.success and second.final_step == 164
-    wait_until(lambda: client.states[-1].step == 164, 10.0, what='state at the target')
+    wait_until(lambda: client.states and client.states[-1].step == 164, 30.0, what='state at the target')
     time.sleep(0.5)
     assert client.states[-1].step == 164                       # held: nothing after the target
 
@@ -185,7 +185,7 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
     assert not result.success and 'safe state' in result.message
     assert result.final_step == 8000               # went on to the target, switches off
     assert time.monotonic() - started < 100.0, 'plant hung instead of timing out'
-    wait_until(lambda: client.states[-1].step == 8000, 10.0, what='last state')
+    wait_until(lambda: client.states and client.states[-1].step == 8000, 30.0, what='last state')
     state = client.states[-1]
     assert state.safe_state and state.protection & PlantState.PROTECTION_COMMAND_TIMEOUT
     assert not any(state.applied_switch_on)
@@ -208,7 +208,7 @@ def test_gate_command_for_the_wrong_inverter_is_refused_with_safe_state(start_no
     result = client.run(0.002)
     assert not result.success and '4-switch inverter' in result.message
     assert result.message.count('safe state at') == 1          # reported once, not every sample
-    wait_until(lambda: client.states[-1].step == 80, 10.0, what='last state')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 30.0, what='last state')
     assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
 
 
@@ -216,7 +216,7 @@ def test_computation_delay_through_ros_equals_headless(start_node, ros_session):
     _start_graph(start_node, {'computation_delay': True})
     client = PlantClient(ros_session)
     assert client.run(0.002).success
-    wait_until(lambda: client.states[-1].step == 80, 10.0, what='last state')
+    wait_until(lambda: client.states and client.states[-1].step == 80, 30.0, what='last state')
     plant = PlantCore({**PLANT, 'computation_delay': True})
     trajectory = CoSimulation(plant, FixedGateCore(PATTERN), record_every=1).run(steps=80)
     by_step = {s.step: s for s in client.states}
@@ -267,7 +267,7 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     result = client.run(0.004)                 # reached, but a tripped run is not a good one
     assert not result.success and result.final_step == 160 and result.fault_count == 1
     assert result.end_state.startswith('ended in fault state motor_over_current'), result.end_state
-    wait_until(lambda: client.states[-1].step == 160, 10.0, what='last state')
+    wait_until(lambda: client.states and client.states[-1].step == 160, 30.0, what='last state')
     tripped = client.states[-1]
     assert tripped.protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT
     assert not any(tripped.applied_switch_on)
