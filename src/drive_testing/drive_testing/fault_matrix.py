@@ -137,13 +137,18 @@ class Injection:
         from drive_common.waiting import wait_until
         self.wait_paused()
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
-        wait_until(lambda: pub.get_subscription_count() >= 1, 30.0, what=f'a reader of {topic}')
+        # every reader the graph has (the plant's and the recorder's): matched with one only,
+        # the other would miss what is sent before its side matched
+        wait_until(lambda: pub.get_subscription_count() >= max(1, self.node.count_subscribers(topic)),
+                   30.0, what=f'the readers of {topic}')
         half = len(messages) // 2
         for index, msg in enumerate(messages):
             if index == half:
                 self.resume()
             pub.publish(msg)
             time.sleep(period)    # an outsider's pace, not a synchronisation
+        from rclpy.duration import Duration
+        pub.wait_for_all_acked(Duration(seconds=10.0))   # delivered, not dropped with the publisher
         self.node.destroy_publisher(pub)
 
     def set_parameter(self, node_name: str, name: str, value) -> tuple[bool, str]:
