@@ -134,12 +134,13 @@ class Injection:
         the graph however loaded the machine is.
         """
         from drive_common import topics
+        from drive_common.lockstep_io import readers_matched
         from drive_common.waiting import wait_until
         self.wait_paused()
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
         # every reader the graph has (the plant's and the recorder's): matched with one only,
         # the other would miss what is sent before its side matched
-        wait_until(lambda: pub.get_subscription_count() >= max(1, self.node.count_subscribers(topic)),
+        wait_until(lambda: pub.get_subscription_count() >= 1 and readers_matched(self.node, [pub]),
                    30.0, what=f'the readers of {topic}')
         half = len(messages) // 2
         for index, msg in enumerate(messages):
