@@ -82,6 +82,10 @@ class PlantClient:
         """The Run.Result of a goal (ValueError if rejected, WaitTimeout if no result in timeout s)."""
         return run_to(self.action, target, relative=relative, timeout=timeout)
 
+    def reached(self, step: int) -> bool:
+        """Whether the last state received so far is the one of step (none received: False)."""
+        return bool(self.states) and self.states[-1].step == step
+
     def set(self, **values):
         changes = [Parameter(k, value=v) for k, v in values.items()]
         return _answer(lambda: self.params.set_parameters(changes), 'set_parameters').results
@@ -105,7 +109,7 @@ def test_ros_graph_equals_headless_loop_sample_for_sample(start_node, ros_sessio
     result = client.run(0.01)
     assert result.success, result.message
     assert result.final_step == 400 and result.final_time == pytest.approx(0.01, abs=1e-12)
-    wait_until(lambda: client.states and client.states[-1].step == 400, 10.0, what='last state')
+    wait_until(lambda: client.reached(400), 10.0, what='last state')
 
     plant = PlantCore(PLANT)
     cosim = CoSimulation(plant, FixedGateCore(PATTERN), record_every=1)
@@ -134,11 +138,11 @@ def test_blocks_carry_every_sample_bit_exact_across_holds(start_node, ros_sessio
     _start_graph(start_node, {'telemetry.block_size': 7, 'telemetry.live_period': 250e-6})
     client = PlantClient(ros_session)
     assert client.run(0.0031).success                       # hold at step 124
-    wait_until(lambda: client.states and client.states[-1].step == 124, 10.0,
+    wait_until(lambda: client.reached(124), 10.0,
                what='the partial block flushed at the hold')
     assert client.blocks[-1].count == 125 % 7                # 17 full blocks + the partial one
     assert client.run(0.001, relative=True).success          # hold at step 164
-    wait_until(lambda: client.states and client.states[-1].step == 164, 30.0, what='the second partial block')
+    wait_until(lambda: client.reached(164), 30.0, what='the second partial block')
 
     # Every sample once, in order: none lost, none doubled by the hold.
     assert [s.step for s in client.states] == list(range(165))
@@ -160,10 +164,10 @@ def test_run_action_stops_exactly_and_holds(start_node, ros_session):
     client = PlantClient(ros_session)
     first = client.run(0.0031)
     assert first.success and first.final_step == 124          # 0.0031 / 25 us
-    wait_until(lambda: client.states and client.states[-1].step == 124, 10.0, what='state at the first hold')
+    wait_until(lambda: client.reached(124), 10.0, what='state at the first hold')
     second = client.run(0.001, relative=True)
     assert second.success and second.final_step == 164
-    wait_until(lambda: client.states and client.states[-1].step == 164, 30.0, what='state at the target')
+    wait_until(lambda: client.reached(164), 30.0, what='state at the target')
     time.sleep(0.5)
     assert client.states[-1].step == 164                       # held: nothing after the target
 
@@ -185,7 +189,7 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
     assert not result.success and 'safe state' in result.message
     assert result.final_step == 8000               # went on to the target, switches off
     assert time.monotonic() - started < 100.0, 'plant hung instead of timing out'
-    wait_until(lambda: client.states and client.states[-1].step == 8000, 30.0, what='last state')
+    wait_until(lambda: client.reached(8000), 30.0, what='last state')
     state = client.states[-1]
     assert state.safe_state and state.protection & PlantState.PROTECTION_COMMAND_TIMEOUT
     assert not any(state.applied_switch_on)
@@ -208,7 +212,7 @@ def test_gate_command_for_the_wrong_inverter_is_refused_with_safe_state(start_no
     result = client.run(0.002)
     assert not result.success and '4-switch inverter' in result.message
     assert result.message.count('safe state at') == 1          # reported once, not every sample
-    wait_until(lambda: client.states and client.states[-1].step == 80, 30.0, what='last state')
+    wait_until(lambda: client.reached(80), 30.0, what='last state')
     assert client.states[-1].safe_state and not any(client.states[-1].applied_switch_on)
 
 
@@ -216,7 +220,7 @@ def test_computation_delay_through_ros_equals_headless(start_node, ros_session):
     _start_graph(start_node, {'computation_delay': True})
     client = PlantClient(ros_session)
     assert client.run(0.002).success
-    wait_until(lambda: client.states and client.states[-1].step == 80, 30.0, what='last state')
+    wait_until(lambda: client.reached(80), 30.0, what='last state')
     plant = PlantCore({**PLANT, 'computation_delay': True})
     trajectory = CoSimulation(plant, FixedGateCore(PATTERN), record_every=1).run(steps=80)
     by_step = {s.step: s for s in client.states}
@@ -267,7 +271,7 @@ def test_peak_current_trip_latches_until_the_reset_service(start_node, ros_sessi
     result = client.run(0.004)                 # reached, but a tripped run is not a good one
     assert not result.success and result.final_step == 160 and result.fault_count == 1
     assert result.end_state.startswith('ended in fault state motor_over_current'), result.end_state
-    wait_until(lambda: client.states and client.states[-1].step == 160, 30.0, what='last state')
+    wait_until(lambda: client.reached(160), 30.0, what='last state')
     tripped = client.states[-1]
     assert tripped.protection & PlantState.PROTECTION_MOTOR_OVER_CURRENT
     assert not any(tripped.applied_switch_on)
