@@ -42,14 +42,28 @@ def fail(reason: object, code: int = 2) -> int:
 
 
 def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
-    """A started daemon thread that spins executor until its context shuts down."""
+    """A started daemon thread that spins executor until it or its context shuts down.
+
+    An entity that another thread destroys while the executor builds its wait set
+    makes rclpy raise InvalidHandle there; the thread spins on (the next wait leaves
+    the entity out) instead of dying and leaving every other entity unserved.
+    """
     from rclpy.executors import ExternalShutdownException
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
     def spin() -> None:
-        try:
-            executor.spin()
-        except ExternalShutdownException:
-            pass
+        while True:
+            try:
+                executor.spin()
+                return
+            except ExternalShutdownException:
+                return
+            except _rclpy.InvalidHandle:
+                for node in executor.get_nodes():      # a destroyed node is waited on no more
+                    try:
+                        node.handle.pointer
+                    except _rclpy.InvalidHandle:
+                        executor.remove_node(node)
     thread = threading.Thread(target=spin, daemon=True, name=name)
     thread.start()
     return thread

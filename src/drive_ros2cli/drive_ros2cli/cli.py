@@ -12,11 +12,13 @@ and turns into exit code 1).
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import importlib
 import os
 import signal
 import sys
 
+from drive_common.node_main import STACK_DUMP_SIGNAL
 from drive_ros2cli.errors import CliError
 
 COMMANDS = ('action', 'bag', 'interface', 'node', 'param', 'pkg', 'run', 'service', 'topic')
@@ -55,6 +57,7 @@ def make_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = make_parser()
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
+    faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)   # where a stuck verb hangs
     try:
         return int(args.main(args) or 0)
     except CliError as exc:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from drive_common.node_main import STACK_DUMP_SIGNAL
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain, wait_until
 
 ROS2 = shutil.which('ros2')
@@ -71,8 +72,17 @@ class Streaming:
         return self.output()
 
     def interrupt(self, timeout: float = 30.0) -> int:
+        """Ctrl-C; the exit code. A command still running after timeout s fails the test
+        with the stacks of its threads (the CLI dumps them on STACK_DUMP_SIGNAL)."""
         os.killpg(self.process.pid, signal.SIGINT)
-        return self.process.wait(timeout=timeout)
+        try:
+            return self.process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.kill(self.process.pid, STACK_DUMP_SIGNAL)
+            wait_until(lambda: 'most recent call first' in self.output(), 10.0, what='the stuck command\'s stacks')
+            os.killpg(self.process.pid, signal.SIGKILL)
+            raise AssertionError(f'{self.process.args} still running {timeout:g} s after SIGINT:\n'
+                                 f'{self.output()[-6000:]}') from None
 
 
 @pytest.fixture

@@ -81,6 +81,11 @@ class RosSession:
         self.executor.add_node(node)
         return node
 
+    @property
+    def spinning(self) -> bool:
+        """Whether the executor's thread still runs."""
+        return self._thread.is_alive()
+
     def close(self) -> None:
         """Stop spinning, destroy the nodes and leave the domain, whatever fails on the way: a
         node left alive after its domain is released would be found by the next holder."""

@@ -179,3 +179,26 @@ def test_a_released_domain_rests_before_reuse():
         pass
     with reserve_domain() as second:
         assert second != first        # lingering participants of `first` cannot be matched
+
+
+@pytest.mark.ros
+def test_a_session_spins_on_when_another_thread_destroys_an_entity_mid_wait(ros_session):
+    """Destroying a publisher while the executor builds its wait set raises InvalidHandle in
+    the spinning thread (rclpy); the session keeps serving its other entities."""
+    from std_msgs.msg import String
+    node = ros_session.node('churn')
+    received = []
+    node.create_subscription(String, 'kept', received.append, 10)
+    talker = node.create_publisher(String, 'kept', 10)
+    # Many waitables (each publisher's event handlers) widen the window in which the executor
+    # has listed the churned publisher's handlers but not yet marked them in use; each creation
+    # wakes the executor into that window.
+    for i in range(300):
+        node.create_publisher(String, f'other_{i}', 10)
+    for _ in range(3000):
+        node.destroy_publisher(node.create_publisher(String, 'churned', 10))
+    assert ros_session.spinning
+    wait_until(lambda: talker.get_subscription_count() >= 1, 30.0, what='the kept subscription')
+    talker.publish(String(data='still served'))
+    wait_until(lambda: received, 30.0, what='a message on the kept topic')
+    assert received[0].data == 'still served'
