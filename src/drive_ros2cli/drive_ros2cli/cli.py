@@ -58,6 +58,9 @@ def main(argv=None) -> int:
     parser = make_parser()
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)   # where a stuck verb hangs
+    # Ctrl-C ends a verb even when a non-interactive shell started it in the background,
+    # which leaves SIGINT ignored (Python then keeps it ignored).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return int(args.main(args) or 0)
     except CliError as exc:

@@ -2,8 +2,14 @@
 
 - an unknown command or verb, a missing or wrong argument: usage on stderr, exit 2;
 - `interface list|show`, `pkg list|executables`, `run` against the installed packages;
-- the parameter YAML keeps floats floats (1e-06) and arrays lists both ways.
+- the parameter YAML keeps floats floats (1e-06) and arrays lists both ways;
+- a streaming verb started in a script's background still ends on SIGINT.
 """
+import os
+import shutil
+import signal
+import subprocess
+
 import pytest
 import yaml
 
@@ -138,3 +144,30 @@ def test_pkg_create_controller_template_and_bad_input(ros2_offline, tmp_path):
                           (('--build-type', 'ament_python', 'test'), "can't be named 'test'")]:
         result = ros2_offline('pkg', 'create', '--destination-directory', str(tmp_path), *args)
         assert result.code == 1 and message in result.err and 'Traceback' not in result.err
+
+
+def test_a_verb_started_in_a_scripts_background_ends_on_sigint(ros2_offline):
+    """A non-interactive shell starts a background job with SIGINT ignored: Ctrl-C's signal
+    still ends the verb, with upstream's code 2."""
+    script = (f'"{shutil.which("ros2")}" topic pub -r 5 /background std_msgs/msg/String & echo "pid $!"; '
+              'wait $!; echo "exit $?"')
+    shell = subprocess.Popen(['bash', '-c', script], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             text=True, env=ros2_offline.env)
+    lines = []
+    try:
+        for line in shell.stdout:          # until the loop runs (or EOF: the verb failed)
+            lines.append(line)
+            if line.startswith('pid '):
+                pid = int(line.split()[1])
+            if 'publisher: beginning loop' in line:
+                os.kill(pid, signal.SIGINT)
+                break
+        try:
+            lines.append(shell.communicate(timeout=60)[0])
+        except subprocess.TimeoutExpired:
+            pytest.fail(f'still publishing 60 s after SIGINT:\n{"".join(lines)}')
+    finally:
+        if shell.poll() is None:
+            os.kill(pid, signal.SIGKILL)
+            shell.kill()
+    assert 'exit 2' in ''.join(lines), ''.join(lines)
