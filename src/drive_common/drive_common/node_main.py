@@ -41,6 +41,16 @@ def fail(reason: object, code: int = 2) -> int:
     return code
 
 
+def node_alive(node) -> bool:
+    """Whether node's rcl handle is still valid (destroy_node not called, or deferred by rclpy
+    because the handle was in use)."""
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    try:
+        return bool(node.handle.pointer)
+    except _rclpy.InvalidHandle:
+        return False
+
+
 def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
     """A started daemon thread that spins executor until it or its context shuts down.
 
@@ -60,9 +70,7 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
                 return
             except _rclpy.InvalidHandle:
                 for node in executor.get_nodes():      # a destroyed node is waited on no more
-                    try:
-                        node.handle.pointer
-                    except _rclpy.InvalidHandle:
+                    if not node_alive(node):
                         executor.remove_node(node)
     thread = threading.Thread(target=spin, daemon=True, name=name)
     thread.start()

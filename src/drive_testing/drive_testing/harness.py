@@ -18,7 +18,7 @@ from pathlib import Path
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, keep_reserved, reserve_domain,
                                     ros_arguments)
-from drive_common.node_main import spin_in_background
+from drive_common.node_main import node_alive, spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
 __all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
@@ -43,14 +43,6 @@ def processes_with_env(marker: str) -> list[int]:
             except OSError:
                 continue
     return found
-
-
-def _still_alive(node) -> bool:
-    """Whether rclpy deferred node's destruction (its handle was in use when destroyed)."""
-    try:
-        return bool(node.handle.pointer)
-    except Exception:       # InvalidHandle: destroyed
-        return False
 
 
 class RosSession:
@@ -100,7 +92,7 @@ class RosSession:
             finally:
                 rclpy.try_shutdown(context=self.context)
                 self._thread.join(timeout=10.0)
-                if not stopped or self._thread.is_alive() or any(map(_still_alive, self._nodes)):
+                if not stopped or self._thread.is_alive() or any(map(node_alive, self._nodes)):
                     # Something still holds a node, whose destruction rclpy then defers: its
                     # participant stays in the domain, which no later test may be given.
                     keep_reserved(self.domain_id)
