@@ -93,7 +93,6 @@ class PeerWatch:
                               0.01, pause=self._receiver.poll, raise_timeout=False):
                 self.get_logger().warning('recorder(s) ' + ', '.join(matched.waiting_for) + ' had not '
                                           'matched the plant before the run: they miss its first samples')
-            self.get_logger().info(f'DEBUG recorders done {sorted(matched._done)} pending {list(matched._pending)}')
         finally:
             matched.destroy()
 
