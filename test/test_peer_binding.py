@@ -195,3 +195,41 @@ def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, 
     from drive_analysis.bag_columns import load_columns
     assert load_columns(str(tmp_path / 'drive1' / 'bag'))['/plant/state']['step'].size == \
         len(alone['/plant/state'])
+
+
+def test_an_intruder_that_sent_and_left_is_still_reported(ros_session, ros_domain):
+    """Messages taken after their publisher left the graph (a loaded receiver) are reported:
+    named by the intruder node's other endpoints, or by gid when the run ends (flush)."""
+    from drive_common.peer_binding import PeerBinding
+    from drive_testing.harness import RosSession
+    reports = []
+    listener = ros_session.node('binding_listener')
+    binding = PeerBinding(listener, '/bound/command', '/bound/measurement',
+                          report=lambda message, values: reports.append(values))
+    outsider = RosSession(ros_domain)       # its own DDS participant, as another process
+    try:
+        node = outsider.node('hit_and_run')
+        pub = node.create_publisher(GateCommand, '/bound/command', topics.LOCKSTEP_QOS)
+
+        def gids():
+            return [bytes(i.endpoint_gid) for i in listener.get_publishers_info_by_topic('/bound/command')
+                    if i.node_name == 'hit_and_run']
+        wait_until(lambda: gids(), 30.0, what="the outsider's publisher in the graph")
+        gid = gids()[0]
+        node.destroy_publisher(pub)
+        wait_until(lambda: not listener.get_publishers_info_by_topic('/bound/command'), 30.0,
+                   what='the publisher gone from the graph')
+        assert binding.accepts(gid) is False
+        assert [r['intruder'] for r in reports] == ['/hit_and_run'], reports
+        assert binding.accepts(gid) is False and len(reports) == 1, 'reported once'
+    finally:
+        outsider.close()
+    stranger = bytes(range(1, 17))          # a participant the graph never knew
+    assert binding.accepts(stranger) is False
+    binding.check()
+    assert len(reports) == 1, 'nothing to name it by yet: kept, not reported by a guess'
+    binding.flush()
+    assert reports[-1]['intruder'] == f'an undiscovered node (publisher gid {stranger.hex()})', reports
+    assert reports[-1]['intruder_gid'] == stranger.hex()
+    binding.flush()
+    assert len(reports) == 2, 'reported once'

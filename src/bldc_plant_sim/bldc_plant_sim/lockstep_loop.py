@@ -281,6 +281,8 @@ class LockstepLoop:
         finally:
             if not self._interrupted():      # (publishing fails once the context is shut down)
                 self.faults.flush()
+                for channel in self._channels.values():
+                    channel.inbox.binding.flush()    # an intruder that sent and left, by gid
             self.last_run_end = run_end(self.core, faults_before)
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.

@@ -146,8 +146,8 @@ class LockstepControllerNode(Node):
 
     def _check_graph(self) -> None:
         """Bound to a plant: report intruders; else a second graph in the domain: exit 2."""
+        self._binding.check()
         if self._binding.bound:
-            self._binding.check()
             return
         reason = not self._stop.is_set() and (self._conflict or self._graph_conflict())
         if reason:
@@ -165,6 +165,7 @@ class LockstepControllerNode(Node):
         self._stop.set()
         self._thread.join(timeout=STOP_WAIT)
         try:
+            self._binding.flush()        # an intruder that sent and left, by gid
             self._telemetry.flush()
         except Exception:  # noqa: BLE001 - the context may already be shut down
             pass

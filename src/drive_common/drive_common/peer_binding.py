@@ -8,6 +8,9 @@ takes, a controller the measurement topic to the publisher of the first
 measurement. Only a lockstep counterpart (it also subscribes to this side's
 topic) can be bound; every other publisher is then ignored and reported once
 (``/diagnostics`` WARN and the log), until the bound publisher leaves the graph.
+An intruder whose publisher the graph does not name (yet, or any more: it sent
+and left) is named by its node's other endpoints, or reported by gid when the
+run ends (:meth:`PeerBinding.flush`): never dropped unreported.
 
 rclpy gives no publisher per message, so :class:`IdentifiedTake` calls rcl's
 ``rcl_take_serialized_message`` through ctypes (``publisher_gid`` =
@@ -136,6 +139,7 @@ class PeerBinding:
         self.peer_name = ''
         self._me = (node.get_name(), node.get_namespace())
         self._reported: set[bytes] = set()
+        self._unnamed: dict[bytes, str] = {}    # gid -> topic: ignored, not reported yet
         self.intruders: list[str] = []           # node names reported, in order
 
     @property
@@ -152,14 +156,17 @@ class PeerBinding:
                 with self._lock:
                     self.peer, self.peer_name = gid, name
                     self._reported.discard(gid)
+                    self._unnamed.pop(gid, None)
                 self._node.get_logger().info(f'lockstep peer on {self.received}: {name}')
                 return True
-        if gid not in self._reported:
-            self._intruder(gid, self.received, self._publisher_name(self.received, gid))
+        if gid not in self._reported and gid not in self._unnamed:
+            self._intruder(gid, self.received, self._name_of(self.received, gid), heard=True)
         return False
 
     def check(self) -> None:
         """Periodic: end the binding if the peer left the graph; report new intruders."""
+        for gid, topic in list(self._unnamed.items()):
+            self._intruder(gid, topic, self._name_of(topic, gid), heard=True)
         if self.peer is None:
             return
         publishers = {t: self._node.get_publishers_info_by_topic(t) for t in self.watched}
@@ -179,6 +186,13 @@ class PeerBinding:
                 if ((i.node_name, i.node_namespace) != self._me and gid != self.peer
                         and gid not in self._reported):
                     self._intruder(gid, topic, endpoint_name(i))
+
+    def flush(self) -> None:
+        """The end of a run: every intruder still unnamed is reported now, by its gid."""
+        for gid, topic in list(self._unnamed.items()):
+            name = self._name_of(topic, gid)
+            self._intruder(gid, topic, name if self._named(name) else f'{UNDISCOVERED} (publisher '
+                           f'gid {gid.hex()})', final=True)
 
     def release(self) -> None:
         """Forget the peer (the node may bind another one)."""
@@ -204,14 +218,42 @@ class PeerBinding:
                 return endpoint_name(i)
         return UNDISCOVERED
 
-    def _intruder(self, gid: bytes, topic: str, name: str) -> None:
-        """Report an intruder once: log and diagnostic, both with its node name (an endpoint
-        whose node is not known yet is reported later, by name)."""
-        if name == UNDISCOVERED or UNKNOWN_NODE in name:
-            return
+    @staticmethod
+    def _named(name: str) -> bool:
+        return name != UNDISCOVERED and UNKNOWN_NODE not in name
+
+    def _name_of(self, topic: str, gid: bytes) -> str:
+        """The node of publisher gid on topic; if the graph does not name it (it left, or is
+        not discovered yet), the node(s) of any endpoint of the same DDS participant."""
+        name = self._publisher_name(topic, gid)
+        if self._named(name):
+            return name
+        prefix, nodes = gid[:PARTICIPANT_PREFIX], set()
+        for other, _types in self._node.get_topic_names_and_types():
+            for info in (self._node.get_publishers_info_by_topic(other)
+                         + self._node.get_subscriptions_info_by_topic(other)):
+                if bytes(info.endpoint_gid)[:PARTICIPANT_PREFIX] == prefix:
+                    nodes.add(endpoint_name(info))
+        nodes = sorted(n for n in nodes if self._named(n))
+        if not nodes:
+            return name
+        return nodes[0] if len(nodes) == 1 else 'one of ' + ', '.join(nodes)
+
+    def _intruder(self, gid: bytes, topic: str, name: str, heard: bool = False,
+                  final: bool = False) -> None:
+        """Report an intruder once: log and diagnostic, both with its node name. One the graph
+        does not name yet is reported later: seen in the graph, once named; heard (its
+        messages taken), by name or, at the run's end, by gid."""
         with self._lock:
-            if gid in self._reported:
+            if (gid in self._reported or gid == self.peer
+                    or name == self._node.get_fully_qualified_name()):
+                self._unnamed.pop(gid, None)
                 return
+            if not (final or self._named(name)):
+                if heard:
+                    self._unnamed[gid] = topic
+                return
+            self._unnamed.pop(gid, None)
             self._reported.add(gid)
             self.intruders.append(name)
         peer = self.peer_name or 'none'
