@@ -112,6 +112,7 @@ class LockstepControllerNode(Node):
         # answers each sample; parameters and services stay on this node's executor.
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
         self._conflict: str | None = None     # a second graph found: refuse to run (exit 2)
+        self._peer_heard_at = time.monotonic()   # the bound plant's last measurement (for HOLD_FLUSH)
         self._binding = PeerBinding(self, channels.measurement_topic, channels.command_topic,
                                     report=self._diagnose_intruder,
                                     may_bind=lambda: self._graph_conflict() is None)
@@ -132,12 +133,11 @@ class LockstepControllerNode(Node):
         if not wait_for_stable_graph(self, stop=lambda: self._stop.is_set()
                                      or not rclpy.ok(context=self.context)):
             return
-        idle_since = time.monotonic()
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
-                if self._receiver.poll(POLL):
-                    idle_since = time.monotonic()
-                elif time.monotonic() - idle_since >= HOLD_FLUSH:
+                self._receiver.poll(POLL)
+                # (an outsider's messages wake the poll too: only the bound plant's count)
+                if time.monotonic() - self._peer_heard_at >= HOLD_FLUSH:
                     self._telemetry.flush()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
@@ -186,6 +186,7 @@ class LockstepControllerNode(Node):
     def _on_peer_message(self, data: bytes, publisher: bytes) -> None:
         """A measurement from the bound plant (binding it if none is); others are ignored."""
         if self._binding.accepts(publisher):
+            self._peer_heard_at = time.monotonic()
             self._on_measurement(data)
 
     def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:

@@ -92,3 +92,44 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     assert got.values[0].double_value == pytest.approx(0.1736)
     assert got.values[1].double_value == pytest.approx(90.0)
     assert process.alive(), process.output()
+
+
+def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(start_node, ros_session,
+                                                                               ros_domain):
+    """The partial status block goes out once the bound plant holds, even while an outsider
+    keeps publishing measurements faster than the hold is detected (a ``ros2 topic pub -r 5``)."""
+    from drive_common import topics
+    from drive_common.lockstep_controller import HOLD_FLUSH
+    from drive_testing.block_probe import BlockSamples
+    from drive_testing.harness import RosSession
+    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatusBlock
+
+    start_node('pfc_controller', 'pfc_controller', parameters={'telemetry.live_period': 0.0})
+    node = ros_session.node('pfc_test_plant')
+    duties = set()
+    node.create_subscription(DutyCommand, topics.DUTY_COMMAND, lambda m: duties.add(m.step),
+                             topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
+    blocks = BlockSamples(node, PfcStatusBlock, topics.PFC_STATUS_BLOCK)
+    wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
+
+    def answer(step: int) -> None:
+        send_until_answered(lambda: pub.publish(PfcMeasurement(step=step, output_voltage=75.0)),
+                            lambda: step in duties, what=f'answer to step {step}')
+
+    answer(1)                                # the controller is bound to this plant
+    outsider = RosSession(ros_domain)
+    try:
+        stray_node = outsider.node('stray_cli')
+        stray = stray_node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
+        sent = []
+        stray_node.create_timer(HOLD_FLUSH / 3,
+                                lambda: sent.append(stray.publish(PfcMeasurement(step=999))))
+        wait_until(lambda: len(sent) >= 3, 30.0, what='the outsider publishing')
+        answer(2)
+        answer(3)
+        wait_until(lambda: len(blocks.records) >= 3, 30.0,
+                   what='the partial block of steps 2..3 while the outsider publishes')
+        assert [status.step for status, _, _ in blocks.records] == [1, 2, 3]
+    finally:
+        outsider.close()
