@@ -27,3 +27,25 @@ _hypothesis_settings.register_profile('default', max_examples=200)
 _hypothesis_settings.register_profile('ci', max_examples=200, derandomize=True, database=None)
 _hypothesis_settings.register_profile('deep', max_examples=3000)
 _hypothesis_settings.load_profile(os.environ.get('HYPOTHESIS_PROFILE', 'ci' if os.environ.get('CI') else 'default'))
+
+
+# CPython 3.11 shares the AST constructor's recursion counter between threads (gh-106905): a
+# failure formatted while another thread formats a traceback can raise "AST constructor
+# recursion depth mismatch" inside pytest, which then ends the whole run with INTERNALERROR
+# and hides the failure. The report is made again (the other thread is done by then).
+import pytest  # noqa: E402
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    try:
+        return (yield)
+    except SystemError as exc:
+        if 'recursion depth mismatch' not in str(exc):
+            raise
+    for attempt in range(3):
+        try:
+            return pytest.TestReport.from_item_and_call(item, call)
+        except SystemError as exc:
+            if attempt == 2 or 'recursion depth mismatch' not in str(exc):
+                raise
