@@ -186,8 +186,9 @@ class LockstepControllerNode(Node):
     def _on_peer_message(self, data: bytes, publisher: bytes) -> None:
         """A measurement from the bound plant (binding it if none is); others are ignored."""
         if self._binding.accepts(publisher):
-            self._peer_heard_at = time.monotonic()
             self._on_measurement(data)
+            # after the answer: a slow one (the first, a loaded machine) is no hold
+            self._peer_heard_at = time.monotonic()
 
     def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
         """An intruder on a lockstep topic, once (WARN on /diagnostics)."""
