@@ -396,8 +396,8 @@ def test_a_paused_run_holds_until_resumed_and_records_the_same_samples(recorded_
     """--pause-at holds the plant at a sim time until /scenario_runner/resume is called (the
     service is up only while held); the run then goes on to the same data as without a pause."""
     from std_srvs.srv import Trigger
-    from drive_common.waiting import future_result
     from drive_testing.block_bags import recorded_samples
+    from drive_testing.harness import call_until_answered
     out = tmp_path / 'paused'
     process = subprocess.Popen(
         [sys.executable, '-m', 'drive_bringup.runner_cli', SCENARIO, '--duration', str(DURATION),
@@ -408,7 +408,9 @@ def test_a_paused_run_holds_until_resumed_and_records_the_same_samples(recorded_
         wait_until(lambda: client.service_is_ready() or process.poll() is not None, 120.0,
                    what='the run held at 0.005 s')
         assert process.poll() is None, process.stdout.read()
-        response = future_result(client.call_async(Trigger.Request()), 30.0, 'the resume call')
+        response = call_until_answered(client, Trigger.Request(), 60.0,
+                                       stop=lambda: process.poll() is not None, what='the resume call')
+        assert response is not None, process.stdout.read()
         assert response.success and response.message == 'resumed at t = 0.005000 s'
         output, _ = process.communicate(timeout=300)
     finally:

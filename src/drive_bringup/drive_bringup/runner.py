@@ -69,6 +69,7 @@ def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> Non
             raise ScenarioError(f'{sc.path}: {where}: cannot run {package} {executable}: {exc}') from None
 
 
+RESUME_LINGER = 2.0   # s of wall time the resume service stays up after the resume (see _pause)
 # Every sample in blocks, no subscriber on a per-sample lockstep publish
 # (docs/architecture.md "Telemetry: blocks and live topics").
 DEFAULT_RECORD_TOPICS = [topics.PLANT_STATE_BLOCK, topics.DTC_STATUS_BLOCK, topics.CLOCK,
@@ -131,6 +132,7 @@ class GraphRunner:
         self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
         self.namespace = normalized(namespace)   # '/NAME': the drive's nodes run in it
         self.pause_at = tuple(sorted(pause_at))  # s of sim time: hold there until ~/resume
+        self._lingering: Callable[[], None] | None = None   # retires the last hold's resume service
         self.processes: dict[str, NodeProcess] = {}
         self._crashed = False
         self._sim_time = 0.0      # s: the plant's last reported sim time (goal feedback, result)
@@ -362,18 +364,30 @@ class GraphRunner:
         begun = time.monotonic()
         released = []
 
-        def resume(_request, response):
+        def resume(_request, response):      # (a repeated call, its reply lost, is answered alike)
             released.append(True)
             response.success, response.message = True, f'resumed at t = {sim_time:.6f} s'
             return response
-        # The service exists only while the plant is held: a client waiting for it waits for the pause.
+        # The service exists while the plant is held (a client waiting for it waits for the
+        # pause) and RESUME_LINGER s after: a reply sent before the caller's reader matched
+        # the brand-new service is lost, and the caller's repeated call is still answered.
+        if self._lingering is not None:
+            self._lingering()           # the last hold's service, before this one's
         service = node.create_service(Trigger, '~/resume', resume)
         self.progress(f'[{self.scenario.name}] paused at t = {sim_time:.6f} s: resume with '
                       f'ros2 service call {service.service_name} std_srvs/srv/Trigger')
         try:
             self._spin_while_waiting(executor, lambda: released, float('inf'), 'a resume call')
-        finally:
+        except BaseException:
             node.destroy_service(service)
+            raise
+
+        def retire():
+            self._lingering = None
+            node.destroy_timer(timer)
+            node.destroy_service(service)
+        timer = node.create_timer(RESUME_LINGER, retire)
+        self._lingering = retire
         return time.monotonic() - begun
 
     def _watch_status_blocks(self, node) -> dict[str, list[int]]:

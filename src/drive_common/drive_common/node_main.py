@@ -56,7 +56,8 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
 
     An entity that another thread destroys while the executor builds its wait set
     makes rclpy raise InvalidHandle there; the thread spins on (the next wait leaves
-    the entity out) instead of dying and leaving every other entity unserved.
+    the entity out) instead of dying and leaving every other entity unserved; a context
+    shut down meanwhile (rclpy: "context is not valid") ends it quietly.
     """
     from rclpy.executors import ExternalShutdownException
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -68,6 +69,10 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
                 return
             except ExternalShutdownException:
                 return
+            except _rclpy.RCLError:
+                if not executor.context.ok():   # shut down while the wait set was built
+                    return
+                raise
             except _rclpy.InvalidHandle:
                 for node in executor.get_nodes():      # a destroyed node is waited on no more
                     if not node_alive(node):

@@ -93,21 +93,17 @@ class Injection:
         lost to discovery), let the held run go on; at most once, never after its end."""
         from std_srvs.srv import Trigger
         from drive_common.waiting import wait_until
-        from drive_testing.harness import send_until_answered
+        from drive_testing.harness import call_until_answered
         if self._resumed:
             return
         self._resumed = True
         self.wait_paused()
         wait_until(lambda: self._ended() or self._reporters_matched(), 60.0,
                    what="the plant's and the controller's /diagnostics publishers")
-        # The run has gone on once the call is answered or the service (up only while held)
-        # is gone: a reply to a client the brand-new service has not matched yet is lost, and
-        # a lost request is sent again.
-        sent = []
-        send_until_answered(
-            lambda: sent.append(self._resume_client.call_async(Trigger.Request())),
-            lambda: (self._ended() or not self._resume_client.service_is_ready()
-                     or any(f.done() for f in sent)), RUN_TIMEOUT, 2.0, what='the resumed run')
+        # The run has gone on once the call is answered or the service (up while held) is gone.
+        call_until_answered(self._resume_client, Trigger.Request(), RUN_TIMEOUT,
+                            stop=lambda: self._ended() or not self._resume_client.service_is_ready(),
+                            what='the resumed run')
 
     def pid(self, executable: str) -> int:
         """The pid of the run's node process started as ``executable`` (a child of this case's

@@ -8,13 +8,15 @@
 - :func:`processes_with_env` finds leftover processes of a test.
 - the ``wait_for_*`` helpers wait for graph matching
   (:func:`drive_common.waiting.wait_until`, re-exported); :func:`send_until_answered`
-  re-sends a lockstep sample as the plant does until it is answered.
+  re-sends a lockstep sample as the plant does until it is answered;
+  :func:`call_until_answered` does the same for a service call.
 """
 from __future__ import annotations
 
 import os
 import time
 from pathlib import Path
+from typing import Callable
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, keep_reserved, reserve_domain,
                                     ros_arguments)
@@ -126,6 +128,17 @@ def send_until_answered(publish, answered, timeout: float = 30.0, every: float =
             return
         if time.monotonic() >= deadline:
             raise WaitTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
+
+
+def call_until_answered(client, request, timeout: float = 30.0, every: float = 2.0,
+                        stop: Callable[[], bool] = lambda: False, what: str = 'answer'):
+    """The first response of a service call made again every ``every`` s until one is
+    answered (a reply sent before the service matched this client's reader is lost);
+    None if stop() holds first. Needs an executor spinning the client's node elsewhere."""
+    calls = []
+    send_until_answered(lambda: calls.append(client.call_async(request)),
+                        lambda: stop() or any(f.done() for f in calls), timeout, every, what)
+    return next((f.result() for f in calls if f.done()), None)
 
 
 def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:

@@ -202,3 +202,32 @@ def test_a_session_spins_on_when_another_thread_destroys_an_entity_mid_wait(ros_
     talker.publish(String(data='still served'))
     wait_until(lambda: received, 30.0, what='a message on the kept topic')
     assert received[0].data == 'still served'
+
+
+def test_the_spinner_ends_quietly_when_its_context_is_shut_down_mid_wait_and_only_then():
+    """rclpy raises RCLError ("context is not valid") when the context is shut down while the
+    executor builds its wait set: the spinning thread ends without an error then, and still
+    fails loudly on any other RCLError."""
+    import threading
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from drive_common.node_main import spin_in_background
+
+    class Executor:               # what spin_in_background uses of an rclpy executor
+        def __init__(self, context_ok: bool) -> None:
+            self.context = type('Context', (), {'ok': lambda _self: context_ok})()
+
+        def spin(self):
+            raise _rclpy.RCLError('failed to initialize wait set: the given context is not valid')
+
+        def get_nodes(self):
+            return []
+
+    failures = []
+    hook, threading.excepthook = threading.excepthook, lambda args: failures.append(args.exc_value)
+    try:
+        spin_in_background(Executor(context_ok=False)).join(10.0)
+        assert failures == []
+        spin_in_background(Executor(context_ok=True)).join(10.0)
+        assert [type(f) for f in failures] == [_rclpy.RCLError]
+    finally:
+        threading.excepthook = hook
