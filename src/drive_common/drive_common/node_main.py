@@ -82,6 +82,21 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
     return thread
 
 
+def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTERM)) -> None:
+    """SIGINT/SIGTERM set ``stop``, from a relay thread: a handler runs in the main thread
+    between two bytecodes, and ``stop.set()`` there deadlocks when the main thread was
+    interrupted inside ``stop.wait()`` holding the event's lock (a node that never ends).
+    The handler only writes to a pipe, which the relay thread reads."""
+    read_fd, write_fd = os.pipe()
+
+    def relay() -> None:
+        os.read(read_fd, 1)
+        stop.set()
+    threading.Thread(target=relay, daemon=True, name='signal_relay').start()
+    for sig in signals:
+        signal.signal(sig, lambda *_: os.write(write_fd, b'\0'))
+
+
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
              work: Callable[[object, threading.Event], None] | None = None,
              errors: tuple[type[BaseException], ...] = (), about: object | None = None) -> int:
@@ -113,8 +128,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
         return fail(exc)
     faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop_on_signals(stop)
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except Exception as exc:  # noqa: BLE001 - rcl's own errors: bad --ros-args / params file
