@@ -361,6 +361,10 @@ class LockstepLoop:
     def _tick(self) -> None:
         """One base tick of the lockstep protocol."""
         k = self.core.step
+        if self._first_clock_due():
+            # The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers: before any
+            # measurement, or a controller would take the wait for a hold and split its block.
+            self._publish_state_once()
         due = [c for c in self._channels.values() if self.schedule.is_due(c.kind, k)]
         if due:
             sec, nanosec = sec_nanosec(self.core.time)

@@ -125,17 +125,28 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
                 self._state_pub.publish(self._state_msg.fill(state, self.core.time))
         self._publish_clock()
 
+    def _clock_due(self) -> bool:
+        """Whether /clock goes out at this step (every clock_ticks steps)."""
+        clock_ticks = self.schedule.clock_ticks
+        return clock_ticks == 0 or self.core.step % clock_ticks == 0
+
+    def _first_clock_due(self) -> bool:
+        """Whether this step's state sends the first /clock (which waits for its readers)."""
+        return not self._clock_acked and self._clock_due()
+
     def _publish_clock(self) -> None:
         """/clock at t_k every clock_ticks steps (clock_period, default 1 ms of sim time)."""
-        clock_ticks = self.schedule.clock_ticks
-        if clock_ticks == 0 or self.core.step % clock_ticks == 0:
+        if self._clock_due():
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
             if not self._clock_acked:
                 # Once: every /clock reader (a recorder) has matched this node from its own
                 # side before the run goes on; a reader that matches a publisher only after
                 # its first samples went out never gets them (the start check sees our side).
                 self._clock_acked = True
-                self._clock_pub.wait_for_all_acked(Duration(seconds=FIRST_CLOCK_ACK_WAIT))
+                if not self._clock_pub.wait_for_all_acked(Duration(seconds=FIRST_CLOCK_ACK_WAIT)):
+                    self.get_logger().warning(
+                        f'a /clock reader did not acknowledge the first /clock within '
+                        f'{FIRST_CLOCK_ACK_WAIT:g} s: it may miss the first samples')
 
     def _flush_state_block(self) -> None:
         """Publish the partial block (sim time holds: end of a run, reset, stop)."""

@@ -52,3 +52,50 @@ def test_a_kind_is_its_string_and_the_schedule_knows_its_period():
     assert [ControllerKind.GATE.ticks(schedule), ControllerKind.DUTY.ticks(schedule)] == [2, 3]
     assert [k for k in range(7) if schedule.is_due(ControllerKind.DUTY, k)] == [0, 3, 6]
     assert schedule.due(4) == (True, False)
+
+
+def test_the_first_clock_and_its_readers_wait_come_before_the_first_measurement():
+    """The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers' acknowledgements.
+    Were measurement 0 out first, its controller would take that wait for a hold and send a
+    partial status block whose size depends on wall time (two recordings would differ)."""
+    from types import SimpleNamespace
+    from bldc_plant_sim.lockstep_loop import LockstepLoop
+    from bldc_plant_sim.plant_node import PlantNode
+    events = []
+
+    class Ticks(LockstepLoop):
+        """The plant's tick with its real clock and state-once logic; publishers recorded."""
+        _clock_due, _first_clock_due = PlantNode._clock_due, PlantNode._first_clock_due
+        _publish_state_once, _publish_clock = PlantNode._publish_state_once, PlantNode._publish_clock
+
+        def __init__(self) -> None:
+            self.core = SimpleNamespace(step=0, time=0.0, advance=self._advance)
+            self.schedule = SimpleNamespace(clock_ticks=2, state_ticks=1, is_due=lambda kind, k: True)
+            self._clock_pub = SimpleNamespace(
+                publish=lambda msg: events.append(('clock', self.core.step)),
+                wait_for_all_acked=lambda timeout: events.append(('clock readers waited', self.core.step)) or True)
+            self._channels = {ControllerKind.GATE: SimpleNamespace(
+                kind=ControllerKind.GATE, wire=SimpleNamespace(encode=lambda *args: b'm'),
+                spec=SimpleNamespace(sample_of=lambda core: None),
+                send=lambda data: events.append(('measurement', self.core.step)))}
+            self.parameters = {'command_timeout': 1.0}
+            self._clock_acked, self._state_sent_step = False, -1
+
+        def _advance(self) -> None:
+            self.core.step += 1
+
+        def _publish_state(self) -> None:
+            events.append(('state', self.core.step))
+            self._publish_clock()
+
+        def _serve(self, channel, k, deadline) -> None:
+            events.append(('command', k))
+
+    ticks = Ticks()
+    for _ in range(3):
+        ticks._tick()
+    assert events == [('state', 0), ('clock', 0), ('clock readers waited', 0), ('measurement', 0),
+                      ('command', 0),
+                      # later: the ground truth goes out while the controller computes
+                      ('measurement', 1), ('state', 1), ('command', 1),
+                      ('measurement', 2), ('state', 2), ('clock', 2), ('command', 2)]
