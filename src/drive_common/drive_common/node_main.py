@@ -51,6 +51,18 @@ def node_alive(node) -> bool:
         return False
 
 
+def destroy_node_and_actions(node) -> None:
+    """node.destroy_node(), then its action clients and servers: rclpy's destroy_node leaves
+    them, and each holds the rcl node (listed in the graph, its DDS participant alive)
+    until it is garbage-collected."""
+    waitables = list(node.waitables)
+    node.destroy_node()
+    for waitable in waitables:
+        destroy = getattr(waitable, 'destroy', None)
+        if destroy is not None:
+            destroy()
+
+
 def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
     """A started daemon thread that spins executor until it or its context shuts down.
 
@@ -186,6 +198,6 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     finally:
         threading.excepthook = report_thread_error
         if node is not None:
-            node.destroy_node()
+            destroy_node_and_actions(node)
         rclpy.try_shutdown()
     return 0

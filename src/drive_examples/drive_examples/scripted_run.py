@@ -17,7 +17,7 @@ def main(argv=None) -> int:
     from rclpy.action import ActionClient
     from rclpy.executors import SingleThreadedExecutor
 
-    from drive_common.node_main import spin_in_background
+    from drive_common.node_main import destroy_node_and_actions, spin_in_background
     from drive_common.run_goal import run_to
     from dtc_msgs.action import Run
 
@@ -47,7 +47,7 @@ def main(argv=None) -> int:
     finally:
         rclpy.try_shutdown()        # ends the spin, then the node goes
         spinner.join(timeout=10.0)
-        node.destroy_node()
+        destroy_node_and_actions(node)     # the action client too: it would keep the node
 
 
 if __name__ == '__main__':

@@ -87,8 +87,9 @@ class CliNode:
 
     def __exit__(self, *exc) -> None:
         import rclpy
+        from drive_common.node_main import destroy_node_and_actions
         self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
+        destroy_node_and_actions(self.node)    # (action verbs add an action client)
         rclpy.try_shutdown(context=self.context)
 
     # ------------------------------------------------------------- discovery

@@ -20,7 +20,7 @@ from typing import Callable
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, keep_reserved, reserve_domain,
                                     ros_arguments)
-from drive_common.node_main import node_alive, spin_in_background
+from drive_common.node_main import destroy_node_and_actions, node_alive, spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
 __all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
@@ -90,7 +90,7 @@ class RosSession:
         finally:
             try:
                 for node in self._nodes:
-                    node.destroy_node()
+                    destroy_node_and_actions(node)
             finally:
                 rclpy.try_shutdown(context=self.context)
                 self._thread.join(timeout=10.0)

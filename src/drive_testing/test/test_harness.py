@@ -231,3 +231,29 @@ def test_the_spinner_ends_quietly_when_its_context_is_shut_down_mid_wait_and_onl
         assert [type(f) for f in failures] == [_rclpy.RCLError]
     finally:
         threading.excepthook = hook
+
+
+def test_a_closed_session_leaves_the_graph_even_with_action_endpoints(ros_domain):
+    """rclpy's destroy_node leaves action clients and servers, and each keeps its node in
+    the graph while the process lives: a later holder of the domain found a test's node
+    there and took it for a running drive graph (run_scenario refused to start)."""
+    from rclpy.action import ActionClient, ActionServer
+    from dtc_msgs.action import Run
+    observer = RosSession(ros_domain)
+    try:
+        watcher = observer.node('graph_observer')
+
+        def listed() -> set:
+            return {name for name, _ in watcher.get_node_names_and_namespaces()}
+
+        closing = RosSession(ros_domain)
+        client_node, server_node = closing.node('leaving_client'), closing.node('leaving_server')
+        ActionClient(client_node, Run, topics.RUN_ACTION)
+        ActionServer(server_node, Run, 'other/run', execute_callback=lambda goal: Run.Result())
+        wait_until(lambda: {'leaving_client', 'leaving_server'} <= listed(), 30.0,
+                   what='both nodes in the observer graph')
+        closing.close()
+        wait_until(lambda: not {'leaving_client', 'leaving_server'} & listed(), 30.0,
+                   what='both nodes gone from the observer graph')
+    finally:
+        observer.close()
