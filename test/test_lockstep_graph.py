@@ -203,14 +203,17 @@ def test_two_graphs_in_one_domain_refuse_and_never_give_a_silent_wrong_result(
     wait_until(lambda: result.done() or not plant_a.alive(), 120.0, what='run of graph A to end')
     probe = ros_session.node('name_probe')
 
+    seen: dict = {}
+
     def settled() -> bool:
         """At most one live process per node name, and its node (only) in the graph."""
         names = [n for n, _ in probe.get_node_names_and_namespaces()]
         alive = {'plant': sum(p.alive() for p in (plant_a, plant_b)),
                  'fixed_responder': sum(p.alive() for p in (responder_a, responder_b))}
+        seen.update(graph=sorted(names), alive=alive)
         return all(count <= 1 and names.count(name) == count for name, count in alive.items())
 
-    wait_until(settled, 60.0, what='one graph left in the domain')
+    assert wait_until(settled, 60.0, raise_timeout=False), f'not one graph left in 60 s: {seen}'
     refused = [p for p in processes if not p.alive()]
     assert refused, 'nobody noticed the second graph'
     for process in refused:
