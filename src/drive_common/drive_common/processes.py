@@ -17,6 +17,7 @@ import fcntl
 import json
 import os
 import random
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -195,6 +196,8 @@ class NodeProcess:
 
     Use as a context manager or call :meth:`stop`; output goes to a log file
     (:meth:`output` reads it) so a failing test can show what the node said.
+    Without log_dir the file lives in a temporary folder that :meth:`stop`
+    removes, keeping the text for :meth:`output`.
     """
 
     def __init__(self, package: str, executable: str, *,
@@ -215,8 +218,10 @@ class NodeProcess:
         program = list(argv) if argv else [str(executable_path(package, executable))]
         self.command = [*prefix, *program, *extra_args,
                         *ros_arguments(parameters, remappings, node_name, params_files=params_files)]
-        log_dir = Path(log_dir) if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
+        self._temporary_log_dir = None if log_dir else Path(tempfile.mkdtemp(prefix='dtc_node_'))
+        log_dir = Path(log_dir) if log_dir else self._temporary_log_dir
         log_dir.mkdir(parents=True, exist_ok=True)
+        self._final_output: str | None = None
         self.log_path = log_dir / f'{node_name or executable}.log'
         self._log = open(self.log_path, 'wb')
         self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
@@ -231,6 +236,8 @@ class NodeProcess:
         return self.process.poll() is None
 
     def output(self) -> str:
+        if self._final_output is not None:
+            return self._final_output
         if not self._log.closed:
             self._log.flush()
         return self.log_path.read_text(errors='replace')
@@ -264,6 +271,9 @@ class NodeProcess:
         except subprocess.TimeoutExpired:
             pass
         self._log.close()
+        if self._temporary_log_dir is not None and self._final_output is None:
+            self._final_output = self.log_path.read_text(errors='replace')
+            shutil.rmtree(self._temporary_log_dir, ignore_errors=True)
         return self.process.returncode
 
     def __enter__(self) -> 'NodeProcess':
