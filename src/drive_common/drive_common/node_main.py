@@ -63,13 +63,16 @@ def destroy_node_and_actions(node) -> None:
             destroy()
 
 
-def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
+def spin_in_background(executor, name: str = 'executor',
+                       on_refusal: Callable[[ParameterError], None] | None = None) -> threading.Thread:
     """A started daemon thread that spins executor until it or its context shuts down.
 
     An entity that another thread destroys while the executor builds its wait set
     makes rclpy raise InvalidHandle there; the thread spins on (the next wait leaves
     the entity out) instead of dying and leaving every other entity unserved; a context
     shut down meanwhile (rclpy: "context is not valid") ends it quietly.
+    on_refusal: called with a ParameterError a callback raised (e.g. GraphConflict: the
+    node refuses to run), which then ends the thread; without it the error propagates.
     """
     from rclpy.executors import ExternalShutdownException
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -80,6 +83,11 @@ def spin_in_background(executor, name: str = 'executor') -> threading.Thread:
                 executor.spin()
                 return
             except ExternalShutdownException:
+                return
+            except ParameterError as exc:
+                if on_refusal is None:
+                    raise
+                on_refusal(exc)
                 return
             except _rclpy.RCLError:
                 if not executor.context.ok():   # shut down while the wait set was built
@@ -128,9 +136,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
         return print_node_help(about if about is not None else factory)
     import rclpy
     from rclpy.exceptions import ParameterException
-    from rclpy.executors import (ExternalShutdownException, MultiThreadedExecutor,
-                                 SingleThreadedExecutor)
-    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+    from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
 
     try:
@@ -165,21 +171,11 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
 
         threading.excepthook = crashed
 
-        def spin() -> None:
-            try:
-                executor.spin()
-            except ExternalShutdownException:
-                pass
-            except ParameterError as exc:    # raised by a callback, e.g. GraphConflict
-                failures.append((exc, 2))
-                stop.set()
-            except _rclpy.RCLError:
-                if rclpy.ok():
-                    raise
-                # SIGINT/SIGTERM shut the context down while the executor built its wait set.
+        def refused(exc: ParameterError) -> None:     # raised by a callback, e.g. GraphConflict
+            failures.append((exc, 2))
+            stop.set()
 
-        spinner = threading.Thread(target=spin, daemon=True, name='executor')
-        spinner.start()
+        spinner = spin_in_background(executor, on_refusal=refused)
         if work is None:
             stop.wait()
         else:
