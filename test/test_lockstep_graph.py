@@ -403,3 +403,25 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
     assert message_bits(measurement) == first
     assert message_bits(command) == message_bits(gates[0])
     assert message_bits(status) == message_bits(statuses[0])
+
+
+def test_a_subscriber_that_never_matches_is_named_and_does_not_stop_the_run(start_node, ros_session):
+    """A reader the plant's writer can never match (here: it asks for transient-local data of a
+    volatile topic; also a reader whose process left but is still listed) is named while the
+    plant waits for the graph's readers, then left behind: the run starts and completes."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    deaf = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node = ros_session.node('deaf_reader')
+    node.create_subscription(PlantStateBlock, topics.PLANT_STATE_BLOCK, lambda _: None, deaf)
+    start_node('drive_testing', 'fixed_responder', parameters={'switch_on': [float(s) for s in PATTERN]})
+    wait_until(lambda: node.count_publishers(topics.GATE_COMMAND) >= 1, 60.0, what='fixed_responder up')
+    plant = start_node('bldc_plant_sim', 'plant',
+                       parameters={**PLANT, 'startup_timeout': 10.0, 'run_until': 0.002})
+    wait_until(lambda: 'run_until finished' in plant.output(), 120.0, what='the run to end')
+    out = plant.output()
+    assert 'for the subscribers in the graph to match: /plant/state_block' in out, out
+    assert ('subscriber(s) of /plant/state_block did not match the plant within 20 s' in out
+            and 'the run starts without them' in out), out
+    # The wait for readers is not counted against startup_timeout (10 s here, half of it).
+    assert 'reached t = 0.002000 s (step 80); ended normally' in out, out

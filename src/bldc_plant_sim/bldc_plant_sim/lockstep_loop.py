@@ -94,10 +94,13 @@ CHANNELS = {
 
 
 class WaitReporter:
-    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s."""
+    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s.
 
-    def __init__(self, logger, timeout: float) -> None:
-        self._logger, self._timeout = logger, timeout
+    limit: what bounds the wait, for the log line (``of startup_timeout = 120 s``).
+    """
+
+    def __init__(self, logger, limit: str) -> None:
+        self._logger, self._limit = logger, limit
         self._start = time.monotonic()
         self._next = self._start + WAIT_LOG_FIRST
 
@@ -105,8 +108,7 @@ class WaitReporter:
         now = time.monotonic()
         if now >= self._next:
             self._next = now + WAIT_LOG_PERIOD
-            self._logger.info(f'waiting {now - self._start:.0f} s of startup_timeout = '
-                              f'{self._timeout:g} s for {what}')
+            self._logger.info(f'waiting {now - self._start:.0f} s {self._limit} for {what}')
 
 
 class _Inbox:
@@ -239,7 +241,7 @@ class LockstepLoop:
         try:
             self._run_started = time.monotonic()
             timeout = self.parameters['startup_timeout']
-            self._startup_report = WaitReporter(self.get_logger(), timeout)
+            self._startup_report = WaitReporter(self.get_logger(), f'of startup_timeout = {timeout:g} s')
             reason = self._wait_for_peers(self._run_started + timeout, self._startup_report)
             if reason:
                 return False, self._startup_failed(reason)

@@ -17,11 +17,12 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from bldc_plant_sim.core.lockstep import ControllerKind
 from bldc_plant_sim.lockstep_loop import CHANNELS, WaitReporter
 from drive_common.domain_guard import wait_for_stable_graph
-from drive_common.lockstep_io import GraphConflict, graph_conflict, readers_matched
+from drive_common.lockstep_io import GraphConflict, graph_conflict, unmatched_topics
 from drive_common.recorder_matching import RecordersMatched
 from drive_common.waiting import wait_until
 
 GRAPH_CHECK_PERIOD = 0.5        # s between checks for a second graph in the domain
+READERS_MATCH_WAIT = 20.0       # s a run's start waits at most for the graph's readers to match
 LOCKSTEP_TOPICS = (tuple(spec.measurement_topic for spec in CHANNELS.values())
                    + tuple(spec.command_topic for spec in CHANNELS.values()))
 """One publisher each, or two graphs are mixed."""
@@ -83,13 +84,19 @@ class PeerWatch:
         """Another publisher on a bound lockstep topic, once (WARN; drive_common.peer_binding)."""
         self._diagnose(DiagnosticStatus.WARN, message, values)
 
-    def _wait_for_recorders(self, outputs, deadline: float) -> None:
+    def _wait_for_recorders(self, outputs, deadline: float, report: WaitReporter) -> None:
         """Before the first run, until every recorder already in the graph has matched the
         plant's publishers from its own side (drive_common.recorder_matching)."""
         matched = RecordersMatched(self, [p.topic_name for p in outputs],
                                    callback_group=MutuallyExclusiveCallbackGroup())
+
+        def done() -> bool:
+            if matched() or self._halted():
+                return True
+            report.report('recorder(s) ' + ', '.join(matched.waiting_for) + ' to match the plant')
+            return False
         try:
-            if not wait_until(lambda: matched() or self._halted(), max(0.0, deadline - time.monotonic()),
+            if not wait_until(done, max(0.0, deadline - time.monotonic()),
                               0.01, pause=self._receiver.poll, raise_timeout=False):
                 self.get_logger().warning('recorder(s) ' + ', '.join(matched.waiting_for) + ' had not '
                                           'matched the plant before the run: they miss its first samples')
@@ -119,22 +126,34 @@ class PeerWatch:
         # Every other subscriber already in the graph (a recorder, a monitor) must be
         # matched too before sample 0 goes out, or it would miss the first samples; before
         # the first run, discovery of readers started earlier is done once the graph settled.
+        # A reader that never matches (it asks for a QoS the plant does not offer, or its
+        # node left but is still listed) is left behind after READERS_MATCH_WAIT.
         first_run = not self._graph_settled
+        waits_began = time.monotonic()
         if first_run:
-            settling = time.monotonic()
             if not wait_for_stable_graph(self, stop=lambda: self._halted() is not None):
                 return self._halted() or 'plant shutting down'   # Ctrl-C, shutdown, a second graph
             self._graph_settled = True
-            waited = time.monotonic() - settling     # discovery, not the controllers' start-up:
-            self._run_started += waited               # startup_timeout does not count it
-            deadline += waited
         outputs = [c.publisher for c in self._channels.values()] + [self._state_pub, self._block_pub]
-        if not wait_until(lambda: readers_matched(self, outputs) or self._halted(),
-                          max(0.0, deadline - time.monotonic()), 0.01, pause=self._receiver.poll,
+        readers_deadline = time.monotonic() + READERS_MATCH_WAIT
+        readers_report = WaitReporter(self.get_logger(), f'(at most {READERS_MATCH_WAIT:g} s)')
+
+        def matched() -> bool:
+            unmatched = unmatched_topics(self, outputs)
+            if not unmatched or self._halted():
+                return True
+            readers_report.report('the subscribers in the graph to match: ' + ', '.join(unmatched))
+            return False
+        if not wait_until(matched, READERS_MATCH_WAIT, 0.01, pause=self._receiver.poll,
                           raise_timeout=False):
-            self.get_logger().warning('some subscribers were not matched before the run')
+            self.get_logger().warning(
+                f'subscriber(s) of {", ".join(unmatched_topics(self, outputs))} did not match the '
+                f'plant within {READERS_MATCH_WAIT:g} s (gone, or asking for a QoS it does not '
+                'offer): the run starts without them')
         if first_run:
-            self._wait_for_recorders(outputs + [self._clock_pub], deadline)
+            self._wait_for_recorders(outputs + [self._clock_pub], readers_deadline, readers_report)
+        # Discovery and readers, not the controllers' start-up: startup_timeout does not count them.
+        self._run_started += time.monotonic() - waits_began
         for channel in self._scheduled_channels():
             self._sources(channel.kind)          # remembered, should a controller leave mid-run
         conflict = self._graph_conflict()

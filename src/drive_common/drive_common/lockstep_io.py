@@ -108,14 +108,19 @@ class DirectReceiver:
         return dispatched
 
 
+def unmatched_topics(node, publishers) -> list[str]:
+    """The topics of the publishers not yet matched with every subscriber the graph lists."""
+    return [pub.topic_name for pub in publishers
+            if pub.get_subscription_count() < node.count_subscribers(pub.topic_name)]
+
+
 def readers_matched(node, publishers) -> bool:
     """Whether each publisher is matched with every subscriber its topic has in the graph.
 
     Checked before a run's first sample by the plant and the controllers, so a
     reader already in the graph (a recorder, a monitor) misses no sample.
     """
-    return all(pub.get_subscription_count() >= node.count_subscribers(pub.topic_name)
-               for pub in publishers)
+    return not unmatched_topics(node, publishers)
 
 
 class GraphConflict(ParameterError):
