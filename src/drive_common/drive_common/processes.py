@@ -28,6 +28,8 @@ from typing import Any, Iterator, Mapping, Sequence
 
 from drive_common.node_main import STACK_DUMP_SIGNAL
 
+STACK_DUMP_MARK = '(most recent call first)'   # faulthandler's line per thread
+
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
 # Machine-wide, as the domain ids are: not under TMPDIR, which a caller may set per run (the
@@ -248,6 +250,19 @@ class NodeProcess:
         except ProcessLookupError:
             pass
 
+    def dump_stacks(self, wait: float = 0.0) -> bool:
+        """Ask a running drive node for the stacks of its threads (STACK_DUMP_SIGNAL, into its
+        output) and wait up to wait s for them; whether it was asked."""
+        if self.process.poll() is not None or not catches_signal(self.process.pid, STACK_DUMP_SIGNAL):
+            return False
+        dumped = self.output().count(STACK_DUMP_MARK)
+        os.kill(self.process.pid, STACK_DUMP_SIGNAL)
+        deadline = time.monotonic() + wait
+        while (time.monotonic() < deadline and self.alive()
+               and self.output().count(STACK_DUMP_MARK) == dumped):
+            time.sleep(0.05)
+        return True
+
     def stop(self, timeout: float = 5.0) -> int | None:
         """Stop the node (SIGINT, then SIGTERM, then SIGKILL); return its exit code.
 
@@ -258,8 +273,8 @@ class NodeProcess:
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
             if self.process.poll() is not None:
                 break
-            if sig != signal.SIGINT and catches_signal(self.process.pid, STACK_DUMP_SIGNAL):
-                os.kill(self.process.pid, STACK_DUMP_SIGNAL)
+            if sig != signal.SIGINT:
+                self.dump_stacks()
             self._signal_group(sig)
             try:
                 self.process.wait(timeout=timeout)

@@ -1,9 +1,11 @@
 """NodeProcess keeps a node's output for the caller and leaves no temporary folder behind."""
 from __future__ import annotations
 
+import subprocess
 import sys
+import time
 
-from drive_common.processes import NodeProcess
+from drive_common.processes import STACK_DUMP_MARK, NodeProcess
 
 
 def test_a_stopped_node_keeps_its_output_and_removes_its_temporary_log_folder():
@@ -22,3 +24,43 @@ def test_a_given_log_folder_is_kept(tmp_path):
         node.process.wait(timeout=60)
     assert (tmp_path / 'echo_node.log').read_text().strip() == 'kept'
     assert node.output().strip() == 'kept'
+
+
+SLEEPER = ('import faulthandler, signal, time\n'
+           'faulthandler.register(signal.SIGUSR1, all_threads=True)\n'
+           'print("up", flush=True)\n'
+           'def stuck_here():\n'
+           '    time.sleep(600)\n'
+           'stuck_here()\n')
+
+
+def test_a_running_node_is_asked_for_the_stacks_of_its_threads():
+    with NodeProcess('none', 'sleeper', argv=[sys.executable, '-c', SLEEPER]) as node:
+        deadline = time.monotonic() + 60
+        while 'up' not in node.output() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert node.dump_stacks(wait=30.0)
+        assert STACK_DUMP_MARK in node.output() and 'stuck_here' in node.output()
+    assert not node.dump_stacks()          # a stopped node is not asked
+
+
+def test_a_failed_test_shows_the_stacks_of_the_nodes_it_started(tmp_path):
+    (tmp_path / 'test_stuck.py').write_text(
+        'import sys\n'
+        f'SLEEPER = {SLEEPER!r}\n'
+        'def test_waits_on_a_stuck_node(start_node):\n'
+        "    node = start_node('none', 'sleeper', argv=[sys.executable, '-c', SLEEPER])\n"
+        "    while 'up' not in node.output():\n"
+        '        pass\n'
+        "    assert False, 'the node never answered'\n"
+        'def test_passes(start_node):\n'
+        "    node = start_node('none', 'sleeper', argv=[sys.executable, '-c', SLEEPER])\n"
+        "    while 'up' not in node.output():\n"
+        '        pass\n')
+    done = subprocess.run([sys.executable, '-m', 'pytest', '-q', '-p', 'no:cacheprovider',
+                           '-p', 'drive_testing.pytest_fixtures', '-rA', str(tmp_path)],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert '1 failed, 1 passed' in done.stdout, done.stdout[-3000:]
+    failed, passed = done.stdout.split('= PASSES =')
+    assert STACK_DUMP_MARK in failed and 'in stuck_here' in failed   # the failed test's node
+    assert 'up' in passed and STACK_DUMP_MARK not in passed          # a passing test's: not asked

@@ -3,7 +3,8 @@
 - ``ros_domain``: a reserved ROS_DOMAIN_ID for this test (no cross-talk).
 - ``ros_session``: an in-process rclpy context in that domain, spinning.
 - ``start_node``: start a node process as ``ros2 run`` would; every process
-  is stopped at teardown, and its output is printed (shown when a test fails).
+  is stopped at teardown, and its output is printed (shown when a test fails),
+  after the stacks of its threads if the test failed while it ran.
 """
 from __future__ import annotations
 
@@ -27,8 +28,20 @@ def ros_session(ros_domain):
         session.close()
 
 
+CALL_FAILED = pytest.StashKey[bool]()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Mark a test whose call failed, for the teardown of :func:`start_node`."""
+    report = yield
+    if report.when == 'call' and report.failed:
+        item.stash[CALL_FAILED] = True
+    return report
+
+
 @pytest.fixture
-def start_node(ros_domain, tmp_path):
+def start_node(ros_domain, tmp_path, request):
     processes: list[NodeProcess] = []
 
     def _start(package: str, executable: str, **kwargs) -> NodeProcess:
@@ -41,7 +54,10 @@ def start_node(ros_domain, tmp_path):
     try:
         yield _start
     finally:
+        failed = request.node.stash.get(CALL_FAILED, False)
+        # A failed test: where each node it may have waited on was, before it is stopped.
+        dumped = {id(p) for p in processes if failed and p.dump_stacks(wait=5.0)}
         for process in processes:
             process.stop()
             print(f'----- {process.package}/{process.executable} (exit {process.process.returncode}) -----')
-            print(process.output()[-4000:])
+            print(process.output()[-16000 if id(process) in dumped else -4000:])
