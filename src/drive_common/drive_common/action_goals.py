@@ -107,8 +107,15 @@ def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait 
         return watch.get(key) is not None
 
     for attempt in range(GOAL_ATTEMPTS):
-        sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
-        handle = sent.result() if wait(sent.done, response_wait) and sent.done() else None
+        try:
+            sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
+        except ValueError:
+            # rclpy (Jazzy) race: the executor thread took the answer before send_goal_async
+            # had registered its future ("list.remove(x): x not in list"). The request went
+            # out; the status topic says whether the goal was accepted.
+            sent = None
+        handle = (sent.result() if sent is not None and wait(sent.done, response_wait)
+                  and sent.done() else None)
         if handle is not None and (handle.accepted or attempt == 0):
             return handle            # the answer; a first rejection is a real one
         # No reply, or a repeat rejected (the server rejects an id it already tracks):

@@ -109,6 +109,20 @@ def test_an_accepted_goal_whose_reply_is_lost_is_taken_from_the_status_never_sen
     assert bytes(handle.goal_id.uuid) in server._goal_handles    # status updates reach it
 
 
+class _RacingClient(_Server):
+    """rclpy's race: the request goes out and is answered, then send_goal_async raises."""
+
+    def send_goal_async(self, goal, feedback_callback=None, goal_uuid=None):
+        super().send_goal_async(goal, feedback_callback, goal_uuid)
+        raise ValueError('list.remove(x): x not in list')
+
+
+def test_a_goal_whose_send_raced_with_its_answer_is_taken_from_the_status_never_sent_again():
+    server = _RacingClient((True, False))
+    handle = _send(server, 0.001, relative=True)
+    assert handle.accepted and len(server.requests) == 1 and len(server.tracked) == 1
+
+
 def test_a_request_neither_answered_nor_listed_is_sent_again_with_the_same_id():
     server = _Server((False, True), (True, False))        # rejected with its reply lost, then accepted
     assert _send(server).accepted
