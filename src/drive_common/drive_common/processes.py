@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
 from drive_common.node_main import STACK_DUMP_SIGNAL
+from drive_common.waiting import wait_until
 
 STACK_DUMP_MARK = '(most recent call first)'   # faulthandler's line per thread
 
@@ -257,10 +258,8 @@ class NodeProcess:
             return False
         dumped = self.output().count(STACK_DUMP_MARK)
         os.kill(self.process.pid, STACK_DUMP_SIGNAL)
-        deadline = time.monotonic() + wait
-        while (time.monotonic() < deadline and self.alive()
-               and self.output().count(STACK_DUMP_MARK) == dumped):
-            time.sleep(0.05)
+        wait_until(lambda: not self.alive() or self.output().count(STACK_DUMP_MARK) > dumped, wait,
+                   0.05, raise_timeout=False)
         return True
 
     def stop(self, timeout: float = 5.0) -> int | None:

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from drive_common.node_main import STACK_DUMP_SIGNAL
+from drive_common.processes import STACK_DUMP_MARK
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain, wait_until
 
 ROS2 = shutil.which('ros2')
@@ -79,7 +80,7 @@ class Streaming:
             return self.process.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             os.kill(self.process.pid, STACK_DUMP_SIGNAL)
-            wait_until(lambda: 'most recent call first' in self.output(), 10.0, what='the stuck command\'s stacks')
+            wait_until(lambda: STACK_DUMP_MARK in self.output(), 10.0, what='the stuck command\'s stacks')
             os.killpg(self.process.pid, signal.SIGKILL)
             raise AssertionError(f'{self.process.args} still running {timeout:g} s after SIGINT:\n'
                                  f'{self.output()[-6000:]}') from None
