@@ -15,12 +15,15 @@ command timeout has passed).
 
 A node that does not stop can be asked where it is: SIGUSR1 prints the stack
 of every thread to stderr (:data:`STACK_DUMP_SIGNAL`; drive_common.processes
-sends it before it escalates from SIGINT).
+sends it before it escalates from SIGINT). A node started by
+drive_common.processes stops, as on SIGINT, when the process that started it
+ends, even killed (:data:`STARTER_PID_VARIABLE`).
 """
 from __future__ import annotations
 
 import faulthandler
 import os
+import select
 import signal
 import sys
 import threading
@@ -32,6 +35,8 @@ from drive_common.parameters import ParameterError
 
 
 STACK_DUMP_SIGNAL = signal.SIGUSR1
+# Set by drive_common.processes.NodeProcess to the pid of the process that starts the node.
+STARTER_PID_VARIABLE = 'DTC_STARTER_PID'
 
 
 def fail(reason: object, code: int = 2) -> int:
@@ -117,6 +122,31 @@ def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTER
         signal.signal(sig, lambda *_: os.write(write_fd, b'\0'))
 
 
+def stop_with_starter(stop: threading.Event) -> None:
+    """Set ``stop`` when the process named by :data:`STARTER_PID_VARIABLE` ends.
+
+    A started node has its own session, so a starter killed by SIGKILL (or a test
+    worker that dies) cannot take it down with a signal; without this it stays in
+    the graph, an orphan that the next graph on its domain meets as a conflict.
+    """
+    value = os.environ.get(STARTER_PID_VARIABLE, '')
+    if not value.isdigit():
+        return
+    try:
+        starter = os.pidfd_open(int(value))
+    except ProcessLookupError:
+        starter = None                    # ended before the node got here
+
+    def watch() -> None:
+        if starter is not None:
+            select.select([starter], [], [])       # readable once the starter has exited
+        if not stop.is_set():
+            print(f'[{os.path.basename(sys.argv[0]) or "node"}] the process that started it '
+                  f'(pid {value}) has ended: stopping', file=sys.stderr, flush=True)
+            stop.set()
+    threading.Thread(target=watch, daemon=True, name='starter_watch').start()
+
+
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
              work: Callable[[object, threading.Event], None] | None = None,
              errors: tuple[type[BaseException], ...] = (), about: object | None = None) -> int:
@@ -126,7 +156,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     multithreaded: spin with a 4-thread executor (a node whose action
         callback runs long, the plant).
     work: ``work(node, stop)`` runs in the main thread while the executor
-        serves the node; ``stop`` is set by SIGINT/SIGTERM.
+        serves the node; ``stop`` is set by SIGINT/SIGTERM (or the starter's end).
     errors: further exception types that mean "cannot start" (exit 2).
     about: what ``-h``/``--help`` describes (default: factory, see
         :func:`drive_common.node_help.print_node_help`); help starts nothing.
@@ -147,6 +177,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
     stop = threading.Event()
     stop_on_signals(stop)
+    stop_with_starter(stop)
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except Exception as exc:  # noqa: BLE001 - rcl's own errors: bad --ros-args / params file

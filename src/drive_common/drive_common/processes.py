@@ -6,7 +6,8 @@
   :func:`graph_lock` lets one runner at a time drive a graph in a given domain.
 - :class:`NodeProcess` starts ``<prefix>/lib/<package>/<executable> --ros-args ...``
   exactly as ``ros2 run`` does (or any command line), in its own process
-  group, and always tears it down (SIGINT, then SIGTERM, then SIGKILL).
+  group, and always tears it down (SIGINT, then SIGTERM, then SIGKILL); a
+  drive node it started also stops by itself if the starter dies.
 
 Used by the scenario runner, compare_replay and the test harness
 (:mod:`drive_testing.harness`).
@@ -26,7 +27,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
-from drive_common.node_main import STACK_DUMP_SIGNAL
+from drive_common.node_main import STACK_DUMP_SIGNAL, STARTER_PID_VARIABLE
 from drive_common.waiting import wait_until
 
 STACK_DUMP_MARK = '(most recent call first)'   # faulthandler's line per thread
@@ -227,9 +228,9 @@ class NodeProcess:
         self._final_output: str | None = None
         self.log_path = log_dir / f'{node_name or executable}.log'
         self._log = open(self.log_path, 'wb')
+        env = {**(os.environ if env is None else env), STARTER_PID_VARIABLE: str(os.getpid())}
         self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
-                                        env=dict(env) if env is not None else None,
-                                        start_new_session=True)
+                                        env=env, start_new_session=True)
 
     @property
     def pid(self) -> int:

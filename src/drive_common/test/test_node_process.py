@@ -1,11 +1,16 @@
-"""NodeProcess keeps a node's output for the caller and leaves no temporary folder behind."""
+"""NodeProcess keeps a node's output for the caller, leaves no temporary folder behind, and
+never leaves an orphan node when its starter dies."""
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
-from drive_common.processes import STACK_DUMP_MARK, NodeProcess
+from drive_common.processes import STACK_DUMP_MARK, NodeProcess, isolated_env, reserve_domain
+from drive_common.waiting import wait_until
 
 
 def test_a_stopped_node_keeps_its_output_and_removes_its_temporary_log_folder():
@@ -64,3 +69,44 @@ def test_a_failed_test_shows_the_stacks_of_the_nodes_it_started(tmp_path):
     failed, passed = done.stdout.split('= PASSES =')
     assert STACK_DUMP_MARK in failed and 'in stuck_here' in failed   # the failed test's node
     assert 'up' in passed and STACK_DUMP_MARK not in passed          # a passing test's: not asked
+
+
+PROBE = ('import rclpy\n'
+         'from drive_common.node_main import run_node\n'
+         'def build():\n'
+         "    node = rclpy.create_node('starter_watch_probe')\n"
+         "    print('up', flush=True)\n"
+         '    return node\n'
+         'raise SystemExit(run_node(build, args=[]))\n')
+STARTER = ('import sys, time\n'
+           'from drive_common.processes import NodeProcess\n'
+           f'PROBE = {PROBE!r}\n'
+           "node = NodeProcess('none', 'probe', argv=[sys.executable, '-c', PROBE], log_dir=sys.argv[1])\n"
+           "print(node.pid, flush=True)\n"
+           'time.sleep(600)\n')
+
+
+def _ended(pid: int) -> bool:
+    """Gone, or a zombie waiting for its new parent to reap it."""
+    try:
+        return Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0] == 'Z'
+    except (FileNotFoundError, ProcessLookupError):
+        return True
+
+
+def test_a_node_stops_by_itself_when_the_process_that_started_it_is_killed(tmp_path):
+    with reserve_domain() as domain_id:
+        starter = subprocess.Popen([sys.executable, '-c', STARTER, str(tmp_path)],
+                                   env=isolated_env(domain_id), stdout=subprocess.PIPE, text=True)
+        pid = int(starter.stdout.readline())
+        log = tmp_path / 'probe.log'
+        try:
+            wait_until(lambda: 'up' in log.read_text(), 120.0, 0.05)
+            starter.kill()                                  # no chance to stop its node
+            starter.wait(timeout=60)
+            wait_until(lambda: _ended(pid), 120.0, 0.05)
+            assert (f'the process that started it (pid {starter.pid}) has ended: stopping'
+                    in log.read_text())
+        finally:
+            if not _ended(pid):
+                os.kill(pid, signal.SIGKILL)
