@@ -285,6 +285,7 @@ def test_a_matched_controller_that_never_answers_is_not_ready(start_node, ros_se
     wait_until(lambda: 'run_until finished' in plant.output(), 60.0, what='the run to give up')
     out = plant.output()
     assert 'did not answer its first measurement (step 0) within startup_timeout = 3 s' in out, out
+    assert 'run_until finished: run not started: ' in out and 'ended normally' not in out, out
     assert seen and all(m.step == 0 for m in seen)        # only step 0 went out (re-sent)
     assert 'reached t =' not in out and plant.alive()    # sim time never started
     # A real controller later: the next run starts, switching (no safe state left over).

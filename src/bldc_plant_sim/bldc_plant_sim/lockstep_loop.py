@@ -238,6 +238,7 @@ class LockstepLoop:
         self._faults: list[str] = []
         faults_before = list(self.core.faults.counts)
         self.last_run_end = None
+        self._start_failure: str | None = None
         try:
             self._run_started = time.monotonic()
             timeout = self.parameters['startup_timeout']
@@ -285,7 +286,8 @@ class LockstepLoop:
                 self.faults.flush()
                 for channel in self._channels.values():
                     channel.inbox.binding.flush()    # an intruder that sent and left, by gid
-            self.last_run_end = run_end(self.core, faults_before)
+            if self._start_failure is None:      # a run that never started did not "end"
+                self.last_run_end = run_end(self.core, faults_before)
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             for channel in self._channels.values():
@@ -407,6 +409,7 @@ class LockstepLoop:
 
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""
+        self._start_failure = reason
         if self._interrupted():
             self.get_logger().info(f'run not started: {reason}')
             return reason

@@ -59,7 +59,8 @@ class RunAction:
             self._busy.release()
         end = self.last_run_end
         interrupted = self._interrupted()
-        line = f'run_until finished: {message}'
+        line = f'run_until finished: {message}' if end is not None else \
+            f'run_until finished: run not started: {message}'
         if end is not None and end.end_state not in message:
             line += f'; {end.end_state}'
         # A clean interrupt (Ctrl-C, stop()) is not an error; a fault or a failure is.
