@@ -239,6 +239,7 @@ class LockstepLoop:
         faults_before = list(self.core.faults.counts)
         self.last_run_end = None
         self._start_failure: str | None = None
+        first_step = self.core.step
         try:
             self._run_started = time.monotonic()
             timeout = self.parameters['startup_timeout']
@@ -286,8 +287,9 @@ class LockstepLoop:
                 self.faults.flush()
                 for channel in self._channels.values():
                     channel.inbox.binding.flush()    # an intruder that sent and left, by gid
-            if self._start_failure is None:      # a run that never started did not "end"
-                self.last_run_end = run_end(self.core, faults_before)
+            self.last_run_end = run_end(self.core, faults_before)
+            # Sim time never moved: the run did not start (its faults, if any, still count).
+            self.last_run_started = self._start_failure is None or self.core.step != first_step
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             for channel in self._channels.values():

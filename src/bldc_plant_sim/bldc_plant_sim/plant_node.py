@@ -60,7 +60,8 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._faulted: dict[ControllerKind, str | None] = {kind: None for kind in ControllerKind}
         self._silent: set[ControllerKind] = set()  # faulted by a timeout: FAULTED_GLANCE per sample
         self._fault_shown: dict[ControllerKind, bool] = {}   # its last fault was shown
-        self.last_run_end: RunEnd | None = None    # how the last run ended; None: never started
+        self.last_run_end: RunEnd | None = None    # how the last run ended (Run.Result fields)
+        self.last_run_started = False              # whether sim time moved in it
         self._faults: list[str] = []
         self._last_sources: dict[ControllerKind, str] = {}   # the command publishers last seen
         self._pending: dict[str, Any] | None = None

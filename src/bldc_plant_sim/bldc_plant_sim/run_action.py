@@ -59,12 +59,11 @@ class RunAction:
             self._busy.release()
         end = self.last_run_end
         interrupted = self._interrupted()
-        line = f'run_until finished: {message}' if end is not None else \
-            f'run_until finished: run not started: {message}'
-        if end is not None and end.end_state not in message:
+        faulted = end is not None and end.faulted
+        line = 'run_until finished: ' + ('' if self.last_run_started else 'run not started: ') + message
+        if end is not None and end.end_state not in message and (self.last_run_started or faulted):
             line += f'; {end.end_state}'
         # A clean interrupt (Ctrl-C, stop()) is not an error; a fault or a failure is.
-        faulted = end is not None and end.faulted
         (self.get_logger().info if (ok and not faulted) or (interrupted and not faulted)
          else self.get_logger().error)(line)
 
