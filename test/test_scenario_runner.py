@@ -20,6 +20,7 @@ from mcap.reader import make_reader
 
 from drive_bringup.headless import run_headless
 from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.starter import STARTER_PID_VARIABLE
 from drive_testing.harness import isolated_env, processes_with_env
 from drive_common.waiting import wait_until
 
@@ -325,32 +326,53 @@ def test_run_scenario_runs_in_a_private_domain_unless_asked_to_join(tmp_path, ro
     assert given == {str(ros_domain)}, given
 
 
+def _runner_line(out: Path) -> str:
+    """A shell command running a long scenario (minutes of wall time) into out."""
+    return (f'"{sys.executable}" -m drive_bringup.runner_cli two_phase_six_switch_flux_control '
+            f'--isolate --out "{out}"')
+
+
+def _shell_run(script: str, marker: str, graph_up) -> tuple[str, int]:
+    """Run script in bash with DTC_TEST_MARKER=marker; call graph_up(said, shell) once the
+    runner says 'graph up'. (Everything said, read to EOF: the runner is gone; bash's pid.)"""
+    shell = subprocess.Popen(['bash', '-c', script], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True,
+                             env=dict(os.environ, DTC_TEST_MARKER=marker))
+    said = ''
+    try:
+        for line in shell.stdout:
+            said += line
+            if 'graph up' in line:         # the run is under way
+                graph_up(said, shell)
+        shell.wait(timeout=120)
+    finally:
+        shell.kill()
+    return said, shell.pid
+
+
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_background_run_of_a_script_stops_on_a_signal(tmp_path, sig):
     """A non-interactive shell starts a background job with SIGINT ignored: the runner still
     stops on SIGINT (and SIGTERM), with every node gone and the bag finalized."""
     out = tmp_path / 'background'
     marker = f'background_{os.getpid()}_{time.monotonic_ns()}'
-    script = (f'"{sys.executable}" -m drive_bringup.runner_cli two_phase_six_switch_flux_control '
-              f'--isolate --out "{out}" & echo "pid $!"; wait $!; echo "exit $?"')
-    shell = subprocess.Popen(['bash', '-c', script], stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True,
-                             env=dict(os.environ, DTC_TEST_MARKER=marker))
-    lines: list[str] = []
-    try:
-        for line in shell.stdout:          # ends at EOF: the shell and the runner are gone
-            lines.append(line)
-            if line.startswith('pid '):
-                pid = int(line.split()[1])
-            if 'graph up' in line:         # the run is under way
-                os.kill(pid, sig)
-        shell.wait(timeout=120)
-    finally:
-        if shell.poll() is None:
-            shell.kill()
-    text = ''.join(lines)
+    text, _ = _shell_run(f'{_runner_line(out)} & echo "pid $!"; wait $!; echo "exit $?"', marker,
+                         lambda said, shell: os.kill(int(said.split('pid ')[1].split()[0]), sig))
     assert 'exit 130' in text and 'interrupted: all nodes stopped' in text, text
     assert processes_with_env(f'DTC_TEST_MARKER={marker}') == [], 'orphan node processes left behind'
+    assert (out / 'bag' / 'metadata.yaml').exists()
+
+
+def test_a_runner_whose_starter_is_killed_stops_every_node(tmp_path):
+    """Runner and nodes have their own sessions: a starter killed with SIGKILL takes nothing
+    down by signal. A runner that names it (drive_common.starter) stops as on Ctrl-C."""
+    out = tmp_path / 'orphaned'
+    marker = f'starter_{os.getpid()}_{time.monotonic_ns()}'
+    text, starter = _shell_run(f'export {STARTER_PID_VARIABLE}=$$; {_runner_line(out)} & wait',
+                               marker, lambda said, shell: shell.kill())
+    assert f'(pid {starter}) has ended: stopping' in text, text
+    assert 'interrupted: all nodes stopped' in text, text
+    assert processes_with_env(f'DTC_TEST_MARKER={marker}') == [], 'orphan processes left behind'
     assert (out / 'bag' / 'metadata.yaml').exists()
 
 

@@ -23,6 +23,7 @@ from typing import Callable
 from drive_bringup.scenario import Scenario, ScenarioError, find_scenario, load_scenario, scenario_dir
 from drive_common.namespaces import normalized
 from drive_common.parameter_files import ParameterFileError, read_params_file
+from drive_common.starter import watch_starter
 
 
 def default_out_dir(name: str) -> Path:
@@ -126,9 +127,12 @@ def _interrupt(signum, frame):
 
 def main(argv=None) -> int:
     """Ctrl-C and SIGTERM interrupt from the first instruction on, even when the shell of a
-    non-interactive script started this in the background with SIGINT ignored."""
+    non-interactive script started this in the background with SIGINT ignored; so does the
+    end of a starter that named itself (drive_common.starter)."""
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
+        if not watch_starter():
+            return 130
         return _main(argv)
     except KeyboardInterrupt:
         print('interrupted: all nodes stopped', file=sys.stderr)

@@ -17,13 +17,12 @@ A node that does not stop can be asked where it is: SIGUSR1 prints the stack
 of every thread to stderr (:data:`STACK_DUMP_SIGNAL`; drive_common.processes
 sends it before it escalates from SIGINT). A node started by
 drive_common.processes stops, as on SIGINT, when the process that started it
-ends, even killed (:data:`STARTER_PID_VARIABLE`).
+ends, even killed (drive_common.starter).
 """
 from __future__ import annotations
 
 import faulthandler
 import os
-import select
 import signal
 import sys
 import threading
@@ -32,11 +31,10 @@ from typing import Callable
 from drive_common.node_help import print_node_help, wants_help
 from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
+from drive_common.starter import watch_starter
 
 
 STACK_DUMP_SIGNAL = signal.SIGUSR1
-# Set by drive_common.processes.NodeProcess to the pid of the process that starts the node.
-STARTER_PID_VARIABLE = 'DTC_STARTER_PID'
 
 
 def fail(reason: object, code: int = 2) -> int:
@@ -108,43 +106,28 @@ def spin_in_background(executor, name: str = 'executor',
 
 
 def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTERM)) -> None:
-    """SIGINT/SIGTERM set ``stop``, from a relay thread: a handler runs in the main thread
-    between two bytecodes, and ``stop.set()`` there deadlocks when the main thread was
-    interrupted inside ``stop.wait()`` holding the event's lock (a node that never ends).
-    The handler only writes to a pipe, which the relay thread reads."""
+    """SIGINT/SIGTERM set ``stop``, from a relay thread woken by the signal's wakeup byte.
+
+    Python runs a signal handler in the main thread only, and only once that thread wakes;
+    the kernel may deliver the signal to any thread (to another one whenever the main
+    thread already has a signal pending, e.g. the SIGUSR1 of a stack request), and a main
+    thread blocked in ``stop.wait()`` then never wakes. The C-level handler writes the
+    signal number to :func:`signal.set_wakeup_fd`'s pipe from whichever thread took it; a
+    relay thread reads it and sets the event (set in a handler, it could also deadlock on
+    the event's lock, held by the interrupted ``stop.wait()``). Main thread only.
+    """
     read_fd, write_fd = os.pipe()
+    os.set_blocking(write_fd, False)
+    wanted = {int(sig) for sig in signals}
 
     def relay() -> None:
-        os.read(read_fd, 1)
+        while not wanted.intersection(os.read(read_fd, 64)):   # bytes: signal numbers
+            pass
         stop.set()
     threading.Thread(target=relay, daemon=True, name='signal_relay').start()
     for sig in signals:
-        signal.signal(sig, lambda *_: os.write(write_fd, b'\0'))
-
-
-def stop_with_starter(stop: threading.Event) -> None:
-    """Set ``stop`` when the process named by :data:`STARTER_PID_VARIABLE` ends.
-
-    A started node has its own session, so a starter killed by SIGKILL (or a test
-    worker that dies) cannot take it down with a signal; without this it stays in
-    the graph, an orphan that the next graph on its domain meets as a conflict.
-    """
-    value = os.environ.get(STARTER_PID_VARIABLE, '')
-    if not value.isdigit():
-        return
-    try:
-        starter = os.pidfd_open(int(value))
-    except ProcessLookupError:
-        starter = None                    # ended before the node got here
-
-    def watch() -> None:
-        if starter is not None:
-            select.select([starter], [], [])       # readable once the starter has exited
-        if not stop.is_set():
-            print(f'[{os.path.basename(sys.argv[0]) or "node"}] the process that started it '
-                  f'(pid {value}) has ended: stopping', file=sys.stderr, flush=True)
-            stop.set()
-    threading.Thread(target=watch, daemon=True, name='starter_watch').start()
+        signal.signal(sig, lambda *_: None)        # the wakeup byte does the work
+    signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
 
 
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
@@ -156,7 +139,7 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     multithreaded: spin with a 4-thread executor (a node whose action
         callback runs long, the plant).
     work: ``work(node, stop)`` runs in the main thread while the executor
-        serves the node; ``stop`` is set by SIGINT/SIGTERM (or the starter's end).
+        serves the node; ``stop`` is set by SIGINT/SIGTERM.
     errors: further exception types that mean "cannot start" (exit 2).
     about: what ``-h``/``--help`` describes (default: factory, see
         :func:`drive_common.node_help.print_node_help`); help starts nothing.
@@ -177,7 +160,8 @@ def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = 
     faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
     stop = threading.Event()
     stop_on_signals(stop)
-    stop_with_starter(stop)
+    if not watch_starter():
+        return 0
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except Exception as exc:  # noqa: BLE001 - rcl's own errors: bad --ros-args / params file

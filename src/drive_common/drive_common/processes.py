@@ -27,7 +27,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
-from drive_common.node_main import STACK_DUMP_SIGNAL, STARTER_PID_VARIABLE
+from drive_common.node_main import STACK_DUMP_SIGNAL
+from drive_common.starter import starter_env
 from drive_common.waiting import wait_until
 
 STACK_DUMP_MARK = '(most recent call first)'   # faulthandler's line per thread
@@ -228,9 +229,8 @@ class NodeProcess:
         self._final_output: str | None = None
         self.log_path = log_dir / f'{node_name or executable}.log'
         self._log = open(self.log_path, 'wb')
-        env = {**(os.environ if env is None else env), STARTER_PID_VARIABLE: str(os.getpid())}
         self.process = subprocess.Popen(self.command, stdout=self._log, stderr=subprocess.STDOUT,
-                                        env=env, start_new_session=True)
+                                        env=starter_env(env), start_new_session=True)
 
     @property
     def pid(self) -> int:

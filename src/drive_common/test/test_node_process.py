@@ -9,6 +9,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from drive_common.processes import STACK_DUMP_MARK, NodeProcess, isolated_env, reserve_domain
 from drive_common.waiting import wait_until
 
@@ -75,9 +77,11 @@ PROBE = ('import rclpy\n'
          'from drive_common.node_main import run_node\n'
          'def build():\n'
          "    node = rclpy.create_node('starter_watch_probe')\n"
-         "    print('up', flush=True)\n"
+         "    print('probe node up', flush=True)\n"
          '    return node\n'
-         'raise SystemExit(run_node(build, args=[]))\n')
+         'code = run_node(build, args=[])\n'
+         "print('probe exit', code, flush=True)\n"
+         'raise SystemExit(code)\n')
 STARTER = ('import sys, time\n'
            'from drive_common.processes import NodeProcess\n'
            f'PROBE = {PROBE!r}\n'
@@ -94,6 +98,7 @@ def _ended(pid: int) -> bool:
         return True
 
 
+@pytest.mark.ros
 def test_a_node_stops_by_itself_when_the_process_that_started_it_is_killed(tmp_path):
     with reserve_domain() as domain_id:
         starter = subprocess.Popen([sys.executable, '-c', STARTER, str(tmp_path)],
@@ -101,12 +106,14 @@ def test_a_node_stops_by_itself_when_the_process_that_started_it_is_killed(tmp_p
         pid = int(starter.stdout.readline())
         log = tmp_path / 'probe.log'
         try:
-            wait_until(lambda: 'up' in log.read_text(), 120.0, 0.05)
+            wait_until(lambda: 'probe node up' in log.read_text(), 120.0, 0.05)
             starter.kill()                                  # no chance to stop its node
             starter.wait(timeout=60)
             wait_until(lambda: _ended(pid), 120.0, 0.05)
-            assert (f'the process that started it (pid {starter.pid}) has ended: stopping'
-                    in log.read_text())
+            text = log.read_text()
+            assert f'the process that started it (pid {starter.pid}) has ended: stopping' in text
+            assert 'probe exit 0' in text, text              # stopped as on Ctrl-C
         finally:
+            starter.kill()
             if not _ended(pid):
                 os.kill(pid, signal.SIGKILL)

@@ -12,6 +12,7 @@ import pytest
 
 from drive_common.node_main import STACK_DUMP_SIGNAL
 from drive_common.processes import STACK_DUMP_MARK
+from drive_common.starter import starter_env
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain, wait_until
 
 ROS2 = shutil.which('ros2')
@@ -47,8 +48,9 @@ class Ros2:
         """A long-running `ros2 ...` whose output goes to a file."""
         log = self.workdir / f'{name}.out'
         stream = open(log, 'w')
-        process = subprocess.Popen([ROS2, *args], env=self.env, stdout=stream, stderr=subprocess.STDOUT,
-                                   text=True, start_new_session=True, cwd=self.workdir)
+        process = subprocess.Popen([ROS2, *args], env=starter_env(self.env), stdout=stream,
+                                   stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                                   cwd=self.workdir)
         self.started.append(process)
         return Streaming(process, log)
 

@@ -33,6 +33,7 @@ from typing import Callable
 
 import yaml
 
+from drive_common.starter import starter_env
 from drive_testing.block_bags import recorded_samples
 
 SCENARIO = 'two_phase_six_switch_torque_step'
@@ -428,7 +429,7 @@ def _run_graph(command, case: Case, domain_id: int):
     from drive_testing.harness import RosSession, isolated_env
     log = tempfile.TemporaryFile(mode='w+')
     runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True,
-                              env=isolated_env(domain_id), start_new_session=True)
+                              env=starter_env(isolated_env(domain_id)), start_new_session=True)
     session = RosSession(domain_id)
     ctx = Injection(domain_id, runner, session.node('fault_injector'))
     try:
