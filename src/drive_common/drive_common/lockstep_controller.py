@@ -46,6 +46,10 @@ __all__ = ['LockstepChannels', 'LockstepControllerNode']
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
 HOLD_FLUSH = 0.5           # s without a measurement after which a partial block goes out
+# The same after the first sample answered: the plant's first exchange (binding this node,
+# re-sending an answer lost before matching every 2 s) can take seconds on a loaded machine,
+# and a flush there would split the first block depending on wall time.
+FIRST_HOLD_FLUSH = 5.0
 POLL = 0.1                 # s per wait for measurements (the stop flag is checked between)
 MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
@@ -137,7 +141,8 @@ class LockstepControllerNode(Node):
             try:
                 self._receiver.poll(POLL)
                 # (an outsider's messages wake the poll too: only the bound plant's count)
-                if time.monotonic() - self._peer_heard_at >= HOLD_FLUSH:
+                quiet = HOLD_FLUSH if self.samples_answered > 1 else FIRST_HOLD_FLUSH
+                if time.monotonic() - self._peer_heard_at >= quiet:
                     self._telemetry.flush()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):

@@ -5,6 +5,7 @@ import threading
 
 import pytest
 
+from drive_common.telemetry_blocks import expand
 from drive_testing.harness import send_until_answered, wait_for_subscribers
 from drive_common.waiting import wait_until
 
@@ -133,3 +134,41 @@ def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(s
         assert [status.step for status, _, _ in blocks.records] == [1, 2, 3]
     finally:
         outsider.close()
+
+
+def test_a_slow_first_exchange_does_not_split_the_first_block(start_node, ros_session):
+    """The plant's first exchange can take seconds on a loaded machine (binding, an answer
+    re-sent): a quiet spell after the first sample shorter than FIRST_HOLD_FLUSH is no hold,
+    so the first block does not depend on wall time; later, HOLD_FLUSH closes a block."""
+    import time
+
+    from drive_common import topics
+    from drive_common.conversions import time_msg
+    from drive_common.lockstep_controller import FIRST_HOLD_FLUSH, HOLD_FLUSH
+    from drive_testing.block_probe import BlockSamples
+    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatusBlock
+
+    start_node('pfc_controller', 'pfc_controller', parameters={'telemetry.live_period': 0.0})
+    node = ros_session.node('pfc_slow_plant')
+    duties = set()
+    node.create_subscription(DutyCommand, topics.DUTY_COMMAND, lambda m: duties.add(m.step),
+                             topics.LOCKSTEP_QOS)
+    pub = node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
+    blocks = BlockSamples(node, PfcStatusBlock, topics.PFC_STATUS_BLOCK)
+    wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
+
+    def answer(step: int) -> None:
+        msg = PfcMeasurement(step=step, output_voltage=75.0)
+        msg.header.stamp = time_msg(step * 12.5e-6)      # consecutive samples: one block
+        send_until_answered(lambda: pub.publish(msg), lambda: step in duties,
+                            what=f'answer to step {step}')
+
+    answer(1)
+    assert 3 * HOLD_FLUSH < FIRST_HOLD_FLUSH
+    time.sleep(3 * HOLD_FLUSH)       # the stimulus: a slow first exchange (not a wait for a condition)
+    answer(2)
+    answer(3)
+    wait_until(lambda: len(blocks.records) >= 3, 30.0, what='the partial block once the plant holds')
+    assert [status.step for status, _, _ in blocks.records] == [1, 2, 3]
+    assert [status.step for status, _, _ in expand(blocks.blocks[0])][:2] == [1, 2], \
+        'the first sample went out alone: the slow first exchange was taken for a hold'
