@@ -95,14 +95,12 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     assert process.alive(), process.output()
 
 
-def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(start_node, ros_session,
-                                                                               ros_domain):
-    """The partial status block goes out once the bound plant holds, even while an outsider
-    keeps publishing measurements faster than the hold is detected (a ``ros2 topic pub -r 5``)."""
+def _test_plant(start_node, ros_session):
+    """A pfc_controller (every sample on the live topic) and a test node in the plant's place:
+    (its status blocks as received, answer(step): send the measurement of step until answered)."""
     from drive_common import topics
-    from drive_common.lockstep_controller import HOLD_FLUSH
+    from drive_common.conversions import time_msg
     from drive_testing.block_probe import BlockSamples
-    from drive_testing.harness import RosSession
     from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatusBlock
 
     start_node('pfc_controller', 'pfc_controller', parameters={'telemetry.live_period': 0.0})
@@ -115,9 +113,23 @@ def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(s
     wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
 
     def answer(step: int) -> None:
-        send_until_answered(lambda: pub.publish(PfcMeasurement(step=step, output_voltage=75.0)),
-                            lambda: step in duties, what=f'answer to step {step}')
+        msg = PfcMeasurement(step=step, output_voltage=75.0)
+        msg.header.stamp = time_msg(step * 12.5e-6)      # consecutive samples: one block
+        send_until_answered(lambda: pub.publish(msg), lambda: step in duties,
+                            what=f'answer to step {step}')
+    return blocks, answer
 
+
+def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(start_node, ros_session,
+                                                                               ros_domain):
+    """The partial status block goes out once the bound plant holds, even while an outsider
+    keeps publishing measurements faster than the hold is detected (a ``ros2 topic pub -r 5``)."""
+    from drive_common import topics
+    from drive_common.lockstep_controller import HOLD_FLUSH
+    from drive_testing.harness import RosSession
+    from dtc_msgs.msg import PfcMeasurement
+
+    blocks, answer = _test_plant(start_node, ros_session)
     answer(1)                                # the controller is bound to this plant
     outsider = RosSession(ros_domain)
     try:
@@ -142,27 +154,9 @@ def test_a_slow_first_exchange_does_not_split_the_first_block(start_node, ros_se
     so the first block does not depend on wall time; later, HOLD_FLUSH closes a block."""
     import time
 
-    from drive_common import topics
-    from drive_common.conversions import time_msg
     from drive_common.lockstep_controller import FIRST_HOLD_FLUSH, HOLD_FLUSH
-    from drive_testing.block_probe import BlockSamples
-    from dtc_msgs.msg import DutyCommand, PfcMeasurement, PfcStatusBlock
 
-    start_node('pfc_controller', 'pfc_controller', parameters={'telemetry.live_period': 0.0})
-    node = ros_session.node('pfc_slow_plant')
-    duties = set()
-    node.create_subscription(DutyCommand, topics.DUTY_COMMAND, lambda m: duties.add(m.step),
-                             topics.LOCKSTEP_QOS)
-    pub = node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
-    blocks = BlockSamples(node, PfcStatusBlock, topics.PFC_STATUS_BLOCK)
-    wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
-
-    def answer(step: int) -> None:
-        msg = PfcMeasurement(step=step, output_voltage=75.0)
-        msg.header.stamp = time_msg(step * 12.5e-6)      # consecutive samples: one block
-        send_until_answered(lambda: pub.publish(msg), lambda: step in duties,
-                            what=f'answer to step {step}')
-
+    blocks, answer = _test_plant(start_node, ros_session)
     answer(1)
     assert 3 * HOLD_FLUSH < FIRST_HOLD_FLUSH
     time.sleep(3 * HOLD_FLUSH)       # the stimulus: a slow first exchange (not a wait for a condition)
