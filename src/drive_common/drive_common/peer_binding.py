@@ -8,9 +8,11 @@ takes, a controller the measurement topic to the publisher of the first
 measurement. Only a lockstep counterpart (it also subscribes to this side's
 topic) can be bound; every other publisher is then ignored and reported once
 (``/diagnostics`` WARN and the log), until the bound publisher leaves the graph.
-An intruder whose publisher the graph does not name (yet, or any more: it sent
-and left) is named by its node's other endpoints, or reported by gid when the
-run ends (:meth:`PeerBinding.flush`): never dropped unreported.
+An intruder whose publisher the graph lists without its node's name yet is
+reported once the name comes; one the graph does not list (it sent and left)
+is named by its DDS participant's other endpoints, or reported by gid when the
+run ends (:meth:`PeerBinding.flush`): never dropped unreported, never named by
+a guess while its own name is still coming.
 
 rclpy gives no publisher per message, so :class:`IdentifiedTake` calls rcl's
 ``rcl_take_serialized_message`` through ctypes (``publisher_gid`` =
@@ -223,11 +225,15 @@ class PeerBinding:
         return name != UNDISCOVERED and UNKNOWN_NODE not in name
 
     def _name_of(self, topic: str, gid: bytes) -> str:
-        """The node of publisher gid on topic; if the graph does not name it (it left, or is
-        not discovered yet), the node(s) of any endpoint of the same DDS participant."""
+        """The node of publisher gid on topic; if the graph does not list it (it left, or is
+        not discovered yet), the node(s) of any endpoint of the same DDS participant.
+
+        A listed publisher whose node's name has not come yet is not named by its
+        participant: a process with several nodes would have its other nodes blamed.
+        """
         name = self._publisher_name(topic, gid)
-        if self._named(name):
-            return name
+        if name != UNDISCOVERED:
+            return name                  # its node, or rmw's placeholder until the name comes
         prefix, nodes = gid[:PARTICIPANT_PREFIX], set()
         for other, _types in self._node.get_topic_names_and_types():
             for info in (self._node.get_publishers_info_by_topic(other)
