@@ -93,6 +93,17 @@ def _adopted(client, goal_id, status: int, stamp):
     return handle
 
 
+def _forget(client, requests) -> None:
+    """Drop the requests still unanswered from rclpy's client: a reply that comes after the
+    goal was taken from its status would be a second handle for one id, and rclpy raises
+    RuntimeError ("Two goals were accepted with the same ID") in the executor; forgotten,
+    it is ignored with rclpy's WARN ("Ignoring unexpected goal response")."""
+    forget = getattr(client, '_remove_pending_goal_request', None)
+    for request in requests:
+        if forget is not None and not request.done():
+            forget(request)
+
+
 def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait = polling_wait,
               feedback=None, response_wait: float = GOAL_RESPONSE_WAIT):
     """Send goal through an rclpy ActionClient; its goal handle once the server has answered
@@ -106,24 +117,29 @@ def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait 
     def listed() -> bool:
         return watch.get(key) is not None
 
-    for attempt in range(GOAL_ATTEMPTS):
-        try:
-            sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
-        except ValueError:
-            # rclpy (Jazzy) race: the executor thread took the answer before send_goal_async
-            # had registered its future ("list.remove(x): x not in list"). The request went
-            # out; the status topic says whether the goal was accepted.
-            sent = None
-        handle = (sent.result() if sent is not None and wait(sent.done, response_wait)
-                  and sent.done() else None)
-        if handle is not None and (handle.accepted or attempt == 0):
-            return handle            # the answer; a first rejection is a real one
-        # No reply, or a repeat rejected (the server rejects an id it already tracks):
-        # the status topic says whether the goal was accepted.
-        if wait(listed, STATUS_WAIT if handle is None else response_wait) and listed():
-            return _adopted(client, goal_id, *watch.get(key))
-        if handle is not None:
-            return handle            # rejected, and never accepted
+    requests = []
+    try:
+        for attempt in range(GOAL_ATTEMPTS):
+            try:
+                sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
+                requests.append(sent)
+            except ValueError:
+                # rclpy (Jazzy) race: the executor thread took the answer before send_goal_async
+                # had registered its future ("list.remove(x): x not in list"). The request went
+                # out; the status topic says whether the goal was accepted.
+                sent = None
+            handle = (sent.result() if sent is not None and wait(sent.done, response_wait)
+                      and sent.done() else None)
+            if handle is not None and (handle.accepted or attempt == 0):
+                return handle            # the answer; a first rejection is a real one
+            # No reply, or a repeat rejected (the server rejects an id it already tracks):
+            # the status topic says whether the goal was accepted.
+            if wait(listed, STATUS_WAIT if handle is None else response_wait) and listed():
+                return _adopted(client, goal_id, *watch.get(key))
+            if handle is not None:
+                return handle            # rejected, and never accepted
+    finally:
+        _forget(client, requests)
     raise TimeoutError(f'the action server answered none of {GOAL_ATTEMPTS} requests for one goal '
                        f'({response_wait:g} s each)')
 

@@ -215,3 +215,42 @@ def test_run_to_refuses_a_rejected_goal():
 def test_run_to_gives_up_on_a_result_that_never_comes():
     with pytest.raises(WaitTimeout, match='no result of the Run goal to 0.1 s within 0.05 s'):
         run_to(_RunServer(True, 10**9, GoalStatus.STATUS_EXECUTING), 0.1, timeout=0.05)
+
+
+def test_a_reply_that_comes_after_the_goal_was_taken_from_its_status_is_ignored():
+    """A runner stopped for a while (SIGSTOP, a starved machine) takes its goal from the status
+    topic; the reply, taken later, must not make rclpy's client raise in the executor."""
+    import rclpy
+    from builtin_interfaces.msg import Time
+    from rclpy.action import ActionClient
+    from rclpy.context import Context
+
+    from drive_common.processes import reserve_domain
+
+    context = Context()
+    with reserve_domain() as domain_id:
+        rclpy.init(context=context, domain_id=domain_id)    # nothing spins it: the test does
+        try:
+            _late_reply(ActionClient(rclpy.create_node('late_reply_client', context=context), Run,
+                                     'no_server/run'), Time)
+        finally:
+            rclpy.shutdown(context=context)
+
+
+def _late_reply(client, Time) -> None:
+    sequence_numbers = []
+    send_goal_async = client.send_goal_async
+
+    def send(*args, **kwargs):
+        future = send_goal_async(*args, **kwargs)
+        sequence_numbers.extend(n for n, f in client._pending_goal_requests.items() if f is future)
+        return future
+    client.send_goal_async = send
+    listed = type('Listed', (), {'get': lambda self, key: (GoalStatus.STATUS_EXECUTING, Time(sec=1))})()
+    handle = action_goals.send_goal(client, Run.Goal(target_time=0.1), watch=listed,
+                                    wait=lambda done, seconds: done())
+    assert handle.accepted and len(sequence_numbers) == 1
+    late = client.execute({'goal': (sequence_numbers[0], Run.Impl.SendGoalService.Response(accepted=True))})
+    with pytest.raises(StopIteration):
+        late.send(None)                  # the executor's step: no RuntimeError
+    assert client._goal_handles[bytes(handle.goal_id.uuid)]() is handle
