@@ -46,7 +46,8 @@ class _Graph:
         return [(t, []) for t in {*self.publishers, *self.subscriptions}]
 
 
-def test_an_intruder_whose_node_name_has_not_come_is_not_blamed_on_another_node_of_its_process():
+def _unnamed_intruder():
+    """A plant's binding, and an intruder of the watcher's process whose name has not come."""
     graph = _Graph()
     graph.subscriptions['/diagnostics'] = [_Endpoint(PROCESS + b'\0\0\0\1', 'diagnostics_watch')]
     intruder = PROCESS + b'\0\0\0\2'           # a new node of the same process, its name to come
@@ -56,6 +57,11 @@ def test_an_intruder_whose_node_name_has_not_come_is_not_blamed_on_another_node_
     binding = PeerBinding(graph, '/drive/gate_command', '/drive/measurement',
                           report=lambda message, values: reports.append(values['intruder']))
     assert binding.accepts(intruder) is False
+    return graph, binding, intruder, reports
+
+
+def test_an_intruder_whose_node_name_has_not_come_is_not_blamed_on_another_node_of_its_process():
+    graph, binding, intruder, reports = _unnamed_intruder()
     binding.check()
     assert reports == [], 'named by a guess: the only other node of its process'
     graph.publishers['/drive/gate_command'] = [_Endpoint(intruder, 'intruder_cli')]
@@ -66,14 +72,6 @@ def test_an_intruder_whose_node_name_has_not_come_is_not_blamed_on_another_node_
 
 
 def test_an_intruder_still_unnamed_when_the_run_ends_is_reported_by_gid():
-    graph = _Graph()
-    graph.subscriptions['/diagnostics'] = [_Endpoint(PROCESS + b'\0\0\0\1', 'diagnostics_watch')]
-    intruder = PROCESS + b'\0\0\0\2'
-    graph.publishers['/drive/gate_command'] = [
-        _Endpoint(intruder, UNKNOWN_NODE, '_NODE_NAMESPACE_UNKNOWN_')]
-    reports = []
-    binding = PeerBinding(graph, '/drive/gate_command', '/drive/measurement',
-                          report=lambda message, values: reports.append(values['intruder']))
-    assert binding.accepts(intruder) is False
+    _, binding, intruder, reports = _unnamed_intruder()
     binding.flush()
     assert reports == [f'an undiscovered node (publisher gid {intruder.hex()})']
