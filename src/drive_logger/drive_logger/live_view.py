@@ -41,6 +41,7 @@ from drive_common.waiting import future_result
 from drive_logger import graph_topics, ros_types
 from drive_logger.core import live_view as core
 from drive_logger.message_definitions import DefinitionNotFoundError, cdr_stamp_ns, type_definition
+from drive_logger.parameter_push import ParameterPush
 
 DEFAULT_TOPICS = [t.PLANT_STATE, t.DTC_STATUS, t.PFC_STATUS, t.DIAGNOSTICS]
 DIAGNOSTICS_DEPTH = 64     # rare and each one matters (a fault): not thinned by the queue depth
@@ -137,6 +138,12 @@ class LiveViewNode(Node):
                 message_backlog_size=int(p['message_backlog_size']))
         except Exception as exc:   # the SDK raises its own error type for a port in use
             raise LiveViewConfigError(f'cannot serve on {p["host"]}:{p["port"]}: {exc}') from exc
+        self.push = ParameterPush(str(p['host']), self.server.port)
+        try:
+            self.push.open()
+        except ConnectionError as exc:
+            self.server.stop()
+            raise LiveViewConfigError(str(exc)) from exc
         self.get_logger().info(
             f'live view ready: ws://{p["host"]}:{self.server.port} serving {len(self.streams)} topic(s) '
             f'{[s.name for s in self.streams]}')
@@ -227,6 +234,8 @@ class LiveViewNode(Node):
             return []
 
     def on_set_parameters(self, client, parameters, request_id=None):
+        if self.push.is_push(request_id):
+            return list(parameters)            # our own push: the SDK sends these to their subscribers
         try:
             values = self.set_ros_parameters({p.name: self._from_fg(p) for p in parameters})
             return self._fg_parameters(values)
@@ -239,10 +248,15 @@ class LiveViewNode(Node):
         the SDK calls this with its own state locked, and the ROS calls may take a while)."""
         def push() -> None:
             try:
-                self.server.publish_parameter_values(self._fg_parameters(self.get_ros_parameters(list(param_names))))
+                self.publish_parameter_values(self.get_ros_parameters(list(param_names)))
             except Exception as exc:
                 self._status(f'parameter subscription: {exc}', 'Error')
         threading.Thread(target=push, daemon=True).start()
+
+    def publish_parameter_values(self, values: dict[str, object]) -> None:
+        """'/node.param' -> value to the viewers subscribed to them, through :class:`ParameterPush`
+        (never ``server.publish_parameter_values``: see drive_logger.parameter_push)."""
+        self.push.publish(values)
 
     def on_parameters_unsubscribe(self, param_names) -> None:
         return None
@@ -320,8 +334,10 @@ class LiveViewNode(Node):
             return
         values = {core.parameter_name(event.node, p.name): ros_types.plain(parameter_value_to_python(p.value))
                   for p in (*event.new_parameters, *event.changed_parameters)}
-        if values:
-            self.server.publish_parameter_values(self._fg_parameters(values))
+        try:
+            self.publish_parameter_values(values)
+        except ConnectionError as exc:
+            self._status(f'parameter update not pushed: {exc}', 'Error')
 
     @staticmethod
     def _fg_parameters(values: dict[str, object]) -> list:
@@ -360,6 +376,7 @@ class LiveViewNode(Node):
     def stop(self) -> None:
         """End serving (run_node calls it once the threads are joined)."""
         self.outbox.close()
+        self.push.close()
         self.server.stop()
         self._io.destroy_node()
 

@@ -260,6 +260,48 @@ def test_viewer_lists_subscribes_decodes_and_sets_parameters(start_node, ros_ses
     assert live.alive(), live.output()
 
 
+def test_parameter_changes_pushed_while_a_viewer_subscribes_and_unsubscribes_never_hang_the_server(
+        start_node, ros_session):
+    """The SDK holds its parameter-subscription lock while it waits for the GIL in the listener;
+    a push made from Python at that moment (a ROS parameter event) used to hang the process."""
+    from rclpy.parameter import Parameter
+    live, port = _start_live_view(start_node, topics=['/diagnostics'])
+    source = ros_session.node('parameter_source')
+    source.declare_parameter('level', 0.0)
+    name = '/parameter_source.level'
+    stop = threading.Event()
+
+    def change() -> None:                      # one ParameterEvent per set, as `ros2 param set` makes
+        level = 0
+        while not stop.wait(0.002):
+            level += 1
+            source.set_parameters([Parameter('level', value=float(level))])
+    changer = threading.Thread(target=change, daemon=True)
+    viewer = Viewer(port)
+    try:
+        changer.start()
+
+        def pushed_since(start: int) -> int:
+            return sum(1 for m in viewer.texts[start:] if m.get('op') == 'parameterValues' and 'id' not in m
+                       and [p['name'] for p in m['parameters']] == [name])
+        viewer.request({'op': 'subscribeParameterUpdates', 'parameterNames': [name]})
+        viewer.pump(lambda: pushed_since(0) >= 3, 60.0, 'changes made through ROS pushed to the viewer')
+        for _ in range(200):
+            viewer.request({'op': 'unsubscribeParameterUpdates', 'parameterNames': [name]})
+            viewer.request({'op': 'subscribeParameterUpdates', 'parameterNames': [name]})
+        seen = len(viewer.texts)
+        viewer.pump(lambda: pushed_since(seen) >= 3, 60.0, 'pushes after 200 unsubscribe/subscribe rounds')
+        viewer.request({'op': 'getParameters', 'parameterNames': [name], 'id': 'after'})
+        value = viewer.pump(lambda: viewer.reply('after'), 30.0, 'a getParameters reply')['parameters'][0]['value']
+        assert 1.0 <= value <= source.get_parameter('level').value     # a real value of the source's
+    finally:
+        stop.set()
+        changer.join()
+        viewer.close()
+    assert live.alive(), live.output()
+    assert 'parameter update not pushed' not in live.output()
+
+
 def test_a_viewer_that_never_reads_does_not_stall_the_plant(start_node):
     from rclpy.serialization import deserialize_message
     from diagnostic_msgs.msg import DiagnosticArray
