@@ -238,7 +238,7 @@ class LockstepLoop:
         self._faults: list[str] = []
         faults_before = list(self.core.faults.counts)
         self.last_run_end = None
-        self._start_failure: str | None = None
+        self._start_failed = False
         first_step = self.core.step
         try:
             self._run_started = time.monotonic()
@@ -289,7 +289,7 @@ class LockstepLoop:
                     channel.inbox.binding.flush()    # an intruder that sent and left, by gid
             self.last_run_end = run_end(self.core, faults_before)
             # Sim time never moved: the run did not start (its faults, if any, still count).
-            self.last_run_started = self._start_failure is None or self.core.step != first_step
+            self.last_run_started = not self._start_failed or self.core.step != first_step
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             for channel in self._channels.values():
@@ -411,7 +411,7 @@ class LockstepLoop:
 
     def _startup_failed(self, reason: str) -> str:
         """Sim time did not start (it holds, so no safe state is needed); report why."""
-        self._start_failure = reason
+        self._start_failed = True
         if self._interrupted():
             self.get_logger().info(f'run not started: {reason}')
             return reason

@@ -31,7 +31,7 @@ from typing import Callable
 from drive_common.node_help import print_node_help, wants_help
 from drive_common.parameter_files import ParameterFileError, params_files_in, read_params_file
 from drive_common.parameters import ParameterError
-from drive_common.starter import watch_starter
+from drive_common.starter import say, watch_starter
 
 
 STACK_DUMP_SIGNAL = signal.SIGUSR1
@@ -39,8 +39,7 @@ STACK_DUMP_SIGNAL = signal.SIGUSR1
 
 def fail(reason: object, code: int = 2) -> int:
     """Print ``[program] error: reason`` on one line (stderr); return code."""
-    text = ' '.join(str(reason).split())
-    print(f'[{os.path.basename(sys.argv[0]) or "node"}] error: {text}', file=sys.stderr, flush=True)
+    say('error: ' + ' '.join(str(reason).split()))
     return code
 
 

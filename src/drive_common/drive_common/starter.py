@@ -19,13 +19,25 @@ from typing import Mapping
 STARTER_PID_VARIABLE = 'DTC_STARTER_PID'
 
 
+def start_time(pid: int) -> str | None:
+    """When process pid started (clock ticks since boot, /proc/PID/stat field 22); None if gone."""
+    try:
+        with open(f'/proc/{pid}/stat') as stat:
+            return stat.read().rsplit(')', 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
 def starter_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
-    """env (default: this process's) naming this process as the starter."""
-    return {**(os.environ if env is None else env), STARTER_PID_VARIABLE: str(os.getpid())}
+    """env (default: this process's) naming this process as the starter: ``pid:start_time``
+    (a bare pid is accepted too), so a pid taken over by a new process is not mistaken for it."""
+    pid = os.getpid()
+    return {**(os.environ if env is None else env), STARTER_PID_VARIABLE: f'{pid}:{start_time(pid)}'}
 
 
-def _say(text: str) -> None:
-    print(f'[{os.path.basename(sys.argv[0]) or "process"}] {text}', file=sys.stderr, flush=True)
+def say(text: str) -> None:
+    """Print ``[program] text`` on stderr: how a node or runner reports before ROS logging is up."""
+    print(f'[{os.path.basename(sys.argv[0]) or "node"}] {text}', file=sys.stderr, flush=True)
 
 
 def watch_starter() -> bool:
@@ -33,22 +45,28 @@ def watch_starter() -> bool:
 
     A starter that cannot be watched (no pidfd on this kernel) is reported and not watched.
     """
-    value = os.environ.get(STARTER_PID_VARIABLE, '')
+    value, _, started = os.environ.get(STARTER_PID_VARIABLE, '').partition(':')
     if not value.isdigit():
         return True
     try:
         starter = os.pidfd_open(int(value))
     except ProcessLookupError:
-        _say(f'the process that started it (pid {value}) has already ended: not starting')
-        return False
+        starter = None
     except OSError as exc:
-        _say(f'cannot watch the process that started it (pid {value}): {exc}; '
-             'it stops only when that process stops it')
+        say(f'cannot watch the process that started it (pid {value}): {exc}; '
+            'it stops only when that process stops it')
         return True
+    # the pidfd holds the process it was opened on: a start time that differs now means the
+    # starter had ended and its pid went to another process before the pidfd was opened
+    if starter is None or (started and start_time(int(value)) != started):
+        if starter is not None:
+            os.close(starter)
+        say(f'the process that started it (pid {value}) has already ended: not starting')
+        return False
 
     def watch() -> None:
         select.select([starter], [], [])       # readable once the starter has exited
-        _say(f'the process that started it (pid {value}) has ended: stopping')
+        say(f'the process that started it (pid {value}) has ended: stopping')
         os.kill(os.getpid(), signal.SIGINT)
     threading.Thread(target=watch, daemon=True, name='starter_watch').start()
     return True

@@ -121,3 +121,19 @@ def test_a_node_stops_by_itself_when_the_process_that_started_it_is_killed(tmp_p
             starter.kill()
             if not _ended(pid):
                 os.kill(pid, signal.SIGKILL)
+
+
+def test_a_starter_whose_pid_now_belongs_to_another_process_counts_as_ended(monkeypatch, capsys):
+    from drive_common.starter import STARTER_PID_VARIABLE, start_time, starter_env, watch_starter
+    assert starter_env({})[STARTER_PID_VARIABLE] == f'{os.getpid()}:{start_time(os.getpid())}'
+    other = subprocess.Popen(['sleep', '60'])
+    try:
+        started = int(start_time(other.pid))
+        monkeypatch.setenv(STARTER_PID_VARIABLE, f'{other.pid}:{started - 1}')   # an earlier owner of the pid
+        assert watch_starter() is False
+        assert f'(pid {other.pid}) has already ended: not starting' in capsys.readouterr().err
+    finally:
+        other.kill()
+        other.wait()
+    monkeypatch.setenv(STARTER_PID_VARIABLE, f'{other.pid}:{started}')   # the very process, now gone
+    assert watch_starter() is False
