@@ -103,8 +103,9 @@ class ParameterPush:
     def _connect(self):
         if self._closed:
             raise ConnectionError('parameter push closed')
+        # loopback: no proxy, no compression, no keepalive; legacy=True is websockets' direct connect
         ws = connect(self._uri, subprotocols=[SUBPROTOCOL], open_timeout=self._open_timeout,
-                     proxy=None, compression=None, ping_interval=None)   # loopback: no proxy, no keepalive
+                     proxy=None, compression=None, ping_interval=None, legacy=True)
         # the server sends this client what it sends everyone (time, status, its own replies):
         # read and drop it, or the server's outbox for it fills and it is disconnected
         threading.Thread(target=self._drain, args=(ws,), name='parameter_push_drain', daemon=True).start()
