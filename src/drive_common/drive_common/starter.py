@@ -31,8 +31,9 @@ def start_time(pid: int) -> str | None:
 def starter_env(env: Mapping[str, str] | None = None) -> dict[str, str]:
     """env (default: this process's) naming this process as the starter: ``pid:start_time``
     (a bare pid is accepted too), so a pid taken over by a new process is not mistaken for it."""
-    pid = os.getpid()
-    return {**(os.environ if env is None else env), STARTER_PID_VARIABLE: f'{pid}:{start_time(pid)}'}
+    pid, started = os.getpid(), start_time(os.getpid())
+    value = f'{pid}:{started}' if started else str(pid)      # (no /proc: the pid alone)
+    return {**(os.environ if env is None else env), STARTER_PID_VARIABLE: value}
 
 
 def say(text: str) -> None:

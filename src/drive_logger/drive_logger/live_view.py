@@ -130,6 +130,8 @@ class LiveViewNode(Node):
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event, 100)
         self._diag_pub = self.create_publisher(DiagnosticArray, t.DIAGNOSTICS, 10)
         self.create_timer(float(p['diagnostics_period']), self.publish_diagnostics)
+        # before the server: a viewer may set parameters as soon as it is up
+        self.push = ParameterPush(str(p['host']), on_error=lambda reason: self._status(reason, 'Error'))
         try:
             self.server = foxglove.start_server(
                 name='drive live view', host=str(p['host']), port=int(p['port']),
@@ -138,9 +140,8 @@ class LiveViewNode(Node):
                 message_backlog_size=int(p['message_backlog_size']))
         except Exception as exc:   # the SDK raises its own error type for a port in use
             raise LiveViewConfigError(f'cannot serve on {p["host"]}:{p["port"]}: {exc}') from exc
-        self.push = ParameterPush(str(p['host']), self.server.port)
         try:
-            self.push.open()
+            self.push.open(self.server.port)
         except ConnectionError as exc:
             self.server.stop()
             raise LiveViewConfigError(str(exc)) from exc
@@ -248,15 +249,11 @@ class LiveViewNode(Node):
         the SDK calls this with its own state locked, and the ROS calls may take a while)."""
         def push() -> None:
             try:
-                self.publish_parameter_values(self.get_ros_parameters(list(param_names)))
+                # through ParameterPush, never server.publish_parameter_values (see that module)
+                self.push.publish(self.get_ros_parameters(list(param_names)))
             except Exception as exc:
                 self._status(f'parameter subscription: {exc}', 'Error')
         threading.Thread(target=push, daemon=True).start()
-
-    def publish_parameter_values(self, values: dict[str, object]) -> None:
-        """'/node.param' -> value to the viewers subscribed to them, through :class:`ParameterPush`
-        (never ``server.publish_parameter_values``: see drive_logger.parameter_push)."""
-        self.push.publish(values)
 
     def on_parameters_unsubscribe(self, param_names) -> None:
         return None
@@ -334,10 +331,7 @@ class LiveViewNode(Node):
             return
         values = {core.parameter_name(event.node, p.name): ros_types.plain(parameter_value_to_python(p.value))
                   for p in (*event.new_parameters, *event.changed_parameters)}
-        try:
-            self.publish_parameter_values(values)
-        except ConnectionError as exc:
-            self._status(f'parameter update not pushed: {exc}', 'Error')
+        self.push.publish(values)
 
     @staticmethod
     def _fg_parameters(values: dict[str, object]) -> list:
@@ -374,7 +368,8 @@ class LiveViewNode(Node):
         self._diag_pub.publish(msg)
 
     def stop(self) -> None:
-        """End serving (run_node calls it once the threads are joined)."""
+        """End serving (run_node calls it once serve() has joined its threads; the executor still
+        runs, and a parameter event that comes now is not pushed)."""
         self.outbox.close()
         self.push.close()
         self.server.stop()
