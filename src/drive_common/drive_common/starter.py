@@ -19,13 +19,20 @@ from typing import Mapping
 STARTER_PID_VARIABLE = 'DTC_STARTER_PID'
 
 
-def start_time(pid: int) -> str | None:
-    """When process pid started (clock ticks since boot, /proc/PID/stat field 22); None if gone."""
+def proc_stat(pid: int) -> list[str] | None:
+    """Fields 3 on of /proc/PID/stat (state, ppid, ..., ``[19]`` start time), after the
+    parenthesised command name (which may hold spaces); None if the process is gone."""
     try:
         with open(f'/proc/{pid}/stat') as stat:
-            return stat.read().rsplit(')', 1)[1].split()[19]
+            return stat.read().rsplit(')', 1)[1].split()
     except (OSError, IndexError):
         return None
+
+
+def start_time(pid: int) -> str | None:
+    """When process pid started (clock ticks since boot, /proc/PID/stat field 22); None if gone."""
+    fields = proc_stat(pid)
+    return fields[19] if fields and len(fields) > 19 else None
 
 
 def starter_env(env: Mapping[str, str] | None = None) -> dict[str, str]:

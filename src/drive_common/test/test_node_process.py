@@ -7,11 +7,11 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
 from drive_common.processes import STACK_DUMP_MARK, NodeProcess, isolated_env, reserve_domain
+from drive_common.starter import proc_stat
 from drive_common.waiting import wait_until
 
 
@@ -96,10 +96,8 @@ STARTER = ('import sys, time\n'
 
 def _ended(pid: int) -> bool:
     """Gone, or a zombie waiting for its new parent to reap it."""
-    try:
-        return Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[0] == 'Z'
-    except (FileNotFoundError, ProcessLookupError):
-        return True
+    fields = proc_stat(pid)
+    return fields is None or fields[0] == 'Z'
 
 
 @pytest.mark.ros

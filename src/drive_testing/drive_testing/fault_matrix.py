@@ -109,14 +109,15 @@ class Injection:
     def pid(self, executable: str) -> int:
         """The pid of the run's node process started as ``executable`` (a child of this case's
         runner: a process of an earlier run in the domain, still exiting, is not taken)."""
+        from drive_common.starter import proc_stat
         from drive_testing.harness import processes_with_env
         for pid in processes_with_env(f'ROS_DOMAIN_ID={self.domain_id}'):
             try:
                 cmdline = Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')
-                parent = int(Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()[1])
-            except (OSError, ValueError, IndexError):
+            except OSError:
                 continue
-            if parent != self.runner_pid:
+            fields = proc_stat(pid)
+            if fields is None or int(fields[1]) != self.runner_pid:
                 continue
             if b'--ros-args' in cmdline and any(part.endswith(executable.encode()) for part in cmdline):
                 return pid
