@@ -12,7 +12,9 @@ Services, parameters and actions stay on the node's normal executor.
 :func:`graph_conflict` finds a second graph in the node's DDS domain (a
 second node of the same name, a second publisher of a topic only this node
 may publish): the lockstep protocol matches commands by step only, so two
-graphs in one domain would silently answer each other's samples.
+graphs in one domain would silently answer each other's samples. It counts
+nodes by :func:`listed_nodes`, which leaves out the stale entries rmw's graph
+cache may keep of a departed process (they would make a node refuse for good).
 """
 from __future__ import annotations
 
@@ -127,6 +129,30 @@ class GraphConflict(ParameterError):
     """A second graph shares this node's domain; the node refuses to run (exit code 2)."""
 
 
+def listed_nodes(node) -> list[tuple[str, str]]:
+    """(name, namespace) of every node in the graph, without the stale entries of departed ones.
+
+    rmw's graph cache (rmw_dds_common, Jazzy) can keep, for good, a node whose process
+    has left (seen on a loaded machine; likely a ``ros_discovery_info`` update handled
+    after the participant's removal, which re-creates it). Such an entry has no enclave
+    (a discovered participant always has one) and no endpoint; a live node whose
+    discovery is under way lacks at most one of the two, for a moment.
+    """
+    listed = []
+    for name, namespace, enclave in node.get_node_names_and_namespaces_with_enclaves():
+        if enclave or _has_endpoints(node, name, namespace):
+            listed.append((name, namespace))
+    return listed
+
+
+def _has_endpoints(node, name: str, namespace: str) -> bool:
+    try:
+        return bool(node.get_publisher_names_and_types_by_node(name, namespace)
+                    or node.get_subscriber_names_and_types_by_node(name, namespace))
+    except _rclpy.NodeNameNonExistentError:       # it left meanwhile
+        return False
+
+
 def graph_conflict(node, sole_publisher_of=()) -> str | None:
     """Why node must not run in its domain (a second graph is there), or None.
 
@@ -135,7 +161,7 @@ def graph_conflict(node, sole_publisher_of=()) -> str | None:
     """
     domain = node.context.get_domain_id()
     me = (node.get_name(), node.get_namespace())
-    namesakes = node.get_node_names_and_namespaces().count(me)
+    namesakes = listed_nodes(node).count(me)
     if namesakes > 1:
         where = me[1].rstrip('/') + '/' + me[0]
         return (f'{node.get_name()}: {namesakes} nodes named {where} in ROS domain {domain}: '
