@@ -21,6 +21,7 @@ import time
 from typing import Callable
 
 from drive_common import topics
+from drive_common.lockstep_io import listed_nodes
 
 SETTLE = 0.5               # s without a change in the graph: discovery is done
 DISCOVERY_TIMEOUT = 5.0    # s at most
@@ -78,7 +79,7 @@ def drive_graph_nodes(node) -> list[str]:
                      *node.get_subscriptions_info_by_topic(resolved)):
             if (info.node_name, info.node_namespace) != me:
                 found.add(_full_name(info.node_name, info.node_namespace))
-    runners = [(n, ns) for n, ns in node.get_node_names_and_namespaces()
+    runners = [(n, ns) for n, ns in listed_nodes(node)
                if n == RUNNER_NODE and ns == node.get_namespace()]
     if len(runners) > (me in runners):         # another runner, whatever this node's name
         found.add(_full_name(*runners[0]))
