@@ -21,7 +21,7 @@ class ParameterMerging:
     def _merge_motor_file(self, params: dict[str, Any]) -> None:
         """Show the values in use, then merge a later motor.file change's values with it."""
         self._set_atomically({n: v for n, v in params.items() if v != self.parameters.values[n]})
-        self.add_pre_set_parameters_callback(self._with_motor_file_values)
+        self.parameters.add_pre_set(self._with_motor_file_values)
 
     def _set_atomically(self, values: dict[str, Any]) -> None:
         """Set several declared parameters in one validation (cross-checks see them together)."""

@@ -2,7 +2,8 @@
 
 Declares every parameter once with a ParameterDescriptor (type, range,
 description with unit) and installs one set-parameters callback that
-validates through the schema. A rejected change keeps the old value and
+validates through the schema; a whole number given for a double (array)
+parameter is taken as that double (:func:`as_declared_type`). A rejected change keeps the old value and
 returns the reason to the caller (``ros2 param set`` prints it). Accepted
 changes are handed to ``on_change`` as a full new snapshot; the node swaps
 it in at its next sample boundary.
@@ -53,6 +54,26 @@ def constraints(spec: ParameterSpec) -> str:
     if spec.unit:
         parts.append(f'unit: {spec.unit}')
     return '; '.join(parts)
+
+
+def as_declared_type(schema: ParameterSchema, params: list) -> list:
+    """params with a whole number given for a double (array) parameter as that double (array).
+
+    ROS types ``-p run_until:=20`` or ``ros2 param set /plant load.torque 1`` as
+    an integer, which rclpy refuses for a parameter declared double; the number
+    means the same, so it is taken (a value of any other type is still refused).
+    """
+    from rclpy.parameter import Parameter
+    out = []
+    for param in params:
+        want = _ros_type(schema[param.name]) if param.name in schema else None
+        if want == ParameterType.PARAMETER_DOUBLE and param.type_ == Parameter.Type.INTEGER:
+            param = Parameter(param.name, Parameter.Type.DOUBLE, float(param.value))
+        elif (want == ParameterType.PARAMETER_DOUBLE_ARRAY
+              and param.type_ == Parameter.Type.INTEGER_ARRAY):
+            param = Parameter(param.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in param.value])
+        out.append(param)
+    return out
 
 
 def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
@@ -136,6 +157,13 @@ class SchemaParameters:
         self._schema = schema
         self._on_change = on_change
         self._is_running = is_running
+        # Start-up overrides (-p, --params-file) as the declared type; rclpy has no public
+        # hook before a declaration takes its override (pre-set callbacks come later).
+        overrides = getattr(node, '_parameter_overrides', None)
+        if isinstance(overrides, dict):
+            overrides.update({p.name: p for p in as_declared_type(schema, list(overrides.values()))})
+        self._pre_set: list[Callable[[list], list]] = []
+        node.add_pre_set_parameters_callback(self._before_set)
         declared = node.declare_parameters(
             '', [(s.name, s.default, descriptor(s)) for s in schema.specs])
         initial = {p.name: p.value for p in declared}
@@ -149,6 +177,18 @@ class SchemaParameters:
 
     def __getitem__(self, name: str) -> Any:
         return self.values[name]
+
+    def add_pre_set(self, hook: Callable[[list], list]) -> None:
+        """Run hook(parameters) -> parameters on every change before it is validated, after
+        whole numbers became doubles. rclpy joins the lists its own pre-set callbacks return
+        (each sees the original list), so a node chains its hooks here instead."""
+        self._pre_set.append(hook)
+
+    def _before_set(self, params: list) -> list:
+        params = as_declared_type(self._schema, params)
+        for hook in self._pre_set:
+            params = hook(params)
+        return params
 
     def _on_set(self, params) -> SetParametersResult:
         changes = {p.name: p.value for p in params if p.name in self._schema}
