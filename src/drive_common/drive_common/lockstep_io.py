@@ -133,16 +133,18 @@ def listed_nodes(node) -> list[tuple[str, str]]:
     """(name, namespace) of every node in the graph, without the stale entries of departed ones.
 
     rmw's graph cache (rmw_dds_common, Jazzy) can keep, for good, a node whose process
-    has left (seen on a loaded machine; likely a ``ros_discovery_info`` update handled
-    after the participant's removal, which re-creates it). Such an entry has no enclave
-    (a discovered participant always has one) and no endpoint; a live node whose
-    discovery is under way lacks at most one of the two, for a moment.
+    has left (seen on a loaded machine, next to a live namesake; likely a
+    ``ros_discovery_info`` update handled after the participant's removal, which
+    re-creates it). Such an entry has no enclave: a node's enclave comes with its
+    participant's discovery, which precedes its ``ros_discovery_info``. An entry without
+    one is kept only if it is the one node of its name and the graph lists endpoints of
+    that name (the graph is asked by name, so a namesake's endpoints would vouch for it).
     """
-    listed = []
-    for name, namespace, enclave in node.get_node_names_and_namespaces_with_enclaves():
-        if enclave or _has_endpoints(node, name, namespace):
-            listed.append((name, namespace))
-    return listed
+    entries = node.get_node_names_and_namespaces_with_enclaves()
+    names = [(name, namespace) for name, namespace, _ in entries]
+    return [(name, namespace) for name, namespace, enclave in entries
+            if enclave or (names.count((name, namespace)) == 1
+                           and _has_endpoints(node, name, namespace))]
 
 
 def _has_endpoints(node, name: str, namespace: str) -> bool:

@@ -1,6 +1,6 @@
 """drive_common.lockstep_io.graph_conflict against a fake node's graph: a second node of the
 same name or a second publisher of a sole-publisher topic is a conflict; the stale entry that
-rmw's graph cache can keep of a departed process (no enclave, no endpoint) is not."""
+rmw's graph cache can keep of a departed process (no enclave) is not."""
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
 from drive_common.lockstep_io import graph_conflict, listed_nodes
@@ -51,16 +51,18 @@ def test_a_second_node_of_the_same_name_is_a_conflict_naming_the_domain():
 
 
 def test_a_departed_process_left_in_the_graph_cache_is_no_conflict():
-    ghost = ('plant', '/', '')                       # no enclave and no endpoint
-    graph = FakeGraph([ME, ghost, ('fixed_responder', '/', '/')])
+    ghost = ('plant', '/', '')                       # no enclave and no endpoint of its own
+    # Asked by name, the graph answers with the live plant's endpoints: they must not count.
+    graph = FakeGraph([ME, ghost, ('fixed_responder', '/', '/')], endpoints={('plant', '/')})
     assert graph_conflict(graph) is None
     assert listed_nodes(graph) == [('plant', '/'), ('fixed_responder', '/')]
 
 
-def test_a_node_whose_participant_is_still_being_discovered_counts_by_its_endpoints():
-    arriving = ('plant', '/', '')                    # its endpoints are known, its enclave not yet
-    graph = FakeGraph([ME, arriving], endpoints={('plant', '/')})
-    assert 'nodes named /plant' in graph_conflict(graph)
+def test_a_node_without_enclave_counts_only_as_the_one_node_of_its_name_with_endpoints():
+    arriving = ('recorder', '/', '')
+    assert listed_nodes(FakeGraph([ME, arriving], endpoints={('recorder', '/')})) == [
+        ('plant', '/'), ('recorder', '/')]
+    assert listed_nodes(FakeGraph([ME, arriving])) == [('plant', '/')]
 
 
 def test_a_second_publisher_of_a_sole_publisher_topic_is_a_conflict():
