@@ -3,8 +3,9 @@
 Declares every parameter once with a ParameterDescriptor (type, range,
 description with unit) and installs one set-parameters callback that
 validates through the schema; a whole number given for a double (array)
-parameter is taken as that double (:func:`as_declared_type`). A rejected change keeps the old value and
-returns the reason to the caller (``ros2 param set`` prints it). Accepted
+parameter is taken as that double (:func:`as_declared_type`). A rejected
+change keeps the old value and returns the reason to the caller
+(``ros2 param set`` prints it). Accepted
 changes are handed to ``on_change`` as a full new snapshot; the node swaps
 it in at its next sample boundary.
 
