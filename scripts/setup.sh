@@ -19,7 +19,7 @@ say() { printf '[setup] %s\n' "$*"; }
 die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
 
 # --- prerequisites -----------------------------------------------------------
-command -v "$PYTHON" >/dev/null || die "no $PYTHON: install Python 3.11 or 3.12 (Debian: apt-get install python3 python3-venv python3-dev)"
+command -v "$PYTHON" >/dev/null || die "no $PYTHON: install Python 3.10-3.13 (Debian: apt-get install python3 python3-venv python3-dev)"
 PYV=$("$PYTHON" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')
 case "$PYV" in
   3.10|3.11|3.12|3.13) ;;
