@@ -72,7 +72,8 @@ def spin_in_background(executor, name: str = 'executor',
     An entity that another thread destroys while the executor builds its wait set
     makes rclpy raise InvalidHandle there; the thread spins on (the next wait leaves
     the entity out) instead of dying and leaving every other entity unserved; a context
-    shut down meanwhile (rclpy: "context is not valid") ends it quietly.
+    or executor shut down meanwhile (rclpy: "context is not valid", or the executor's
+    guard condition gone) ends it quietly.
     on_refusal: called with a ParameterError a callback raised (e.g. GraphConflict: the
     node refuses to run), which then ends the thread; without it the error propagates.
     """
@@ -99,6 +100,12 @@ def spin_in_background(executor, name: str = 'executor',
                 for node in executor.get_nodes():      # a destroyed node is waited on no more
                     if not node_alive(node):
                         executor.remove_node(node)
+            except AttributeError:
+                # rclpy's shutdown() from another thread sets the executor's guard condition
+                # to None while this thread builds its wait set (ros2/rclpy#968): shut down
+                if getattr(executor, '_guard', True) is None:
+                    return
+                raise
     thread = threading.Thread(target=spin, daemon=True, name=name)
     thread.start()
     return thread

@@ -233,6 +233,39 @@ def test_the_spinner_ends_quietly_when_its_context_is_shut_down_mid_wait_and_onl
         threading.excepthook = hook
 
 
+def test_the_spinner_ends_quietly_when_its_executor_is_shut_down_mid_wait_and_only_then():
+    """Executor.shutdown() from another thread sets the executor's guard condition to None
+    while the spinning thread may be building its wait set, where rclpy then raises
+    AttributeError (ros2/rclpy#968): the thread ends without an error then, and fails
+    loudly on an AttributeError of a live executor."""
+    import threading
+    from drive_common.node_main import spin_in_background
+
+    class Executor:               # what spin_in_background uses of an rclpy executor
+        def __init__(self, shut_down: bool) -> None:
+            self._guard = object()
+            self.shut_down = shut_down
+            self.context = type('Context', (), {'ok': lambda _self: True})()
+
+        def spin(self):
+            if self.shut_down:
+                self._guard = None          # as Executor.shutdown() does
+            raise AttributeError("'NoneType' object has no attribute 'handle'")
+
+        def get_nodes(self):
+            return []
+
+    failures = []
+    hook, threading.excepthook = threading.excepthook, lambda args: failures.append(args.exc_value)
+    try:
+        spin_in_background(Executor(shut_down=True)).join(10.0)
+        assert failures == []
+        spin_in_background(Executor(shut_down=False)).join(10.0)
+        assert [type(f) for f in failures] == [AttributeError]
+    finally:
+        threading.excepthook = hook
+
+
 def test_a_closed_session_leaves_the_graph_even_with_action_endpoints(ros_domain):
     """rclpy's destroy_node leaves action clients and servers, and each keeps its node in
     the graph while the process lives: a later holder of the domain found a test's node
