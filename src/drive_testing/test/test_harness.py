@@ -204,33 +204,44 @@ def test_a_session_spins_on_when_another_thread_destroys_an_entity_mid_wait(ros_
     assert received[0].data == 'still served'
 
 
+class _StubExecutor:
+    """What spin_in_background uses of an rclpy executor; spin() raises ``error``, after
+    setting the guard condition to None as Executor.shutdown() does when ``shut_down``."""
+
+    def __init__(self, error: Exception, context_ok: bool = True, shut_down: bool = False) -> None:
+        self.error, self.shut_down, self._guard = error, shut_down, object()
+        self.context = type('Context', (), {'ok': lambda _self: context_ok})()
+
+    def spin(self):
+        if self.shut_down:
+            self._guard = None
+        raise self.error
+
+    def get_nodes(self):
+        return []
+
+
+def _spinner_errors(executor: _StubExecutor) -> list[type]:
+    """The types of the exceptions that end spin_in_background's thread on executor."""
+    import threading
+    from drive_common.node_main import spin_in_background
+    failures = []
+    hook, threading.excepthook = threading.excepthook, lambda args: failures.append(args.exc_value)
+    try:
+        spin_in_background(executor).join(10.0)
+    finally:
+        threading.excepthook = hook
+    return [type(f) for f in failures]
+
+
 def test_the_spinner_ends_quietly_when_its_context_is_shut_down_mid_wait_and_only_then():
     """rclpy raises RCLError ("context is not valid") when the context is shut down while the
     executor builds its wait set: the spinning thread ends without an error then, and still
     fails loudly on any other RCLError."""
-    import threading
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-    from drive_common.node_main import spin_in_background
-
-    class Executor:               # what spin_in_background uses of an rclpy executor
-        def __init__(self, context_ok: bool) -> None:
-            self.context = type('Context', (), {'ok': lambda _self: context_ok})()
-
-        def spin(self):
-            raise _rclpy.RCLError('failed to initialize wait set: the given context is not valid')
-
-        def get_nodes(self):
-            return []
-
-    failures = []
-    hook, threading.excepthook = threading.excepthook, lambda args: failures.append(args.exc_value)
-    try:
-        spin_in_background(Executor(context_ok=False)).join(10.0)
-        assert failures == []
-        spin_in_background(Executor(context_ok=True)).join(10.0)
-        assert [type(f) for f in failures] == [_rclpy.RCLError]
-    finally:
-        threading.excepthook = hook
+    error = _rclpy.RCLError('failed to initialize wait set: the given context is not valid')
+    assert _spinner_errors(_StubExecutor(error, context_ok=False)) == []
+    assert _spinner_errors(_StubExecutor(error, context_ok=True)) == [_rclpy.RCLError]
 
 
 def test_the_spinner_ends_quietly_when_its_executor_is_shut_down_mid_wait_and_only_then():
@@ -238,32 +249,9 @@ def test_the_spinner_ends_quietly_when_its_executor_is_shut_down_mid_wait_and_on
     while the spinning thread may be building its wait set, where rclpy then raises
     AttributeError (ros2/rclpy#968): the thread ends without an error then, and fails
     loudly on an AttributeError of a live executor."""
-    import threading
-    from drive_common.node_main import spin_in_background
-
-    class Executor:               # what spin_in_background uses of an rclpy executor
-        def __init__(self, shut_down: bool) -> None:
-            self._guard = object()
-            self.shut_down = shut_down
-            self.context = type('Context', (), {'ok': lambda _self: True})()
-
-        def spin(self):
-            if self.shut_down:
-                self._guard = None          # as Executor.shutdown() does
-            raise AttributeError("'NoneType' object has no attribute 'handle'")
-
-        def get_nodes(self):
-            return []
-
-    failures = []
-    hook, threading.excepthook = threading.excepthook, lambda args: failures.append(args.exc_value)
-    try:
-        spin_in_background(Executor(shut_down=True)).join(10.0)
-        assert failures == []
-        spin_in_background(Executor(shut_down=False)).join(10.0)
-        assert [type(f) for f in failures] == [AttributeError]
-    finally:
-        threading.excepthook = hook
+    error = AttributeError("'NoneType' object has no attribute 'handle'")
+    assert _spinner_errors(_StubExecutor(error, shut_down=True)) == []
+    assert _spinner_errors(_StubExecutor(error, shut_down=False)) == [AttributeError]
 
 
 def test_a_closed_session_leaves_the_graph_even_with_action_endpoints(ros_domain):
