@@ -27,6 +27,7 @@ import rclpy
 
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
+from drive_common.starter import proc_stat
 from drive_testing.ceiling import measure_round_trips
 from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
 
@@ -35,7 +36,9 @@ DEFAULT = 'two_phase_six_switch_torque_step'
 
 def cpu_seconds(pid: int) -> float:
     """User + system CPU time of a process (all its threads), s."""
-    fields = open(f'/proc/{pid}/stat').read().rsplit(')', 1)[1].split()
+    fields = proc_stat(pid)
+    if fields is None:
+        raise ProcessLookupError(f'no process {pid}')
     return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
