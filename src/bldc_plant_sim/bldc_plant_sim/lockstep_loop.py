@@ -32,7 +32,6 @@ from dtc_msgs.action import Run
 from dtc_msgs.msg import DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement, PlantState
 
 COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
-FIRST_ANSWER_RESEND = 2.0       # s: re-send an unanswered first measurement (lost before matching)
 FAULTED_GLANCE = 5e-4           # s of wall time a controller that fell silent is waited for per
                                 # due sample: one that answers again resumes; a dead one slows little
 WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
@@ -213,14 +212,14 @@ class LockstepLoop:
 
         A measurement published just before the controller's reader matched the
         plant's writer can be lost, so an unanswered one is re-sent every
-        FIRST_ANSWER_RESEND s (a controller answers a repeated measurement from
+        topics.FIRST_ANSWER_RESEND s (a controller answers a repeated measurement from
         its cache, without a second core update).
         """
         timeout = self.parameters['startup_timeout']
         deadline = self._run_started + timeout      # the whole start-up shares one timeout
         report = self._startup_report
         while True:
-            msg = self._await(channel.inbox, k, min(deadline, time.monotonic() + FIRST_ANSWER_RESEND))
+            msg = self._await(channel.inbox, k, min(deadline, time.monotonic() + topics.FIRST_ANSWER_RESEND))
             if msg is not None:
                 return msg
             halted = self._halted()

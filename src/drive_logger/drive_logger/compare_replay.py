@@ -4,7 +4,8 @@ The measurements and recorded commands are the bag's raw lockstep topics when
 it has them, else those its controller status blocks carry. The controller
 (``--package/--executable`` as ``ros2 run`` finds it, or ``--command``) runs as its
 own process; each recorded measurement is published with /clock at its stamp
-and the command of the same ``step`` awaited. Parameter changes the recorded
+and the command of the same ``step`` awaited (the first one is re-sent until
+answered, as the plant does). Parameter changes the recorded
 controller accepted (its ``/parameter_events``) are applied at the same place in
 the sequence. Commands are compared field by field (header excluded); exit 0 if
 every recorded step is reproduced exactly, 1 otherwise.
@@ -151,7 +152,7 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
     from rclpy.node import Node
     from rclpy.serialization import deserialize_message
     from rosgraph_msgs.msg import Clock
-    from drive_common.topics import LOCKSTEP_QOS
+    from drive_common.topics import FIRST_ANSWER_RESEND, LOCKSTEP_QOS
     from drive_logger.ros_types import fields_of
 
     from rclpy.parameter import Parameter
@@ -188,7 +189,6 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
 
         wait_until(matched, match_timeout, 0.02,
                    f'the controller to subscribe to {measurement_topic} and publish {command_topic}')
-        time.sleep(0.2)  # let discovery settle in both directions
         if params is not None and not params.wait_for_services(timeout_sec=match_timeout):
             raise CompareError(f'{controller_node} parameter services not available')
         for index, (step, stamp, data) in enumerate(measurements):
@@ -200,12 +200,18 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                 report.parameter_changes += 1
             clock_pub.publish(clock_cdr(stamp))
             meas_pub.publish(data)
+            deadline = time.monotonic() + timeout
             with arrived:
-                if not arrived.wait_for(lambda: step in replies or (controller is not None and not controller.alive()),
-                                        timeout=timeout):
-                    report.missing_replies.append(step)
-                elif step not in replies:
-                    raise ControllerExited(controller)
+                while not arrived.wait_for(
+                        lambda: step in replies or (controller is not None and not controller.alive()),
+                        timeout=min(deadline - time.monotonic(), FIRST_ANSWER_RESEND)):
+                    if index != 0 or time.monotonic() >= deadline:
+                        report.missing_replies.append(step)
+                        break
+                    meas_pub.publish(data)   # the first one may be lost while matching: as the plant does
+                else:
+                    if step not in replies:
+                        raise ControllerExited(controller)
             report.steps_replayed += 1
         for step, _, _ in measurements:
             if step not in recorded or step not in replies:

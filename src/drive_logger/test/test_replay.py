@@ -116,16 +116,18 @@ def test_replay_into_fresh_controller_reproduces_gate_commands(ros_session, star
     assert report.steps_replayed == STEPS and report.steps_compared == STEPS
     assert report.missing_replies == [] and report.mismatch_count == 0 and report.identical
 
-    # the CLI, with a controller that differs at one step: caught exactly there, exit code 1
+    # the CLI, with a controller that loses the first measurement (re-sent, then answered) and
+    # differs at one step: caught exactly there, exit code 1
     result = subprocess.run(
         [sys.executable, '-m', 'drive_logger.compare_replay', str(bag), '--command',
          str(executable_path('drive_testing', 'replay_responder')),
-         '-p', 'corrupt_step:=123', '--json', str(tmp_path / 'report.json')],
+         '-p', 'corrupt_step:=123', '-p', 'drop_first:=true', '--json', str(tmp_path / 'report.json')],
         env=isolated_env(ros_session.domain_id), capture_output=True, text=True, timeout=120)
     assert result.returncode == 1, result.stdout + result.stderr
     import json
     report = json.loads((tmp_path / 'report.json').read_text())
     assert report['mismatch_count'] == 1 and report['first_mismatch_step'] == 123
+    assert report['missing_replies'] == [] and report['steps_compared'] == STEPS
     assert report['mismatches'][0]['recorded']['switch_on'][0] != report['mismatches'][0]['replayed']['switch_on'][0]
 
 

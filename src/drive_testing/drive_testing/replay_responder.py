@@ -3,7 +3,8 @@
 Answers every drive/measurement with a GateCommand of the same step whose
 switches depend on the measurement (hall code and current signs) and on an
 internal counter (state), like a controller. ``corrupt_step`` (>= 0) flips SW1
-at that step, to prove the comparison catches a difference.
+at that step, to prove the comparison catches a difference; ``drop_first``
+ignores the first measurement, as one lost while the graph matches.
 
 What a test cannot see from outside, it logs: ``gate_command matched N
 subscription(s)`` whenever its publisher's match count changes, and
@@ -27,11 +28,13 @@ class Responder(Node):
     def __init__(self, **kwargs):
         super().__init__('responder', **kwargs)
         self.corrupt_step = self.declare_parameter('corrupt_step', -1).value
+        self.dropping = self.declare_parameter('drop_first', False).value
         self.count = 0
         self.pub = self.create_publisher(GateCommand, GATE_COMMAND, LOCKSTEP_QOS)
         self.create_subscription(DriveMeasurement, DRIVE_MEASUREMENT, self.on_measurement, LOCKSTEP_QOS)
         self.matched = 0
         self.last_step = self.acked_step = -1
+        self.last_reply = None
         self.create_timer(REPORT_PERIOD, self.report)
 
     def report(self) -> None:
@@ -46,6 +49,12 @@ class Responder(Node):
             self.get_logger().info(f'gate_command acknowledged through step {last}')
 
     def on_measurement(self, msg):
+        if self.dropping:
+            self.dropping = False
+            return
+        if msg.step == self.last_step:          # a repeated measurement: the same answer, as the
+            self.pub.publish(self.last_reply)   # lockstep contract asks of every controller
+            return
         self.count += 1
         bits = [bool(msg.hall_code & 1), bool(msg.hall_code & 2), bool(msg.hall_code & 4),
                 bool(msg.phase_current[0] > 0), bool(msg.phase_current[1] > 0), self.count % 3 == 0]
@@ -54,7 +63,7 @@ class Responder(Node):
         out = GateCommand(step=msg.step, topology=GateCommand.TOPOLOGY_SIX_SWITCH, switch_on=bits)
         out.header.stamp = msg.header.stamp
         self.pub.publish(out)
-        self.last_step = msg.step
+        self.last_step, self.last_reply = msg.step, out
 
 
 def main(args=None) -> int:
