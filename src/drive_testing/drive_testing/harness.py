@@ -54,14 +54,16 @@ class RosSession:
     and are destroyed by :meth:`close`.
     """
 
-    def __init__(self, domain_id: int, num_threads: int = 2) -> None:
+    def __init__(self, domain_id: int) -> None:
         import rclpy
-        from rclpy.executors import MultiThreadedExecutor
+        from rclpy.executors import SingleThreadedExecutor
         os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
         self.domain_id = domain_id
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=domain_id)
-        self.executor = MultiThreadedExecutor(num_threads=num_threads, context=self.context)
+        # Single-threaded: rclpy's multi-threaded executor (7.1) delays callbacks by up to
+        # seconds while its spinning thread holds the GIL (ros2/rclpy#1452).
+        self.executor = SingleThreadedExecutor(context=self.context)
         self._nodes: list = []
         self._thread = spin_in_background(self.executor, 'ros_session')
 
