@@ -263,8 +263,8 @@ class PeerBinding:
             self._reported.add(gid)
             self.intruders.append(name)
         peer = self.peer_name or 'none'
-        message = (f'ignoring {name}: another publisher of {topic} (this node is bound to '
-                   f'{peer} on {self.received})')
+        message = (f'ignoring {name}: a publisher of {topic} outside this lockstep pair (this node '
+                   f'takes {self.received} from {peer} only)')
         self._node.get_logger().warning(message)
         if self._report is not None:
             self._report(message, {'topic': topic, 'intruder': name, 'intruder_gid': gid.hex(),
