@@ -201,14 +201,15 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
             clock_pub.publish(clock_cdr(stamp))
             meas_pub.publish(data)
             deadline = time.monotonic() + timeout
-            with arrived:
+            resend = FIRST_ANSWER_RESEND if index == 0 else timeout  # the first one may be lost while
+            with arrived:                                            # matching: as the plant does
                 while not arrived.wait_for(
                         lambda: step in replies or (controller is not None and not controller.alive()),
-                        timeout=min(deadline - time.monotonic(), FIRST_ANSWER_RESEND)):
-                    if index != 0 or time.monotonic() >= deadline:
+                        timeout=min(deadline - time.monotonic(), resend)):
+                    if time.monotonic() >= deadline:
                         report.missing_replies.append(step)
                         break
-                    meas_pub.publish(data)   # the first one may be lost while matching: as the plant does
+                    meas_pub.publish(data)
                 else:
                     if step not in replies:
                         raise ControllerExited(controller)
