@@ -97,7 +97,7 @@ def main() -> int:
     from rclpy.serialization import serialize_message
 
     from drive_common.conversions import ReusedMessage
-    from drive_testing.harness import isolated_env, reserve_domain
+    from drive_testing.harness import private_domain
     from drive_common.telemetry_blocks import BlockPacker
     from drive_common.topics import STREAM_QOS
     from dtc_msgs.msg import DtcStatus, DtcStatusBlock, PlantState, PlantStateBlock
@@ -117,9 +117,7 @@ def main() -> int:
         append_us[size] = costs
 
     rows = []
-    with reserve_domain() as domain:
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
+    with private_domain() as (_, context, env):
         node = rclpy.create_node('bench_block_publisher', context=context)
         try:
             def measure(types, step):
@@ -127,7 +125,7 @@ def main() -> int:
                               for t in types}
                 subscriber = subprocess.Popen(
                     [sys.executable, '-c', SUBSCRIBER] + [t.__name__ for t in types],
-                    env=isolated_env(domain))
+                    env=env)
                 try:
                     wait_until(lambda: all(p.get_subscription_count() >= 1 for p in publishers.values()),
                                30.0, 0.05, 'the subscriber to match')
@@ -168,7 +166,6 @@ def main() -> int:
                 rows.append((f'blocks N = {size}', cost, (size, sizes)))
         finally:
             node.destroy_node()
-            rclpy.try_shutdown(context=context)
 
     print(f'{args.samples} samples paced one per {PACE_S * 1e6:.0f} us, one raw subscriber; '
           f'CPU per sample above the idle matched graph (pacing, middleware threads); '

@@ -24,7 +24,7 @@ from rclpy.action import ActionClient
 
 from drive_common import topics
 from drive_testing.ceiling import measure_round_trips
-from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.harness import NodeProcess, private_domain
 from drive_common.waiting import wait_until
 from drive_common.action_goals import within
 from drive_common.run_goal import run_goal_result, send_run_goal
@@ -76,32 +76,26 @@ def main() -> None:
     parser.add_argument('--repeats', type=int, default=3,
                         help='alternated sequential/pipelined runs with computation_delay')
     args = parser.parse_args()
-    with reserve_domain() as domain:
-        env = isolated_env(domain)
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
-        try:
-            with NodeProcess('drive_testing', 'raw_responder', env=env):
-                ceiling = measure_round_trips(context, args.samples)
-            every = plant_rate(context, env, args.samples, TS)
-            delayed = {'sequential': 0.0, 'pipelined': 0.0}
-            for _ in range(args.repeats):
-                for mode in delayed:
-                    rate = plant_rate(context, env, args.samples, TS, computation_delay=True,
-                                      pipelined=mode == 'pipelined')
-                    delayed[mode] = max(delayed[mode], rate)
-            print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
-            print(f'plant + fixed_responder (state every sample): {every:8.0f} samples/s '
-                  f'= {every / ceiling:.2f} of the ceiling (goal >= 0.70)')
-            for mode, rate in delayed.items():
-                print(f'computation_delay on, {mode:10s} (best of {args.repeats}): {rate:8.0f} samples/s '
-                      f'= {rate / ceiling:.2f} of the ceiling')
-            print(f'pipelined / sequential (computation_delay on): '
-                  f'{delayed["pipelined"] / delayed["sequential"]:.2f} '
-                  f'(goal: pipelined >= 1.40 x the ceiling)')
-            print(f'real-time factor at T_s = 25 us : {every * TS:.3f}')
-        finally:
-            rclpy.try_shutdown(context=context)
+    with private_domain() as (_, context, env):
+        with NodeProcess('drive_testing', 'raw_responder', env=env):
+            ceiling = measure_round_trips(context, args.samples)
+        every = plant_rate(context, env, args.samples, TS)
+        delayed = {'sequential': 0.0, 'pipelined': 0.0}
+        for _ in range(args.repeats):
+            for mode in delayed:
+                rate = plant_rate(context, env, args.samples, TS, computation_delay=True,
+                                  pipelined=mode == 'pipelined')
+                delayed[mode] = max(delayed[mode], rate)
+        print(f'raw rclpy publish->reply ceiling : {ceiling:8.0f} round trips/s')
+        print(f'plant + fixed_responder (state every sample): {every:8.0f} samples/s '
+              f'= {every / ceiling:.2f} of the ceiling (goal >= 0.70)')
+        for mode, rate in delayed.items():
+            print(f'computation_delay on, {mode:10s} (best of {args.repeats}): {rate:8.0f} samples/s '
+                  f'= {rate / ceiling:.2f} of the ceiling')
+        print(f'pipelined / sequential (computation_delay on): '
+              f'{delayed["pipelined"] / delayed["sequential"]:.2f} '
+              f'(goal: pipelined >= 1.40 x the ceiling)')
+        print(f'real-time factor at T_s = 25 us : {every * TS:.3f}')
 
 
 if __name__ == '__main__':

@@ -51,13 +51,11 @@ def main() -> int:
     import rclpy
     from dtc_msgs.msg import PlantState
 
-    from drive_testing.harness import isolated_env, reserve_domain
+    from drive_testing.harness import private_domain
     from drive_common.topics import STREAM_QOS
     from drive_common.waiting import wait_until
 
-    with reserve_domain() as domain:
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
+    with private_domain() as (_, context, env):
         subscribers: list[subprocess.Popen] = []
         try:
             node = rclpy.create_node('bench_publisher', context=context)
@@ -67,7 +65,7 @@ def main() -> int:
             for wanted in range(3):
                 while len(subscribers) < wanted:
                     subscribers.append(subprocess.Popen([sys.executable, '-c', SUBSCRIBER],
-                                                        env=isolated_env(domain)))
+                                                        env=env))
                 if not wait_until(lambda: publisher.get_subscription_count() >= wanted, 30.0, 0.05,
                                   raise_timeout=False):
                     print(f'no match with {wanted} subscriber(s) within 30 s', file=sys.stderr)
@@ -80,7 +78,6 @@ def main() -> int:
             for process in subscribers:
                 process.terminate()
                 process.wait(timeout=10)
-            rclpy.try_shutdown(context=context)
     print(f'PlantState publish, reliable, one per {PACE_S * 1e6:.0f} us; publisher CPU per message '
           f'(pacing sleep of {pace:.1f} us subtracted):')
     for n, cost in enumerate(rows):

@@ -23,13 +23,11 @@ import os
 import tempfile
 from pathlib import Path
 
-import rclpy
-
 from drive_bringup.runner import GraphRunner
 from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common.starter import proc_stat
 from drive_testing.ceiling import measure_round_trips
-from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.harness import NodeProcess, domain_context, isolated_env, reserve_domain
 
 DEFAULT = 'two_phase_six_switch_torque_step'
 
@@ -73,13 +71,9 @@ def main() -> None:
     if args.duration is not None:
         scenario = scenario.shortened(args.duration)
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
-        try:
-            with NodeProcess('drive_testing', 'raw_responder', env=isolated_env(domain)):
-                ceiling = measure_round_trips(context, 4000)
-        finally:
-            rclpy.try_shutdown(context=context)
+        with domain_context(domain) as context, \
+                NodeProcess('drive_testing', 'raw_responder', env=isolated_env(domain)):
+            ceiling = measure_round_trips(context, 4000)
         def one_run(record: bool, i: int):
             runner = CpuMeasuringRunner(scenario, Path(tmp) / f'run{record}{i}', domain_id=domain,
                                         record=record, progress=lambda m: None)

@@ -22,7 +22,7 @@ from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
 from drive_common import topics
 from drive_common.node_main import spin_in_background
 from drive_common.waiting import wait_until
-from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.harness import NodeProcess, private_domain
 from dtc_msgs.msg import DriveMeasurement, GateCommand
 
 EXECUTORS = {'single-threaded': lambda context: SingleThreadedExecutor(context=context),
@@ -69,18 +69,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--samples', type=int, default=300)
     args = ap.parse_args()
-    with reserve_domain() as domain:
-        env = isolated_env(domain)
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
-        try:
-            with NodeProcess('drive_testing', 'naive_responder', env=env):
-                for name, make in EXECUTORS.items():
-                    s = sorted(round_trips(context, make, args.samples))
-                    print(f'{name:20s} median {statistics.median(s) * 1e3:8.2f} ms   '
-                          f'p90 {s[int(0.9 * len(s))] * 1e3:8.2f} ms   max {s[-1] * 1e3:8.2f} ms')
-        finally:
-            rclpy.try_shutdown(context=context)
+    with private_domain() as (_, context, env):
+        with NodeProcess('drive_testing', 'naive_responder', env=env):
+            for name, make in EXECUTORS.items():
+                s = sorted(round_trips(context, make, args.samples))
+                print(f'{name:20s} median {statistics.median(s) * 1e3:8.2f} ms   '
+                      f'p90 {s[int(0.9 * len(s))] * 1e3:8.2f} ms   max {s[-1] * 1e3:8.2f} ms')
 
 
 if __name__ == '__main__':

@@ -47,7 +47,7 @@ from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
 from drive_common.waiting import wait_until
 from drive_testing.ceiling import measure_naive_round_trips, measure_round_trips
-from drive_testing.harness import NodeProcess, isolated_env, reserve_domain
+from drive_testing.harness import NodeProcess, domain_context, isolated_env, reserve_domain
 from drive_logger.bag_reader import BagReader
 
 from bench_plant_ros import TS, plant_rate            # benchmarks/ is on sys.path when run as a script
@@ -113,10 +113,8 @@ def recorder_memory(source_bag: Path, out: Path, domain: int, sim_seconds: float
     cycle_steps = min(per_cycle.values())            # dtc: steps, plant: steps + 1 (step 0)
     cycles = int(round(sim_seconds / (cycle_steps * TS)))
     names = record_topics(scenario)
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=domain)
     env = isolated_env(domain)
-    try:
+    with domain_context(domain) as context:
         with NodeProcess('drive_logger', 'recorder', env=env,
                          parameters={'output': str(out), 'topics': names}) as recorder:
             node = rclpy.create_node('synthetic_blocks', context=context)
@@ -149,8 +147,6 @@ def recorder_memory(source_bag: Path, out: Path, domain: int, sim_seconds: float
             hwm = vm_hwm_mb(recorder.pid)
             node.destroy_node()
             recorder.stop(timeout=120.0)
-    finally:
-        rclpy.try_shutdown(context=context)
     counts = {t: n for t, (n, _) in bag_samples(out).items()}
     return hwm, wall, {t: (counts.get(t, 0), cycles * per_cycle[t]) for t in streams}
 
@@ -239,9 +235,7 @@ def main() -> int:
     with reserve_domain() as domain, tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         env = isolated_env(domain)
-        context = rclpy.Context()
-        rclpy.init(context=context, domain_id=domain)
-        try:
+        with domain_context(domain) as context:
             progress('ceilings')
             with NodeProcess('drive_testing', 'raw_responder', env=env):
                 ceiling = measure_round_trips(context, samples)
@@ -261,8 +255,6 @@ def main() -> int:
                         continue
                     delayed[mode] = max(delayed[mode], rate)
             delayed = {m: r or float('nan') for m, r in delayed.items()}   # nan: every run hung
-        finally:
-            rclpy.try_shutdown(context=context)
 
         progress(f'{DEFAULT}: recorded vs unrecorded, {repeats} each, interleaved')
         runs = {False: [], True: []}

@@ -4,7 +4,9 @@
   (re-exported here: :func:`reserve_domain`, :func:`isolated_env`,
   :class:`NodeProcess`, :func:`ros_arguments`, :func:`executable_path`).
 - :class:`RosSession` is an in-process rclpy context in a given domain with a
-  background executor, for test nodes (injected ``context`` and overrides).
+  background executor, for test nodes (injected ``context`` and overrides);
+  :func:`domain_context` and :func:`private_domain` give just the context, for
+  benchmarks that spin their own executors.
 - :func:`processes_with_env` finds leftover processes of a test.
 - the ``wait_for_*`` helpers wait for graph matching
   (:func:`drive_common.waiting.wait_until`, re-exported); :func:`send_until_answered`
@@ -15,16 +17,17 @@ from __future__ import annotations
 
 import os
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator, NamedTuple
 
 from drive_common.processes import (NodeProcess, executable_path, isolated_env, keep_reserved, reserve_domain,
                                     ros_arguments)
 from drive_common.node_main import destroy_node_and_actions, node_alive, spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
-__all__ = ['NodeProcess', 'RosSession', 'WaitTimeout', 'executable_path', 'isolated_env',
-           'processes_with_env', 'reserve_domain', 'ros_arguments', 'send_until_answered',
+__all__ = ['NodeProcess', 'PrivateDomain', 'RosSession', 'WaitTimeout', 'domain_context', 'executable_path',
+           'isolated_env', 'private_domain', 'processes_with_env', 'reserve_domain', 'ros_arguments', 'send_until_answered',
            'wait_for_publishers', 'wait_for_subscribers', 'wait_until']
 
 
@@ -45,6 +48,31 @@ def processes_with_env(marker: str) -> list[int]:
             except OSError:
                 continue
     return found
+
+
+@contextmanager
+def domain_context(domain_id: int) -> Iterator:
+    """An rclpy context initialised in domain_id, shut down on exit."""
+    import rclpy
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=domain_id)
+    try:
+        yield context
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+class PrivateDomain(NamedTuple):
+    domain_id: int
+    context: object               # rclpy.Context initialised in domain_id
+    env: dict[str, str]           # environment for node processes in domain_id
+
+
+@contextmanager
+def private_domain() -> Iterator[PrivateDomain]:
+    """A reserved DDS domain with an rclpy context in it and the environment for its node processes."""
+    with reserve_domain() as domain, domain_context(domain) as context:
+        yield PrivateDomain(domain, context, isolated_env(domain))
 
 
 class RosSession:
