@@ -79,13 +79,29 @@ class CliIntruder:
 
 
 @pytest.fixture(scope='module')
-def alone(tmp_path_factory):
-    """The samples of the scenario run alone (a private domain)."""
+def alone_bag(tmp_path_factory):
+    """The bag of the scenario run alone (a private domain)."""
     out = tmp_path_factory.mktemp('alone')
     run = run_scenario('--isolate', '--out', str(out))
     text, _ = run.communicate(timeout=600)
     assert run.returncode == 0, text
-    return recorded_samples(out / 'bag')
+    return out / 'bag'
+
+
+@pytest.fixture(scope='module')
+def alone(alone_bag):
+    """The samples of the scenario run alone."""
+    return recorded_samples(alone_bag)
+
+
+def viewer_messages(bag, namespace: str = '') -> dict[str, list]:
+    """{per-sample viewer topic: [(log time, data)]} of a bag, for a drive under namespace."""
+    from drive_logger.bag_reader import BagReader
+    wanted = [namespace + t for t in ('/plant/state', '/dtc/status', '/pfc/status')]
+    out = {t: [] for t in wanted}
+    for msg in BagReader(bag).messages(wanted):
+        out[msg.topic].append((msg.log_time, bytes(msg.data)))
+    return {t[len(namespace):]: v for t, v in out.items()}
 
 
 def assert_same_samples(alone: dict, bag) -> None:
@@ -167,10 +183,11 @@ def test_a_second_run_in_the_domain_refuses_before_it_touches_the_first(alone, r
 
 
 
-def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, ros_domain,
+def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, alone_bag, ros_domain,
                                                                           tmp_path):
     """Each drive has its own clock, diagnostics and parameter events under its namespace,
-    and its bag holds only its own topics, with the samples of the run alone."""
+    and its bag holds only its own topics, with the samples of the run alone, and the
+    per-sample viewer topics of the run alone under its namespace (what Foxglove plots)."""
     runs = {ns: run_scenario('--domain-id', str(ros_domain), '--namespace', ns,
                              '--out', str(tmp_path / ns)) for ns in ('drive1', 'drive2')}
     try:
@@ -186,11 +203,16 @@ def test_two_namespaced_drives_in_one_domain_each_record_their_run_alone(alone, 
         assert all(t.startswith(f'/{ns}/') for t in recorded), sorted(recorded)
         assert recorded[f'/{ns}/clock'].message_count > 0
         assert_same_samples(alone, tmp_path / ns / 'bag')
+        viewer = viewer_messages(tmp_path / ns / 'bag', f'/{ns}')
+        assert all(viewer.values()) and viewer == viewer_messages(alone_bag), \
+            {t: len(v) for t, v in viewer.items()}
         info = subprocess.run(['ros2', 'bag', 'info', str(tmp_path / ns / 'bag')],
                               capture_output=True, text=True, timeout=60)
         block_lines = [line for line in info.stdout.splitlines() if '_block |' in line]
         assert len(block_lines) == 3 and all(f'/{ns}/' in line and '| Samples: ' in line
                                              for line in block_lines), info.stdout + info.stderr
+        state_line = next(line for line in info.stdout.splitlines() if f'/{ns}/plant/state |' in line)
+        assert '| Samples: ' in state_line and state_line.endswith(f' in /{ns}/plant/state_block'), state_line
     # The analysis reads a namespaced drive as the same drive without a namespace.
     from drive_analysis.bag_columns import load_columns
     assert load_columns(str(tmp_path / 'drive1' / 'bag'))['/plant/state']['step'].size == \

@@ -57,6 +57,16 @@ def block_sources(reader: BagReader) -> dict[str, tuple[str, int]]:
     return out
 
 
+def split_namespace(topic: str) -> tuple[str, str] | None:
+    """(namespace, block topic) of a block topic recorded under a drive's namespace
+    (``/drive1/plant/state_block`` -> ``('/drive1', '/plant/state_block')``; '' for none),
+    or None if topic is no block topic."""
+    for block_topic in BLOCK_TOPICS:
+        if topic.endswith(block_topic):
+            return topic[:-len(block_topic)], block_topic
+    return None
+
+
 def block_class(block_topic: str) -> type:
     """The generated block message class of a block topic."""
     from drive_logger import ros_types

@@ -22,6 +22,7 @@ from drive_logger.bag_writer import BagWriteError, BagWriter
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, block_sources
 from drive_logger.sample_topics import ALL_PARTS, SampleTopics, write_canonical
 from drive_logger.tables import TABLE_FORMATS, split_columns, table_name
+from drive_common.cli_output import quiet_on_closed_pipe
 
 FORMATS = ('mcap',) + TABLE_FORMATS
 ROWS_PER_GROUP = 1 << 14
@@ -138,6 +139,7 @@ def export_tables(reader: BagReader, out: Path, fmt: str, topics=None, start=Non
     return {table_name(b): w.path for b, w in writers.items()}
 
 
+@quiet_on_closed_pipe
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog='ros2 run drive_logger export', description=__doc__.split('\n')[0])
     parser.add_argument('bag', help='bag directory (or .mcap file)')

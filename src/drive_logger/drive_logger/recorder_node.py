@@ -109,7 +109,8 @@ class RecorderNode(Node):
         viewer = SampleTopics(float(p['viewer_period'])) if p['viewer_topics'] else None
         self.bag = CanonicalWriter(self.writer, viewer, reserved=wanted)
         self.sim_log = SimTimeLog(self.bag) if p['log_time'] == 'sim' else None
-        self.derived = set(viewer.topics_for(graph_topics.BLOCK_TOPICS)) - set(wanted) if viewer else set()
+        self.derived = set(viewer.topics_for(self.resolve_topic_name(t) for t in graph_topics.BLOCK_TOPICS)
+                           ) - set(wanted) if viewer else set()
         self.topics: dict[str, _Topic] = {}
         for name, (type_name, definition) in wanted.items():
             self._subscribe(name, type_name, definition)

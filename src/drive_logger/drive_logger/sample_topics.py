@@ -28,7 +28,7 @@ from drive_common.telemetry import Decimator
 from drive_common.telemetry_blocks import block_columns, check_lengths, expand, layout, sample_stamps_ns
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriteError, BagWriter, TopicRecord
-from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes
+from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes, split_namespace
 from drive_logger.message_definitions import TypeDefinition, type_definition
 
 STATUS_PARTS = (0,)
@@ -62,19 +62,22 @@ class SampleTopics:
         """{per-sample topic: (type name, block topic, part)} derived from the given block topics."""
         out = {}
         for block_topic in block_topics:
-            if block_topic not in BLOCK_TOPICS:
+            split = split_namespace(block_topic)     # a drive's namespace stays on its topics
+            if split is None:
                 continue
-            classes = part_classes(block_topic)
+            namespace, base = split
+            classes = part_classes(base)
             for part in self.parts:
                 if part >= len(classes):     # the plant's block has one part
                     continue
-                out[BLOCK_TOPICS[block_topic][1][part]] = (_type_name(classes[part]), block_topic, part)
+                out[namespace + BLOCK_TOPICS[base][1][part]] = (_type_name(classes[part]), block_topic, part)
         return out
 
     def derive(self, block_topic: str, data: bytes, log_time: int, publish_time: int,
                wanted: set[str] | None = None) -> Iterator[tuple[str, int, int, bytes]]:
         """(topic, log time, publish time, canonical CDR) of the kept samples of one block message."""
-        block = deserialize_message(data, block_class(block_topic))
+        namespace, base = split_namespace(block_topic)
+        block = deserialize_message(data, block_class(base))
         if not block.count:
             return
         stamps = sample_stamps_ns(block).tolist()
@@ -95,7 +98,7 @@ class SampleTopics:
                 kept.append(i)
         if not kept:
             return
-        names = BLOCK_TOPICS[block_topic][1]
+        names = [namespace + name for name in BLOCK_TOPICS[base][1]]
         parts = [(p, names[p]) for p in self.parts if p < len(names) and (wanted is None or names[p] in wanted)]
         rows = {part: sample_cdr(block, part, kept, self._templates) for part, _ in parts}
         for j, i in enumerate(kept):
@@ -232,7 +235,7 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
                        if (replace_samples or t not in present) and (wanted is None or t in wanted or v[1] in wanted)}
         feeding = {v[1] for v in derived.values()}
         copied = {c.topic for c in channels.values()
-                  if (wanted is None or c.topic in wanted) and (keep_blocks or c.topic not in BLOCK_TOPICS)
+                  if (wanted is None or c.topic in wanted) and (keep_blocks or split_namespace(c.topic) is None)
                   and c.topic not in derived}
         entries: dict[str, tuple[TypeDefinition, list]] = {}    # topic -> (definition, QoS profiles)
         for channel in channels.values():

@@ -218,3 +218,17 @@ def test_a_block_that_does_not_decode_is_recorded_without_viewer_messages(bags, 
     assert bag.underived == 1
     reader = BagReader(tmp_path / 'bag')
     assert reader.topics['/plant/state_block'].message_count == 2 and reader.topics['/plant/state'].message_count
+
+
+def test_a_namespaced_drives_blocks_give_its_viewer_topics_under_its_namespace(bags):
+    """A drive recorded under -r __ns:=/drive1 gets /drive1/plant/state etc., the same samples."""
+    samples, plain = SampleTopics(0.0, parts=(0, 1, 2)), SampleTopics(0.0, parts=(0, 1, 2))
+    topics = samples.topics_for(['/drive1/plant/state_block', '/drive1/dtc/status_block', '/drive1/clock'])
+    assert topics == {'/drive1' + t: (type_name, '/drive1' + block, part) for t, (type_name, block, part)
+                      in plain.topics_for(['/plant/state_block', '/dtc/status_block']).items()}
+    assert set(topics) == {'/drive1/plant/state', '/drive1/dtc/status', '/drive1/drive/measurement',
+                           '/drive1/drive/gate_command'}
+    for msg in BagReader(bags['blocks']).messages(['/plant/state_block', '/dtc/status_block']):
+        derived = list(samples.derive('/drive1' + msg.topic, msg.data, msg.log_time, msg.publish_time))
+        expected = list(plain.derive(msg.topic, msg.data, msg.log_time, msg.publish_time))
+        assert derived and [('/drive1' + t, *rest) for t, *rest in expected] == derived

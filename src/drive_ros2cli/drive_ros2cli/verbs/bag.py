@@ -125,11 +125,13 @@ def info_main(args) -> int:
     try:
         reader = BagReader(args.bag_path)
         blocks = {}     # every drive's blocks, a namespaced drive's (-r __ns:=/NAME) included
+        carried = {}    # per-sample topic -> (block topic, part), likewise
         for namespace in reader.drive_namespaces() or ['']:
             drive = BagReader(args.bag_path, namespace=namespace) if namespace else reader
             blocks.update({namespace + topic: summary
                            for topic, summary in block_summaries(drive).items()})
-        carried = block_sources(reader)     # per-sample topic -> (block topic, part)
+            carried.update({namespace + topic: (namespace + block_topic, part)
+                            for topic, (block_topic, part) in block_sources(drive).items()})
     except BagReadError as exc:
         raise CliError(str(exc)) from None
     meta = reader.metadata or {}
