@@ -18,8 +18,10 @@ from drive_analysis import figures
 from drive_analysis.bag_columns import ANALYSED_TOPICS, load_columns
 from drive_analysis.summary import json_safe, summarize
 from drive_logger.bag_reader import BagReadError
+from drive_common.cli_output import quiet_on_closed_pipe
 
 
+@quiet_on_closed_pipe
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog='analyze', description=__doc__.split('\n\n')[0])
     ap.add_argument('bag', help='bag directory, or a directory of tables from drive_logger export --to parquet/csv')

@@ -23,6 +23,7 @@ from pathlib import Path
 
 from drive_bringup.report import check_rows, evaluate_metrics
 from drive_bringup.scenario import load_scenario, scenario_dir
+from drive_common.cli_output import quiet_on_closed_pipe
 
 
 def run_one(path: str, ros: bool, bag_root: str) -> tuple[list[dict], float, str | None]:
@@ -88,6 +89,7 @@ def update_readme(path: Path, table: str) -> None:
     path.write_text(f'{head}{BEGIN}\n{table.strip()}\n{END}{tail}')
 
 
+@quiet_on_closed_pipe
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog='reproduce', description=__doc__.split('\n')[0])
     parser.add_argument('--only', default='', help='run scenarios whose name contains this')

@@ -24,6 +24,7 @@ from drive_bringup.scenario import Scenario, ScenarioError, find_scenario, load_
 from drive_common.namespaces import normalized
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_common.starter import watch_starter
+from drive_common.cli_output import quiet_on_closed_pipe
 
 
 def default_out_dir(name: str) -> Path:
@@ -125,6 +126,7 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+@quiet_on_closed_pipe
 def main(argv=None) -> int:
     """Ctrl-C and SIGTERM interrupt from the first instruction on, even when the shell of a
     non-interactive script started this in the background with SIGINT ignored; so does the

@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_shipped, shipped_dir
+from drive_common.cli_output import quiet_on_closed_pipe
 
 
 def study_dir() -> Path:
@@ -32,6 +33,7 @@ def find_study(name_or_path: str) -> Path:
     return find_shipped(name_or_path, 'studies')
 
 
+@quiet_on_closed_pipe
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog='study', description=__doc__.split('\n')[0])
     parser.add_argument('study', nargs='?', help='study file or shipped study name')

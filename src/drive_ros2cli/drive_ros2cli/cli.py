@@ -14,10 +14,10 @@ from __future__ import annotations
 import argparse
 import faulthandler
 import importlib
-import os
 import signal
 import sys
 
+from drive_common.cli_output import silence_stdout
 from drive_common.node_main import STACK_DUMP_SIGNAL
 from drive_ros2cli.errors import CliError
 
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     except BrokenPipeError:
         # The reader went away (`ros2 param list | head`): stop quietly, and keep Python's
         # final flush of stdout from raising again at exit.
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        silence_stdout()
         return 0
 
 
