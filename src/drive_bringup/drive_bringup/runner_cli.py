@@ -122,7 +122,11 @@ def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
     return scenario, _fresh_dir(args.out or default_out_dir(scenario.name), args.overwrite)
 
 
+_signals_received: list[int] = []
+
+
 def _interrupt(signum, frame):
+    _signals_received.append(signum)
     raise KeyboardInterrupt
 
 
@@ -131,12 +135,20 @@ def main(argv=None) -> int:
     """Ctrl-C and SIGTERM interrupt from the first instruction on, even when the shell of a
     non-interactive script started this in the background with SIGINT ignored; so does the
     end of a starter that named itself (drive_common.starter)."""
+    _signals_received.clear()
     previous = {sig: signal.signal(sig, _interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if not watch_starter():
             return 130
         return _main(argv)
     except KeyboardInterrupt:
+        print('interrupted: all nodes stopped', file=sys.stderr)
+        return 130
+    except Exception:
+        # The interrupt raised inside rclpy's C++ layer (taking a message) comes out as
+        # pybind11's "RuntimeError: Unable to convert call argument": still the interrupt.
+        if not _signals_received:
+            raise
         print('interrupted: all nodes stopped', file=sys.stderr)
         return 130
     finally:
