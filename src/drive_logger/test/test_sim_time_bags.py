@@ -169,9 +169,12 @@ def test_sigkilled_recorder_bag_is_reindexed_to_what_it_had_flushed(reference_ba
     assert reindexed == intact                      # every flushed message is there, in file order
     reference = _deterministic(_by_topic(reference_bags[0]))
     measured = len(reindexed['/drive/measurement'])
-    assert KILL_AFTER <= measured < len(reference['/drive/measurement'])
-    for topic, messages in _deterministic(reindexed).items():   # nothing invented, nothing reordered
-        assert messages == reference[topic][:len(messages)], topic
+    assert KILL_AFTER <= measured < round(1.0 * 30000)      # part of the killed 1 s run
+    # Nothing invented, nothing reordered: the same messages as the reference run, as far as
+    # both go (under load the kill may land past the reference's 0.1 s).
+    for topic, messages in _deterministic(reindexed).items():
+        common = min(len(messages), len(reference[topic]))
+        assert messages[:common] == reference[topic][:common], topic
 
     meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     counts = {e['topic_metadata']['name']: e['message_count'] for e in meta['topics_with_message_count']}
