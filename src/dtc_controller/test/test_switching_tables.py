@@ -131,4 +131,3 @@ def test_sector_of_angle():
     assert st.sector_of_angle(math.radians(30.1)) == 2
     assert st.sector_of_angle(math.radians(-29.0)) == 1
     assert st.sector_of_angle(math.radians(271.0)) == 6
-    print('\n' + st.format_flux_table(st.derive_flux_table(SIX, 1)))

@@ -1,13 +1,10 @@
-"""Switching tables derived in code from the vector geometry and the seeds' stated rules.
+"""Switching tables derived from the vector geometry and the seeds' stated rules.
 
-Six 60-deg sectors, sector i centred at (i - 1) * 60 deg (sector 1 = [-30, 30) deg).
-tau = +1 turns the stator flux in the commanded direction, phi = +1/-1/0
-raises, lowers or keeps its amplitude at the sector centre; among the mode's
-candidate vectors the largest tangential component wins. This reproduces 000
-Tables II and IV (phi = 0 row: tau = +1 -> V(i+1), tau = -1 -> V(i-2), CCW; CW
-mirrored) and Table V (four-switch sectors II and V, legs a and b by their own
-phase-torque comparators). Rules in full: docs/models.md "Two-phase switching
-tables".
+Six 60-deg sectors, sector 1 = [-30, 30) deg. tau = +1 turns the stator flux in the commanded
+direction, phi = +1/-1/0 raises, lowers or keeps its amplitude at the sector centre; among the
+candidates the largest tangential component wins. This reproduces 000 Tables II, IV and V
+(four-switch sectors II and V by phase-torque comparators). Rules: docs/models.md "Two-phase
+switching tables".
 """
 from __future__ import annotations
 
@@ -61,12 +58,12 @@ def select_vector(candidates, flux_angle: float, tangential_sign: int, radial_si
 
 
 def derive_flux_table(vectors, rotation: int = 1, phis=(1, 0, -1), taus=(1, -1),
-                      two_phase_only: bool = True) -> dict:
-    """{(sector, phi, tau): VoltageVector} from the rules in the module doc (Tables II and IV)."""
+                      two_phase_only: bool = True, centers=None) -> dict:
+    """{(sector, phi, tau): VoltageVector} by the module doc's rules (Tables II and IV); centers [rad]
+    of sectors 1, 2, ... (default: the six 60-deg sectors)."""
     cands = [v for v in vectors if v.magnitude > _EPS and (v.two_phase or not two_phase_only)]
     table = {}
-    for sector in SECTORS:
-        center = sector_center(sector)
+    for sector, center in enumerate(centers or map(sector_center, SECTORS), start=1):
         for phi in phis:
             for tau in taus:
                 table[(sector, phi, tau)] = select_vector(cands, center, rotation * tau, phi)
@@ -93,11 +90,8 @@ def split_phase_sectors(table: dict, midpoint_phase: int) -> tuple[int, ...]:
 
 
 def derive_split_phase_table(vectors, midpoint_phase: int, sectors, rotation: int = 1) -> dict:
-    """{(sector, tau_first, tau_second): VoltageVector} for independent phase-torque control (Table V).
-
-    tau_first/tau_second belong to the two switched phases in a, b, c order
-    (phase a and phase b for midpoint c).
-    """
+    """{(sector, tau_first, tau_second): VoltageVector} for phase-torque control (Table V); the taus
+    belong to the two switched phases in a, b, c order."""
     by_legs = {v.legs: v for v in vectors}
     switched = [x for x in range(3) if x != midpoint_phase]
     table = {}
@@ -111,12 +105,3 @@ def derive_split_phase_table(vectors, midpoint_phase: int, sectors, rotation: in
                 table[(sector, t0, t1)] = by_legs[tuple(legs)]
     return table
 
-
-def format_flux_table(table: dict, switches: int = 6) -> str:
-    """Compact text of a {(sector, phi, tau): vector} table, one line per (phi, tau)."""
-    keys = sorted({(phi, tau) for (_, phi, tau) in table}, key=lambda k: (-k[0], -k[1]))
-    lines = []
-    for phi, tau in keys:
-        cells = [f'{table[(s, phi, tau)].name}({table[(s, phi, tau)].code(switches)})' for s in SECTORS]
-        lines.append(f'phi={phi:+d} tau={tau:+d}: ' + ' '.join(cells))
-    return '\n'.join(lines)

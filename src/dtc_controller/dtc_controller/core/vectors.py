@@ -1,18 +1,16 @@
 """Inverter voltage space vectors derived from the circuit (000 Appendices C and D, Table I).
 
-A vector is a switch tuple ``(SW1..SW6)``; each leg is then HIGH, LOW, OPEN or
-MIDPOINT (four-switch inverter: the phase on the split-capacitor midpoint).
-Phase voltages of the Y-connected motor follow from the conducting phases'
-currents summing to zero; the *ideal* vector takes the open-phase back-EMF as
-zero and a balanced midpoint, alpha/beta by the amplitude-invariant Clarke
-transform (six-switch two-phase V1 = V_dc/sqrt(3) at 30 deg). Derivation and the
-seed's Appendix C typo: docs/models.md "Voltage space vectors".
+A vector is a switch tuple ``(SW1..SW6)``; each leg is HIGH, LOW, OPEN or MIDPOINT
+(four-switch inverter). The *ideal* vector takes the open-phase back-EMF as zero and
+a balanced midpoint (amplitude-invariant Clarke). Derivation: docs/models.md
+"Voltage space vectors".
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from itertools import permutations, product
 
 from drive_common.signals import clarke
 
@@ -36,24 +34,19 @@ def leg_states(switch_on, midpoint_phase: int | None = None) -> tuple[str, str, 
 
 def switches_of(legs) -> tuple[bool, ...]:
     """Switch tuple (SW1..SW6) that realises the given leg states (MIDPOINT/OPEN legs off)."""
-    out = []
-    for leg in legs:
-        out.extend((leg == HIGH, leg == LOW))
-    return tuple(out)
+    return tuple(on for leg in legs for on in (leg == HIGH, leg == LOW))
 
 
 def phase_voltages(legs, v_dc: float, v_mid: float | None = None,
                    emf=(0.0, 0.0, 0.0)) -> tuple[float, float, float]:
-    """Phase (line-to-neutral) voltages [V] of the Y-connected motor for the given leg states.
+    """Phase voltages [V] of the Y-connected motor for the leg states (conducting currents sum to zero).
 
-    emf: phase back-EMFs [V]; only the open phases' values matter (see module doc).
-    Fewer than two conducting legs: no current path, every phase voltage is its back-EMF.
+    emf: phase back-EMFs [V] (only open phases matter); under two conducting legs each phase is its EMF.
     """
     if v_mid is None:
         v_mid = 0.5 * v_dc
-    term = []
-    for leg in legs:
-        term.append(v_dc if leg == HIGH else 0.0 if leg == LOW else v_mid if leg == MIDPOINT else None)
+    term = [v_dc if leg == HIGH else 0.0 if leg == LOW else v_mid if leg == MIDPOINT else None
+            for leg in legs]
     cond = [x for x in range(3) if term[x] is not None]
     if len(cond) < 2:
         return tuple(float(e) for e in emf)
@@ -64,12 +57,8 @@ def phase_voltages(legs, v_dc: float, v_mid: float | None = None,
 
 @lru_cache(maxsize=None)
 def voltage_coefficients(legs: tuple) -> tuple:
-    """Linear model of the alpha/beta voltage of a leg pattern (exact, by superposition).
-
-    Returns (a_dc, a_mid, b_dc, b_mid, open_terms) with
-    v_alpha = a_dc V_dc + a_mid v_mid + sum(ka e_x), v_beta likewise, where
-    open_terms = ((x, ka, kb), ...) for each open phase x.
-    """
+    """(a_dc, a_mid, b_dc, b_mid, ((x, ka, kb), ...)): v_alpha = a_dc V_dc + a_mid v_mid + sum(ka e_x)
+    over open phases x, v_beta likewise (exact, by superposition)."""
     a_dc, b_dc = clarke(*phase_voltages(legs, 1.0, 0.0))
     a_mid, b_mid = clarke(*phase_voltages(legs, 0.0, 1.0))
     terms = []
@@ -130,62 +119,46 @@ def _number_by_angle(vectors: list[VoltageVector], first_angle_deg: float, prefi
 
 
 def two_phase_six_switch_vectors() -> tuple[VoltageVector, ...]:
-    """Six-switch two-phase vectors V1..V6 (000 Fig. 2.1, Appendix C) plus V0 = all off.
-
-    Every pattern with one phase HIGH, one LOW and one OPEN; numbered
-    counter-clockwise from the one at 30 deg (a+, c-: '100001' = V1 of Table II).
-    """
-    active = []
-    for hi in range(3):
-        for lo in range(3):
-            if hi != lo:
-                legs = tuple(HIGH if x == hi else LOW if x == lo else OPEN for x in range(3))
-                active.append(_make('', 0, legs))
+    """Six-switch two-phase vectors (000 Fig. 2.1, Appendix C): V0 all off, V1..V6 one phase HIGH,
+    one LOW, numbered CCW from 30 deg (V1 = '100001' of Table II)."""
+    active = [_make('', 0, tuple(HIGH if x == hi else LOW if x == lo else OPEN for x in range(3)))
+              for hi, lo in permutations(range(3), 2)]
     zero = _make('V0', 0, (OPEN, OPEN, OPEN))
     return (zero, *_number_by_angle(active, 30.0))
 
 
 def four_switch_vectors(midpoint_phase: int = 2) -> tuple[VoltageVector, ...]:
-    """Four-switch inverter (phase `midpoint_phase` on the capacitor midpoint): all 8 leg patterns.
+    """Four-switch inverter, phase `midpoint_phase` on the capacitor midpoint (000 Fig. 4.3, Table IV).
 
-    Two-phase vectors (one switched leg OPEN, or the two switched legs
-    opposite) are numbered V1..V6 counter-clockwise from 30 deg (000 Fig. 4.3,
-    Table IV: V1 = '1000'). The two patterns with both switched legs equal
-    are three-phase vectors: V0 = both HIGH ('1010' for midpoint c) and
-    V7 = both LOW ('0101'), the names of 000 Table V and Fig. 4.5 (Appendix D
-    swaps the two codes; its values for V2 and V5 are also misprinted).
+    Two-phase vectors V1..V6 CCW from 30 deg (V1 = '1000'); both switched legs HIGH is V0, both LOW
+    V7 (000 Table V, Fig. 4.5; Appendix D swaps the two and misprints V2 and V5).
     """
     switched = [x for x in range(3) if x != midpoint_phase]
     active, extra = [], []
-    for s0 in (HIGH, LOW, OPEN):
-        for s1 in (HIGH, LOW, OPEN):
-            if s0 == OPEN and s1 == OPEN:
-                continue
+    for s0, s1 in product((HIGH, LOW, OPEN), repeat=2):
+        if s0 != OPEN or s1 != OPEN:
             legs = [MIDPOINT] * 3
             legs[switched[0]], legs[switched[1]] = s0, s1
-            legs = tuple(legs)
             if s0 == s1:
-                extra.append(_make('V0' if s0 == HIGH else 'V7', 0 if s0 == HIGH else 7, legs))
+                extra.append(_make('V0' if s0 == HIGH else 'V7', 0 if s0 == HIGH else 7, tuple(legs)))
             else:
-                active.append(_make('', 0, legs))
+                active.append(_make('', 0, tuple(legs)))
     return (*_number_by_angle(active, 30.0), *sorted(extra, key=lambda v: v.index))
 
 
 def three_phase_six_switch_vectors() -> tuple[VoltageVector, ...]:
-    """Conventional six-switch vectors (000 Table I): V1(100) at 0 deg ... V6(101), V0(000), V7(111).
-
-    Leg of phase x is HIGH when S_x = 1, else LOW (complementary switching).
-    """
+    """Conventional six-switch vectors (000 Table I): V1(100) at 0 deg ... V6(101), V0(000), V7(111);
+    leg x is HIGH when S_x = 1, else LOW."""
     active, zeros = [], []
-    for code in range(8):
-        bits = ((code >> 2) & 1, (code >> 1) & 1, code & 1)  # S_a S_b S_c
+    for bits in product((0, 1), repeat=3):  # S_a S_b S_c
         legs = tuple(HIGH if b else LOW for b in bits)
-        if code in (0, 7):
-            zeros.append(_make('V0' if code == 0 else 'V7', 0 if code == 0 else 7, legs))
+        if len(set(bits)) == 1:
+            zeros.append(_make(f'V{7 * bits[0]}', 7 * bits[0], legs))
         else:
             active.append(_make('', 0, legs))
     return (*_number_by_angle(active, 0.0), *zeros)
 
 
 def by_name(vectors) -> dict[str, VoltageVector]:
+    """{name: vector}."""
     return {v.name: v for v in vectors}
