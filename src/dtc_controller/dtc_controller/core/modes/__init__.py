@@ -1,18 +1,16 @@
-"""DTC modes, one module each; :func:`mode_class` maps the ``mode`` parameter to a class.
+"""DTC modes; :func:`mode_class` maps the ``mode`` parameter to a class.
 
-A mode is built by ``cls.create(params, backemf)`` (construction, then
-``configure(params)``; :class:`regulation.DtcMode`) and provides ``topology``
-(4 or 6), ``configure(params)`` (runtime parameters: references, bands, gains,
-from the next sample) and ``step(sample) -> (switch_on, DtcStatusSample)``.
+A mode is built by ``cls.create(params, backemf)`` (:class:`regulation.DtcMode`) and provides
+``topology`` (4 or 6), ``configure(params)`` (runtime parameters, from the next sample) and
+``step(sample) -> (switch_on, DtcStatusSample)``.
 """
 from __future__ import annotations
 
 from .regulation import DtcMode
 from .three_phase_dtifc import ThreePhaseDtifcMode
-from .three_phase_four_switch import ThreePhaseFourSwitchMode
-from .three_phase_pmsm import ThreePhasePmsmMode
+from .three_phase_pmsm import ThreePhaseFourSwitchMode, ThreePhasePmsmMode
+from .two_phase_base import TwoPhaseSixSwitchMode
 from .two_phase_four_switch import TwoPhaseFourSwitchMode
-from .two_phase_six_switch import TwoPhaseSixSwitchMode
 
 __all__ = ['DtcMode', 'MODE_CLASSES', 'mode_class']
 

@@ -1,17 +1,10 @@
 """The base of every DTC mode: its life cycle and what all modes regulate alike.
 
-Life cycle (docs/architecture.md "DTC modes"): :meth:`DtcMode.create` builds the
-mode (``cls(params, backemf)``: the subclass sets up its estimators and tables
-after ``super().__init__``) and then calls :meth:`DtcMode.configure`, which sets
-everything a runtime parameter change may alter; the controller calls
-``configure`` again for each runtime change (it acts from the next sample).
-
-Shared here: the measurement of a sample (currents with one missing sensor
-reconstructed, Clarke, encoder angle) and the kernel's arrays (``kernel``: the
-mode's compiled module) with the parameters every mode regulates alike: torque
-reference T* (parameter, or the speed PI's output when ``speed_loop.enabled``),
-flux reference, rotation (selects the switching table), two-level torque / flux
-comparator bands and the speed PI's gains.
+:meth:`DtcMode.create` builds the mode (``cls(params, backemf)``) and calls
+:meth:`DtcMode.configure`, which sets everything a runtime parameter may change; the controller
+calls ``configure`` again for each runtime change (docs/architecture.md "DTC modes"). Shared here:
+the measurement of a sample and the kernel's arrays with the torque reference (parameter or speed
+PI), flux reference, rotation, comparator bands and speed PI gains.
 """
 from __future__ import annotations
 
@@ -25,10 +18,8 @@ from ..status import NAN, DtcStatusSample
 
 @njit
 def reconstruct_currents(i_a: float, i_b: float, i_c: float) -> tuple[float, float, float]:
-    """Phase currents [A] with at most one NaN (missing sensor) filled from i_a + i_b + i_c = 0.
-
-    Raises ValueError when two or more currents are missing.
-    """
+    """Phase currents [A] with at most one NaN (missing sensor) filled from i_a + i_b + i_c = 0;
+    ValueError when two or more are missing."""
     if i_a == i_a and i_b == i_b and i_c == i_c:  # fast path: no NaN
         return i_a, i_b, i_c
     if i_a != i_a:
@@ -107,8 +98,7 @@ class DtcMode:
         return mode
 
     def configure(self, params: dict) -> None:
-        """Rotation and its table, torque / flux references and bands, speed loop and PI gains
-        (the PI's integral is kept, clamped to the new limit: bumpless)."""
+        """Rotation, references, bands and speed PI gains (its integral kept, clamped: bumpless)."""
         self.rotation = int(params['rotation'])
         self.select_now = self.select_tables[self.rotation]
         K, prm = self.kernel, self._prm
@@ -126,9 +116,8 @@ class DtcMode:
                                  'd_current_hysteresis'})
 
     def status_columns(self, step, rotation: int, out, theta, speed_m) -> dict:
-        """The mode's ``status_of`` over n samples at once, as :meth:`DtcStatusSample.columns`:
-        out (n, O_SIZE) kernel outputs named by STATUS_COLUMNS; step, theta (encoder angle, the
-        rotor angle estimate unless out has one), speed_m (n,); fields not in out: NaN or 0."""
+        """``status_of`` over n samples as :meth:`DtcStatusSample.columns`: out (n, O_SIZE) named by
+        STATUS_COLUMNS; step, theta (encoder angle), speed_m (n,); fields not in out: NaN or 0."""
         values = dict(phase_a_torque_estimate=NAN, phase_b_torque_estimate=NAN,
                       d_current_reference=NAN, rotor_angle_estimate=theta, speed_estimate=NAN,
                       d_current_hysteresis=0)

@@ -1,13 +1,10 @@
 """Direct torque and indirect flux control of a BLDC motor, three-phase conduction (000 ch. V).
 
-``three_phase_dtifc``, six switches, sensorless (default) or encoder variant
-(``three_phase.position_source``). Per sample: stator flux by the Hu-Wu
-integrator limited to the rotor-flux amplitude of the back-EMF table (000 Fig.
-5.3); rotor angle by eq. (5.38) (or the encoder) and its filtered derivative;
-i_d, i_q by Park, torque by eq. (5.32); torque and d-current hysteresis (i_d* < 0
-for field weakening); the sector of the estimated flux and 000 Table VI
-(corrected, derived). Start-up locks the rotor at ``three_phase.initial_angle``
-with the matching stator flux. Details: docs/models.md "Three-phase DTIFC mode".
+``three_phase_dtifc``: six switches, sensorless (default) or encoder angle; Hu-Wu integrator limited
+to the table's rotor-flux amplitude (000 Fig. 5.3), rotor angle by eq. (5.38), torque by eq.
+(5.32), torque and d-current hysteresis (i_d* < 0: field weakening), 000 Table VI (corrected).
+Start-up locks the rotor at ``three_phase.initial_angle``. Details: docs/models.md "Three-phase
+DTIFC mode".
 """
 from __future__ import annotations
 

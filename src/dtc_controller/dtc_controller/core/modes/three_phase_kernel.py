@@ -1,16 +1,10 @@
 """Compiled per-sample pipeline of the three-phase DTC modes (000 ch. I and V; 001).
 
-:func:`three_phase_step` is :class:`three_phase_pmsm.ThreePhaseBase`'s sample on
-float64 arrays, for ``three_phase_pmsm``, ``three_phase_four_switch`` and
-``three_phase_dtifc`` alike: applied voltage of sample k-1 (circuit
-coefficients of the previous vector plus the voltage-drop correction of
-:mod:`voltage_drop_compensation`), stator flux by the pure / low-pass / Hu-Wu
-voltage model (:mod:`stator_flux_estimators`) or the current model (001
-eqs. 8-9), rotor angle and speed (encoder, or eq. 5.38 and the filtered
-derivative), torque (001 eq. 10, or 000 eq. 5.32 for DTIFC), torque reference
-(parameter or speed PI), hysteresis, sector and table lookup; bit-identical
-compiled and interpreted. Arrays are built once per mode
-(:func:`mode_arrays`), the parameter vector on every configure.
+:func:`three_phase_step` is :class:`three_phase_pmsm.ThreePhaseBase`'s sample on float64 arrays:
+applied voltage of sample k-1 (plus the :mod:`voltage_drop_compensation` correction), stator flux
+by a voltage model (:mod:`stator_flux_estimators`) or the current model (001 eqs. 8-9), rotor
+angle and speed, torque (001 eq. 10, or 000 eq. 5.32 for DTIFC), torque reference, hysteresis,
+sector and table lookup; compiled and interpreted runs agree bit for bit.
 """
 from __future__ import annotations
 
@@ -26,9 +20,8 @@ from ..speed_loop import speed_pi_update
 from ..stator_flux_estimators import compensate_low_pass, integrator_step, rotor_angle
 from ..switching_tables import sector_of_angle
 from ..three_phase_tables import four_sector_of_angle
-from ..vectors import leg_states
 from ..voltage_drop_compensation import correction
-from .two_phase_kernel import LEG_CODES, coefficient_table, interp, selection_table
+from .two_phase_kernel import coefficient_table, interp, leg_codes, selection_table
 
 # Table rows (each periodic: points + 1 values): rotor flux alpha/beta, k_d, k_q.
 R_PSI_ALPHA, R_PSI_BETA, R_K_D, R_K_Q = range(4)
@@ -47,21 +40,15 @@ R_PSI_ALPHA, R_PSI_BETA, R_K_D, R_K_Q = range(4)
  O_ID_REF, O_I_D, O_I_Q, O_THETA, O_OMEGA_E, O_SECTOR, O_TAU, O_PHI, O_D_STATE, O_SIZE) = range(18)
 
 
-def mode_arrays(tables: dict, midpoint_phase, dq) -> tuple:
+def mode_arrays(tables: dict, dq) -> tuple:
     """(vectors, table rows, coefficients, leg codes, upper-switch states, {rotation: selection})."""
-    vectors = []
-    for table in tables.values():
-        for v in table.values():
-            if all(v.switch_on != w.switch_on for w in vectors):
-                vectors.append(v)
-    vectors.sort(key=lambda v: (v.index, v.switch_on))
-    legs = np.array([[LEG_CODES[leg] for leg in leg_states(v.switch_on, midpoint_phase)] for v in vectors],
-                    dtype=np.int64)
+    unique = {v.switch_on: v for table in tables.values() for v in table.values()}
+    vectors = sorted(unique.values(), key=lambda v: (v.index, v.switch_on))
     upper = np.array([[int(v.switch_on[2 * x]) for x in range(3)] for v in vectors], dtype=np.int64)
     tab = (np.array([dq.table._psia, dq.table._psib, dq._kd, dq._kq], dtype=np.float64) if dq is not None
            else np.zeros((4, 2)))
     select = {r: selection_table(t, vectors) for r, t in tables.items()}
-    return tuple(vectors), tab, coefficient_table(), legs, upper, select
+    return tuple(vectors), tab, coefficient_table(), leg_codes(vectors), upper, select
 
 
 @njit

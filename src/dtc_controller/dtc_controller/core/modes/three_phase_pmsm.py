@@ -1,12 +1,13 @@
-"""Classical three-phase DTC (000 ch. I, Table I corrected; 001 eqs. 8-16) and the shared three-phase pipeline.
+"""Classical three-phase DTC (000 ch. I; 001), the shared three-phase pipeline and the FSTP mode.
 
-:class:`ThreePhaseBase` holds what the three-phase modes share per sample:
-currents -> alpha/beta, the applied voltage of the previous sample (plus the
-inverter voltage-drop correction), stator flux by a voltage or the current model,
-rotor angle and speed, torque reference. :class:`ThreePhasePmsmMode`
-(``three_phase_pmsm``): torque by 001 eq. (10) (000 eq. 1.25 prints the opposite
-sign), two-level torque and flux hysteresis and 000 Table I as derived in
-:mod:`three_phase_tables`. In full: docs/models.md "Classical three-phase DTC".
+:class:`ThreePhaseBase`: currents -> alpha/beta, applied voltage of the previous sample (plus the
+inverter voltage-drop correction), stator flux by a voltage or the current model, rotor angle and
+speed, torque reference. ``three_phase_pmsm``: torque by 001 eq. (10) (000 eq. 1.25 prints the
+opposite sign), torque and flux hysteresis, 000 Table I as derived in :mod:`three_phase_tables`.
+``three_phase_four_switch`` (001): phase a on the split-capacitor midpoint, the four vectors,
+four 90-deg sectors and Table II; low-pass integrator (w_c = 5 rad/s, as 001's experiment) and
+the voltage-drop compensation none / simple / proposed. In full: docs/models.md "Classical
+three-phase DTC".
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from ..backemf_table import BackEmfTable
 from ..line_to_line import DqBackEmf
 from ..status import NAN, DtcStatusSample
 from ..stator_flux_estimators import INTEGRATORS, leak
-from ..three_phase_tables import six_switch_sector, six_switch_table
+from ..three_phase_tables import four_switch_table, six_switch_table
 from ..voltage_drop_compensation import SCHEMES
 from . import three_phase_kernel as K
 from .regulation import DtcMode
@@ -24,7 +25,7 @@ DEFAULT_CUTOFF = {'low_pass': 5.0, 'hu_wu': 20.0, 'pure': 0.0}
 
 
 class ThreePhaseBase(DtcMode):
-    """Shared state and per-sample helpers; subclasses set name, topology, defaults and ``step``."""
+    """Shared state and per-sample helpers; subclasses set name, topology, defaults and the table."""
 
     kernel = K
     default_integrator = 'pure'
@@ -44,7 +45,6 @@ class ThreePhaseBase(DtcMode):
         self.dq = DqBackEmf(backemf) if backemf is not None else None
         psi_m = float(params['three_phase.pm_flux'])
         sample_period = float(params['sample_period'])
-        # ---- estimator: voltage model (integrator kind, cutoff, limiter) or current model
         self.current_model = params['three_phase.flux_model'] == 'current'
         kind = params['three_phase.integrator']
         self.integrator = self.default_integrator if kind == 'auto' else kind
@@ -56,9 +56,8 @@ class ThreePhaseBase(DtcMode):
         self.sensorless = pos == 'sensorless' and not self.current_model
 
         self.tables = {r: self.make_table(r) for r in (1, -1)}
-        # the compiled kernel's arrays (three_phase_kernel)
         (self.vectors, self._tab, self._coef, self._legs, self._upper,
-         self.select_tables) = K.mode_arrays(self.tables, self.midpoint_phase, self.dq)
+         self.select_tables) = K.mode_arrays(self.tables, self.dq)
         prm = self._prm
         prm[K.P_PSI_M], prm[K.P_ROTOR_TABLE] = psi_m, self.dq is not None
         if self.dq is not None:
@@ -73,12 +72,8 @@ class ThreePhaseBase(DtcMode):
         prm[K.P_FOUR_SECTORS], prm[K.P_DTIFC] = self.sectors == 4, self.dq_torque
         prm[K.P_MIDPOINT] = -1 if self.midpoint_phase is None else self.midpoint_phase
 
-    # -------------------------------------------------------------- configuration
     def make_table(self, rotation: int) -> dict:
         return six_switch_table(rotation)
-
-    def sector_of(self, angle: float) -> int:
-        return six_switch_sector(angle)
 
     def configure(self, params: dict) -> None:
         """References, bands, gains, rotation, compensation and device drops (from the next sample)."""
@@ -90,7 +85,6 @@ class ThreePhaseBase(DtcMode):
         prm[K.P_V_CE], prm[K.P_V_D] = params['voltage_drop.v_ce'], params['voltage_drop.v_d']
         prm[K.P_V_F], prm[K.P_R_ON] = params['voltage_drop.v_f'], params['voltage_drop.r_on']
 
-    # -------------------------------------------------------------- per sample
     def kernel_step(self, i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m) -> None:
         """:func:`three_phase_kernel.three_phase_step` on this mode's arrays (the module doc's pipeline)."""
         K.three_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self._upper, self.select_now,
@@ -107,7 +101,6 @@ class ThreePhaseBase(DtcMode):
             psi_al, psi_be, psi_mag, flux_ref, id_ref, i_d, i_q, theta, w_e, int(sector), int(tau),
             int(phi), int(d_state), vec.index, vec.switch_on)
 
-    # status field of each kernel output column (DtcMode.status_columns)
     STATUS_COLUMNS = ('vector', 'torque_reference', 'speed_reference', 'torque_estimate', 'flux_alpha',
                       'flux_beta', 'flux_magnitude', 'flux_reference', 'd_current_reference',
                       'd_current', 'q_current', 'rotor_angle_estimate', 'speed_estimate', 'sector',
@@ -122,7 +115,16 @@ class ThreePhasePmsmMode(ThreePhaseBase):
     """``three_phase_pmsm``: six-switch classical DTC, torque + flux hysteresis, 000 Table I (corrected)."""
 
     name = 'three_phase_pmsm'
-    topology = 6
-    midpoint_phase = None
-    default_integrator = 'pure'
-    default_position = 'encoder'
+
+
+class ThreePhaseFourSwitchMode(ThreePhasePmsmMode):
+    """``three_phase_four_switch``: 001 FSTP DTC (module doc); gates SW1/SW2 are off."""
+
+    name = 'three_phase_four_switch'
+    topology = 4
+    midpoint_phase = 0   # phase a (001 Fig. 1b)
+    default_integrator = 'low_pass'
+    sectors = 4
+
+    def make_table(self, rotation: int) -> dict:
+        return four_switch_table(rotation, self.midpoint_phase)

@@ -1,17 +1,18 @@
-"""Shared per-sample pipeline of the two-phase BLDC DTC modes (000 ch. II and IV).
+"""The two-phase BLDC DTC modes (000 ch. II and IV): their shared pipeline and the six-switch mode.
 
-Per sample k: phase currents (one missing sensor reconstructed), alpha/beta
-currents, rotor angle from the encoder, applied voltage of sample k-1 from
-its switch state (the inverter voltage model), voltage-model flux
-(eqs. 1.22-1.23), torque (eq. 2.16/4.1), torque reference (parameter or
-speed PI), sector, hysteresis, table lookup: the compiled
-:func:`two_phase_kernel.two_phase_step` on arrays built here.
+Per sample (the compiled :func:`two_phase_kernel.two_phase_step` on arrays built here): currents,
+encoder angle, applied voltage of sample k-1, voltage-model flux (eqs. 1.22-1.23), torque (eq.
+2.16/4.1), torque reference, sector, hysteresis and table lookup. ``two_phase_six_switch`` (000
+ch. II, Table II) uses the phi = 0 row (torque hysteresis only); ``flux_control.enabled`` selects
+the phi = +-1 rows by a flux comparator against eq. (2.20)'s reference ("switch state 1", kept
+for the seed's comparison).
 """
 from __future__ import annotations
 
 from ..backemf_table import BackEmfTable
 from ..status import NAN, DtcStatusSample
 from ..switching_tables import derive_flux_table
+from ..vectors import two_phase_six_switch_vectors
 from . import two_phase_kernel as K
 from .regulation import DtcMode
 
@@ -24,9 +25,7 @@ class TwoPhaseModeBase(DtcMode):
     def __init__(self, params: dict, backemf: BackEmfTable | None) -> None:
         super().__init__(params, backemf)
         self.vectors = self.make_vectors()
-        # tables for both rotations: {rotation: {(sector, phi, tau): vector}}
         self.tables = {r: derive_flux_table(self.vectors, r) for r in (1, -1)}
-        # the compiled kernel's arrays (two_phase_kernel)
         self._tab = K.table_array(backemf)
         self._coef = K.coefficient_table()
         self._legs = K.leg_codes(self.vectors)
@@ -42,17 +41,12 @@ class TwoPhaseModeBase(DtcMode):
         prm[K.P_FLUX_SECTOR] = params['estimation.sector_source'] == 'flux'
         prm[K.P_INIT_TABLE] = params['estimation.initial_flux'] == 'backemf_table'
 
-    # -------------------------------------------------------------- configuration
     def make_vectors(self):
-        raise NotImplementedError
+        return two_phase_six_switch_vectors()
 
     def split_phase_tables(self) -> dict:
-        """{rotation: {(sector, tau_a, tau_b): vector}} of sectors with split-phase control (none here)."""
+        """{rotation: {(sector, tau_a, tau_b): vector}} of the split-phase sectors (none here)."""
         return {1: {}, -1: {}}
-
-    def split_band(self, params: dict) -> float:
-        """Half-width of the split-phase comparators [N m] (unused without split sectors)."""
-        return 0.0
 
     def configure(self, params: dict) -> None:
         """References, bands, gains, rotation, flux-control switch (act from the next sample)."""
@@ -60,10 +54,8 @@ class TwoPhaseModeBase(DtcMode):
         prm = self._prm
         prm[K.P_FLUX_CONTROL] = bool(params['flux_control.enabled'])
         prm[K.P_FLUX_REF_TABLE] = params['flux_control.reference_source'] == 'backemf_table'
-        prm[K.P_SPLIT_BAND] = self.split_band(params)
         self.split_now = self.split_select[self.rotation]
 
-    # -------------------------------------------------------------- per sample
     def kernel_step(self, i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, speed_m) -> None:
         """:func:`two_phase_kernel.two_phase_step` on this mode's arrays."""
         K.two_phase_step(self._prm, self._st, self._tab, self._coef, self._legs, self.select_now,
@@ -79,7 +71,6 @@ class TwoPhaseModeBase(DtcMode):
             psi_al, psi_be, psi_mag, flux_ref, NAN, i_d, i_q, theta, NAN, int(sector), int(tau),
             int(phi), 0, vec.index, vec.switch_on)
 
-    # status field of each kernel output column (DtcMode.status_columns)
     STATUS_COLUMNS = ('vector', 'torque_reference', 'speed_reference', 'torque_estimate',
                       'phase_a_torque_estimate', 'phase_b_torque_estimate', 'flux_alpha', 'flux_beta',
                       'flux_magnitude', 'flux_reference', 'd_current', 'q_current', 'sector',
@@ -88,3 +79,10 @@ class TwoPhaseModeBase(DtcMode):
     def fused_arrays(self) -> tuple:
         """(kind 2, prm, st, tab, coef, legs, select, split_select, upper) for a fused loop."""
         return 2, self._prm, self._st, self._tab, self._coef, self._legs, self.select_now, self.split_now, None
+
+
+class TwoPhaseSixSwitchMode(TwoPhaseModeBase):
+    """``two_phase_six_switch``: see the module doc."""
+
+    name = 'two_phase_six_switch'
+    topology = 6

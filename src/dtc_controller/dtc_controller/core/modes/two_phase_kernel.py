@@ -1,13 +1,9 @@
 """Compiled per-sample pipeline of the two-phase BLDC DTC modes (000 ch. II and IV).
 
-:func:`two_phase_step` is :class:`two_phase_base.TwoPhaseModeBase`'s sample on
-float64 arrays: applied voltage of sample k-1 (:func:`applied_voltage`, the
-inverter voltage model with diode clamping), voltage-model flux (eqs. 1.22-1.23),
-torque (eq. 2.16/4.1), torque reference (parameter or speed PI), sector,
-hysteresis (eqs. 1.19-1.20), table lookup and, for the four-switch inverter, the
-split-phase torques of sectors II/V (eq. 4.4). The arrays are built once per
-mode (:func:`leg_codes`, :func:`coefficient_table`, the selection tables) and the
-parameter vector on every configure.
+:func:`two_phase_step` is :class:`two_phase_base.TwoPhaseModeBase`'s sample on float64 arrays:
+applied voltage of sample k-1 (:func:`applied_voltage`), voltage-model flux (eqs. 1.22-1.23),
+torque (eq. 2.16/4.1), torque reference, sector, hysteresis (eqs. 1.19-1.20), table lookup and,
+for the four-switch inverter, the split-phase torques of sectors II/V (eq. 4.4).
 """
 from __future__ import annotations
 
@@ -67,7 +63,7 @@ def coefficient_table() -> np.ndarray:
     return out
 
 
-def selection_table(table: dict, vectors, keys_b=(1, 0, -1), keys_c=(1, -1)) -> np.ndarray:
+def selection_table(table: dict, vectors) -> np.ndarray:
     """{(sector, b, c): vector} as an int64 array [sector - 1, 1 - b, (1 - c) // 2] of positions in vectors."""
     position = {v.switch_on: n for n, v in enumerate(vectors)}
     out = np.full((6, 3, 2), -1, dtype=np.int64)
@@ -78,7 +74,7 @@ def selection_table(table: dict, vectors, keys_b=(1, 0, -1), keys_c=(1, -1)) -> 
 
 @njit
 def interp(tab, row: int, scale: float, points: int, theta: float) -> float:
-    """Linear, wrapped lookup of a table row at theta [rad] (BackEmfTable.lookup_index)."""
+    """Linear, wrapped lookup of a table row at theta [rad] (as BackEmfTable lookups)."""
     x = theta * scale
     i = math.floor(x)
     f = x - i
@@ -90,7 +86,8 @@ def interp(tab, row: int, scale: float, points: int, theta: float) -> float:
 def applied_voltage(coef, legs, diode: bool, threshold: float, v_dc: float, v_mid: float,
                     i_a: float, i_b: float, i_c: float, use_emf: bool, e_a: float, e_b: float,
                     e_c: float):
-    """(v_alpha, v_beta) [V] of a leg pattern (module doc: ideal legs, or off legs still carrying current clamped by a free-wheeling diode)."""
+    """(v_alpha, v_beta) [V] of a leg pattern: ideal legs, or (diode) off legs still carrying
+    current clamped by a free-wheeling diode; plus the open phases' back-EMF terms (use_emf)."""
     la, lb, lc = legs[0], legs[1], legs[2]
     if diode and (la == L_OPEN or lb == L_OPEN or lc == L_OPEN):
         la = la if la != L_OPEN else L_LOW if i_a > threshold else L_HIGH if i_a < -threshold else L_OPEN
