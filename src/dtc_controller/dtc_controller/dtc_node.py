@@ -1,13 +1,8 @@
-"""The ``dtc_controller`` node: a thin lockstep wrapper over DtcCore.
+"""The ``dtc_controller`` node: a thin lockstep wrapper over DtcCore (docs/architecture.md).
 
-Answers each ``drive/measurement`` with a ``drive/gate_command`` for the
-same step and publishes ``dtc/status`` (docs/architecture.md "Time and lockstep", "DTC modes").
-Parameters are declared once from :data:`dtc_controller.parameters.DTC_SCHEMA` and a
-change is validated by ``DtcCore.check`` (no throw-away core); references,
-bands and gains act at the next sample; a change of ``mode`` (or of any
-other non-runtime parameter) rebuilds the mode cleanly at the next sample
-boundary. A malformed or mismatched back-EMF table stops the node at start
-with a message naming the file and the problem (exit code 2).
+Answers each ``drive/measurement`` with a ``drive/gate_command`` for the same step and publishes
+``dtc/status``; parameter changes are validated by ``DtcCore.check``. A bad back-EMF table stops
+the node at start with a message naming the file (exit code 2).
 """
 from __future__ import annotations
 

@@ -1,15 +1,9 @@
 """Parameter schema of the dtc_controller node (drive_common.parameters, no rclpy).
 
-References, hysteresis bands, gains, rotation and the flux-control switch may
-change while running (``runtime=True``): the core applies them at the next
-sample boundary, keeping the estimator state. The other parameters (``mode``,
-sample period, motor parameters, table file, estimation options) define the
-estimator and the table state: a change of any of them re-initialises the
-mode cleanly at the next sample boundary (new estimator state, table
-reloaded), as if the controller were restarted there. ``mode`` also fixes the
-topology of the gate commands (4 or 6 switches), which must match the
-plant's inverter: change the plant's ``inverter.topology`` with it while
-the simulation is held, or the plant refuses the gates (safe state).
+References, bands, gains, rotation and the flux-control switch change while running
+(``runtime=True``, from the next sample, estimator state kept); a change of any other parameter
+re-initialises the mode at the next sample boundary. ``mode`` also fixes the gate topology (4 or
+6 switches): change the plant's ``inverter.topology`` with it while the simulation is held.
 """
 from __future__ import annotations
 

@@ -1,14 +1,8 @@
-"""Back-EMF constant table k(theta_e): the controller's only knowledge of the back-EMF shape.
+"""Back-EMF constant table k(theta_e) [V*s/rad]: the controller's only knowledge of the back-EMF shape.
 
-File format: :mod:`drive_common.backemf_file` (written by the plant's back-EMF
-generator test); the controller needs every column, ``pole_pairs`` and
-``points`` metadata and ``points`` rows evenly spaced over [0, 2 pi). Every k is in V*s/rad (Wb):
-``e = omega_e * k(theta_e)``. Lookups interpolate linearly and wrap the
-angle, as the dissertation did with its 252 measured points (000 ch. V).
-
-The rotor (PM) flux linkage is recovered by integrating k over theta
-(k = d psi_r / d theta_e, zero mean), which gives the position-dependent
-flux reference |psi_r(theta_e)| of eq. (2.20) / (4.3).
+File format: :mod:`drive_common.backemf_file`; ``e = omega_e * k(theta_e)``, looked up linearly
+and wrapped, as the dissertation did with its 252 measured points (000 ch. V). The rotor flux is
+the zero-mean integral of k over theta, the flux reference |psi_r(theta_e)| of eq. (2.20) / (4.3).
 """
 from __future__ import annotations
 
@@ -24,16 +18,10 @@ from drive_common.signals import TWO_PI
 
 __all__ = ['COLUMNS', 'HEADER', 'BackEmfTable', 'BackEmfTableError', 'periodic_list']
 
-REQUIRED_METADATA = ('pole_pairs', 'points')
-
-
 @dataclass
 class BackEmfTable:
-    """Tabulated back-EMF constants over one electrical period (V*s/rad), evenly spaced.
-
-    columns: name -> numpy array (``points`` values), names as in COLUMNS.
-    metadata: the file's ``# key: value`` pairs (strings).
-    """
+    """Back-EMF constants [V*s/rad] evenly spaced over one electrical period: columns {name in COLUMNS:
+    array of ``points`` values}, metadata the file's ``# key: value`` strings."""
 
     columns: dict
     pole_pairs: int
@@ -46,20 +34,18 @@ class BackEmfTable:
             raise BackEmfTableError(f'{self.source_path}: needs at least 6 points, has {n}')
         self.points = n
         self._scale = n / TWO_PI
-        # Python lists with a wrap-around copy of the first point: scalar fast path.
+        # lists with a wrap-around copy of the first point
         self._ka = periodic_list(self.columns['k_a'])
         self._kb = periodic_list(self.columns['k_b'])
         self._kc = periodic_list(self.columns['k_c'])
         self._kal = periodic_list(self.columns['k_alpha'])
         self._kbe = periodic_list(self.columns['k_beta'])
         psi_a, psi_b = periodic_integral(self.columns['k_alpha']), periodic_integral(self.columns['k_beta'])
-        self.rotor_flux_alpha = psi_a
-        self.rotor_flux_beta = psi_b
+        self.rotor_flux_alpha, self.rotor_flux_beta = psi_a, psi_b
         self._psia = periodic_list(psi_a)
         self._psib = periodic_list(psi_b)
         self._psim = periodic_list(np.hypot(psi_a, psi_b))
 
-    # ----------------------------------------------------------------- construction
     @classmethod
     def from_phase_constants(cls, k_a, k_b, k_c, pole_pairs: int, source: str = 'synthetic',
                              convention: str = 'docs/architecture.md') -> 'BackEmfTable':
@@ -71,15 +57,9 @@ class BackEmfTable:
 
     @classmethod
     def load(cls, path, expected_pole_pairs: int | None = None) -> 'BackEmfTable':
-        """Read a table file (:func:`drive_common.backemf_file.read`) and check it fits the controller.
-
-        Beyond the file rules: every column of COLUMNS, ``# pole_pairs`` and ``# points``
-        metadata, evenly spaced angles, derived columns matching the per-phase ones, and
-        (expected_pole_pairs: the controller's motor) the motor's pole pairs.
-        Raises BackEmfTableError naming the file and, where it applies, the line. Loaded once
-        per process, file version and expected_pole_pairs (:mod:`drive_common.file_cache`):
-        the table is shared by the cores that load it and must not be changed.
-        """
+        """Read and check a table file: every column, ``pole_pairs`` and ``points`` metadata, even
+        angles, consistent derived columns, the motor's pole pairs; BackEmfTableError naming the
+        file and line. Cached per file version (:mod:`drive_common.file_cache`): do not change it."""
         return file_cache.from_file('backemf_table', path, lambda: cls._load(path, expected_pole_pairs),
                                     expected_pole_pairs, cls)
 
@@ -91,7 +71,7 @@ class BackEmfTable:
         if missing:
             raise BackEmfTableError(f'{name}:{line}: header lacks column(s) {",".join(missing)} '
                                     f'(the controller needs "{HEADER}")')
-        for key in REQUIRED_METADATA:
+        for key in ('pole_pairs', 'points'):
             if key not in table.metadata:
                 raise BackEmfTableError(f'{name}:{line}: metadata "# {key}: ..." missing')
         try:
@@ -112,18 +92,12 @@ class BackEmfTable:
         meta = dict(self.metadata, pole_pairs=str(self.pole_pairs), points=str(self.points))
         backemf_file.write(path, self.columns, meta)
 
-    # ----------------------------------------------------------------- scalar lookups
-    def lookup_index(self, theta: float) -> tuple[int, float]:
-        """(row, fraction) of the linear, wrapped interpolation at theta [rad] (rows of ``points``)."""
-        x = theta * self._scale
-        i = math.floor(x)
-        frac = x - i
-        i %= self.points
-        return i, frac
-
     def _at(self, theta: float, *cols) -> tuple:
         """Columns (periodic lists) at theta [rad], linear and wrapped."""
-        i, f = self.lookup_index(theta)
+        x = theta * self._scale
+        i = math.floor(x)
+        f = x - i
+        i %= self.points
         return tuple(c[i] + f * (c[i + 1] - c[i]) for c in cols)
 
     def k_alpha_beta(self, theta: float) -> tuple[float, float]:

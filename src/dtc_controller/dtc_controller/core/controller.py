@@ -1,14 +1,4 @@
-"""DtcCore: the ROS-agnostic DTC controller, dispatching by the ``mode`` parameter.
-
-``DtcCore(params, backemf)`` takes a (partial) parameter snapshot of
-:data:`dtc_controller.parameters.DTC_SCHEMA` (missing names take their
-defaults) and the back-EMF table (or None: then it is loaded from
-``backemf_table_path`` when the mode needs one). ``update(sample)`` runs one
-controller sample; ``reconfigure(params)`` stores a new snapshot that takes
-effect at the next sample boundary (runtime parameters are applied in place,
-keeping estimator state; a change of a non-runtime parameter rebuilds the
-mode, as when the simulation is held).
-"""
+"""DtcCore: the ROS-agnostic DTC controller, dispatching by the ``mode`` parameter."""
 from __future__ import annotations
 
 from drive_common.samples import DriveSample, GateSample
@@ -22,7 +12,12 @@ __all__ = ['DtcCore', 'DtcStatusSample']
 
 
 class DtcCore:
-    """One DTC controller; see the module doc."""
+    """One DTC controller on a (partial) ``DTC_SCHEMA`` snapshot and a
+    back-EMF table (None: loaded from ``backemf_table_path`` when the mode needs one).
+
+    ``update(sample)`` runs one sample; ``reconfigure(params)`` acts at the next sample boundary:
+    runtime parameters in place (estimator state kept), any other change rebuilds the mode.
+    """
 
     def __init__(self, params: dict, backemf: BackEmfTable | None = None) -> None:
         self.params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), dict(params))
@@ -53,12 +48,8 @@ class DtcCore:
         self.topology = self.mode.topology
 
     def check(self, params: dict) -> dict:
-        """The validated snapshot of a parameter change, without building a core or touching this one.
-
-        Raises ParameterError (a value), BackEmfTableError (a new table file) or ValueError (the
-        mode cannot run with it, e.g. no table); the back-EMF file is read only when its path or
-        the motor's pole pairs change.
-        """
+        """The validated snapshot of a parameter change, this core untouched: ParameterError (a value),
+        BackEmfTableError (a new table file) or ValueError (the mode cannot run with it)."""
         p = DTC_SCHEMA.validate_changes(self.params, dict(params))
         mode_class(p['mode']).check(p, self._table_for(p))
         return p

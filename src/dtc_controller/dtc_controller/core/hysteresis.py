@@ -1,10 +1,6 @@
-"""Hysteresis (bang-bang) comparators: two-level (eqs. 1.17-1.20).
+"""Two-level hysteresis (bang-bang) comparators (000 eqs. 1.17-1.20).
 
-``band`` is the half-width H [unit of the controlled quantity]: with
-error = reference - actual, a two-level comparator outputs +1 once
-error > +H (actual below reference - H, eq. 1.19 "d = 1") and -1 once
-error < -H (eq. 1.20, written with -1 instead of 0 as Table II's tau),
-holding its output in between.
+``band`` is the half-width H; error = reference - actual; -1 stands for eq. 1.20's 0 (Table II's tau).
 """
 from __future__ import annotations
 
@@ -19,4 +15,3 @@ def two_level(state: int, band: float, error: float) -> int:
     if error < -band:
         return -1
     return state
-

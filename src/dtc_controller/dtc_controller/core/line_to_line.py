@@ -1,10 +1,8 @@
 """Line-to-line transforms and torque of 000 ch. V (eqs. 5.10, 5.13, 5.15, 5.32, 5.33).
 
-Inputs are the ba-ca pair x_ba = x_b - x_a, x_ca = x_c - x_a (what can be
-measured without the neutral): the line-to-line Clarke (5.10) and its inverse
-(5.13), the line-to-line Park (5.15, its q row sign-changed: the seed's q lags
-d, the project's leads) and the torque (5.32, 5.33). Formulas and the sign
-conventions: docs/models.md "Line-to-line transforms".
+Inputs are the ba-ca pair x_ba = x_b - x_a, x_ca = x_c - x_a (measurable without the neutral).
+The Park (5.15) has its q row sign-changed: the seed's q lags d, the project's leads. Formulas:
+docs/models.md "Line-to-line transforms".
 """
 from __future__ import annotations
 
@@ -17,6 +15,7 @@ from .backemf_table import BackEmfTable
 
 _PI6 = math.pi / 6.0
 _TWO_THIRDS = 2.0 / 3.0
+
 
 def line_to_line_clarke(x_ba: float, x_ca: float) -> tuple[float, float]:
     """Eq. (5.10): (alpha, beta) of a zero-sequence-free set from (x_ba, x_ca) (x_a = -(x_ba + x_ca)/3)."""
@@ -53,13 +52,8 @@ def torque_line_to_line(pole_pairs: int, k_ba: float, k_ca: float, i_ba: float, 
 
 
 class DqBackEmf:
-    """k_d(theta), k_q(theta) [V s/rad] from a back-EMF table, linear and wrapped (000 Fig. 5.10).
-
-    The table's k_d/k_q columns are the Park transform of k_alpha/beta at the
-    row angle, i.e. (5.15) applied to the measured k_ba, k_ca. Lookups also
-    return the rotor flux (alpha, beta) [Wb] at the same angle (for start-up
-    and the current model), one index computation per sample.
-    """
+    """k_d(theta), k_q(theta) [V s/rad] of a back-EMF table (000 Fig. 5.10: eq. 5.15 applied to
+    k_ba, k_ca), its rotor flux [Wb] and the extremes of |psi_r|."""
 
     __slots__ = ('table', 'points', '_kd', '_kq', 'rotor_flux_max', 'rotor_flux_min')
 
@@ -82,15 +76,9 @@ class DqBackEmf:
 
 
 def trapezoid_rotor_flux(k_ll: float) -> dict:
-    """Rotor-flux figures of an ideal 120-deg flat-top trapezoid with line-to-line peak k_LL [V s/rad].
-
-    In the amplitude-invariant convention (flat top K = k_LL/2):
-    ``at_phase_axis`` = |psi_r| at theta_e = 0 (its maximum) = 7 pi k_LL / 36,
-    ``minimum`` = pi k_LL / (3 sqrt 3) (at 30 deg off a phase axis),
-    ``seed_e9`` = 2 pi k_LL / (3 sqrt 3), 000 eq. (E.9)/(5.37) text: the integral of
-    e_alpha over its positive half period, i.e. the peak-to-peak swing, twice the minimum.
-    The DTIFC start-up flux is (at_phase_axis, 0); the limiter uses the maximum.
-    """
+    """|psi_r| [Wb] of an ideal 120-deg flat-top trapezoid with line-to-line peak k_LL [V s/rad]:
+    ``at_phase_axis`` (the maximum, the DTIFC start-up flux), ``minimum`` (30 deg off an axis) and
+    ``seed_e9`` (000 eq. E.9/5.37: the peak-to-peak swing, twice the minimum)."""
     return {'at_phase_axis': 7.0 * math.pi * k_ll / 36.0,
             'minimum': math.pi * k_ll * INV_SQRT3 / 3.0,
             'seed_e9': 2.0 * math.pi * k_ll * INV_SQRT3 / 3.0}

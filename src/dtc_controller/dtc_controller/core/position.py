@@ -1,9 +1,8 @@
 """Rotor position: encoder angle and hall-sector detection (docs/architecture.md conventions).
 
-Hall x reads 1 while the fundamental of k_x(theta_e) = -sin(theta_e - shift_x)
-is positive; hall_code = H_a | H_b << 1 | H_c << 2. The six valid codes
-each cover a 60-deg interval with edges at the back-EMF zero crossings
-(0, 60, ..., 300 deg); the table below is derived from that rule.
+Hall x reads 1 while the fundamental of k_x(theta_e) = -sin(theta_e - shift_x) is positive;
+hall_code = H_a | H_b << 1 | H_c << 2; the six valid codes each cover a 60-deg interval between
+back-EMF zero crossings.
 """
 from __future__ import annotations
 

@@ -1,9 +1,7 @@
 """Outer speed PI loop producing the torque reference (000 Figs. 2.3 / 4.7), run every N samples.
 
-T* = kp e + integral(ki e dt), e = omega_m* - omega_m [rad/s], clamped to
-+-torque_limit [N m]; anti-windup by conditional integration (the
-integrator does not move further into saturation) and clamping of the
-integrator itself.
+T* = kp e + integral(ki e dt), e = omega_m* - omega_m [rad/s], clamped to +-torque_limit [N m];
+anti-windup by conditional integration and clamping of the integrator.
 """
 from __future__ import annotations
 
@@ -20,7 +18,7 @@ def speed_pi_update(kp: float, ki: float, every_n: int, sample_period: float, li
         p_term = kp * err
         candidate = integral + ki * err * dt
         unsat = p_term + candidate
-        # conditional integration: do not integrate further into saturation
+        # conditional integration: not further into saturation
         if not ((unsat > lim and err > 0.0) or (unsat < -lim and err < 0.0)):
             integral = max(-lim, min(lim, candidate))
         out = p_term + integral
@@ -29,4 +27,3 @@ def speed_pi_update(kp: float, ki: float, every_n: int, sample_period: float, li
     if count >= every_n:
         count = 0
     return integral, output, count
-

@@ -1,13 +1,9 @@
 """Stator flux estimators of the DTC modes (000 eqs. 1.22-1.24, 5.36-5.38; 001 eqs. 8-9, 15-16).
 
-The voltage models integrate the EMF x = v(k-1) - R_s (i(k-1) + i(k))/2
-(:func:`trapezoid_flux_step`, eqs. 1.22-1.23: the voltage applied over the
-previous sample and the trapezoidal current); :func:`integrator_step` adds the
-leak of the low-pass integrator (001, undone by :func:`compensate_low_pass`) or
-of the Hu-Wu integrator (000 Fig. 5.3, amplitude limiter). The current model
-(001 eqs. 8-9) and the rotor angle of eq. (5.38) (:func:`rotor_angle`) are in the
-kernels. Discretisation: exact for constant x over a sample; the leak terms use
-(1 - exp(-w_c T_s)). Equations: docs/models.md "Stator flux estimators".
+The voltage models integrate v(k-1) - R_s (i(k-1) + i(k))/2 (:func:`trapezoid_flux_step`);
+:func:`integrator_step` adds the leak (1 - exp(-w_c T_s)) of the low-pass integrator (001, undone
+by :func:`compensate_low_pass`) or of the Hu-Wu integrator (000 Fig. 5.3, amplitude limiter).
+Equations: docs/models.md "Stator flux estimators".
 """
 from __future__ import annotations
 
@@ -22,7 +18,7 @@ def trapezoid_flux_step(psi_alpha: float, psi_beta: float, v_alpha_prev: float, 
                         r: float, ts: float, i_prev_alpha: float, i_prev_beta: float,
                         i_alpha: float, i_beta: float):
     """Eqs. (1.22)-(1.23): the stator flux [Wb] one sample T_s [s] on, with v(k-1) [V] and the
-    mean of i(k-1), i(k) [A] through R [ohm] (trapezoidal). Shared by every voltage model."""
+    mean of i(k-1), i(k) [A] through R [ohm]."""
     return (psi_alpha + (v_alpha_prev - r * 0.5 * (i_prev_alpha + i_alpha)) * ts,
             psi_beta + (v_beta_prev - r * 0.5 * (i_prev_beta + i_beta)) * ts)
 
@@ -60,10 +56,8 @@ def integrator_step(kind: int, r: float, ts: float, leak: float, limit: float, p
 @njit
 def compensate_low_pass(psi_alpha: float, psi_beta: float, omega_e: float, cutoff: float,
                         min_speed: float = 1e-3) -> tuple[float, float]:
-    """Undo the LPF's gain/phase error for a sinusoidal flux at w_e [rad/s]: psi = y (1 - j w_c / w_e).
-
-    Returns the input unchanged below ``min_speed`` (the correction diverges at standstill).
-    """
+    """Undo the LPF's gain/phase error for a sinusoidal flux at w_e [rad/s]: psi = y (1 - j w_c / w_e);
+    unchanged below ``min_speed`` (the correction diverges at standstill)."""
     if abs(omega_e) < min_speed:
         return psi_alpha, psi_beta
     r = cutoff / omega_e

@@ -39,12 +39,8 @@ class DtcStatusSample:
 
     @classmethod
     def columns(cls, n: int, vectors, vector, **values) -> dict:
-        """n statuses as columns: each numeric field a float array, as ``np.array`` over the objects'
-        values gives (scalars repeated; switch_on (n, switches)); mode (a string) left out.
-
-        vectors: the mode's voltage vectors; vector: (n,) indexes into them (voltage_vector and
-        switch_on are looked up); integer fields are given as integer arrays.
-        """
+        """n statuses as float columns (scalars repeated, switch_on (n, 6), mode left out), as
+        ``np.array`` over the objects gives; vector: (n,) indexes into the mode's vectors."""
         vector = np.asarray(vector).astype(np.int64)
         values['voltage_vector'] = np.array([v.index for v in vectors], dtype=float)[vector]
         values['switch_on'] = np.array([v.switch_on for v in vectors], dtype=float)[vector]
@@ -57,10 +53,8 @@ class DtcStatusSample:
 
     @classmethod
     def partial(cls, step: int, mode: str, **values) -> 'DtcStatusSample':
-        """A status with the given fields; the others NaN (floats) or 0 (integers), switches off.
-
-        For controllers that have only some of the DTC's internals (docs/write_your_own_controller.md).
-        """
+        """A status with the given fields, the others NaN / 0 / switches off: for controllers with only
+        some of the DTC's internals (docs/write_your_own_controller.md)."""
         base = {f.name: NAN for f in fields(cls)}
         base.update(step=step, mode=mode, rotation=1, sector=0, torque_hysteresis=0,
                     flux_hysteresis=0, d_current_hysteresis=0, voltage_vector=0,

@@ -1,11 +1,9 @@
-"""Inverter voltage-drop compensation for the voltage-model flux estimator (001 sec. III, Tables III-VI).
+"""Inverter voltage-drop compensation of the voltage-model flux estimator (001 sec. III, Tables III-VI).
 
-The correction added to the ideal alpha/beta voltage is the Clarke transform of
-the switched legs' drops (-v_fx - R_on i_x), v_fx by switch state and current sign
-(001 eq. 20, Table III); the midpoint phase has no device. 001 eqs. (26) and (37)
-print the R_on alpha term with a wrong sign (the circuit test pins this).
-Schemes: 'none'; 'simple' = Table V (one drop, current signs only); 'proposed' =
-Table VI plus the R_on terms of eqs. (37)-(38). Derivation: docs/models.md "Inverter voltage-drop compensation".
+The correction is the Clarke transform of the switched legs' drops (-v_fx - R_on i_x), v_fx by
+switch state and current sign (001 eq. 20, Table III). Schemes: 'none'; 'simple' = Table V;
+'proposed' = Table VI plus the R_on terms of eqs. (37)-(38), whose alpha term 001 prints with the
+wrong sign. Derivation: docs/models.md "Inverter voltage-drop compensation".
 """
 from __future__ import annotations
 
