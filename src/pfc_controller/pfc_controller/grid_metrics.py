@@ -1,11 +1,8 @@
-"""Grid-side quality figures of a PFC run (pure numpy; seed 000 ch. III, Figs. 3.4-3.6).
+"""Grid-side quality figures of a PFC run (pure numpy; 000 ch. III, Figs. 3.4-3.6).
 
-Inputs are sampled line voltage v(t) [V] and line current i(t) [A] at a fixed
-sample rate covering a whole number of line cycles (:func:`whole_cycles`
-trims a record). The definitions (RMS, P, S, PF, harmonics, THD over
-h = 2..H with H = 40 by default, displacement factor) are those of
-:mod:`drive_common.signals`; for a sinusoidal voltage PF = DF / sqrt(1 + THD_i^2).
-DC ripple of the output voltage: peak-to-peak, mean and pp / mean in %.
+Line voltage v(t) [V] and current i(t) [A] sampled over a whole number of line cycles
+(:func:`whole_cycles` trims a record); RMS, P, S, PF, harmonics, THD (h = 2..40) and displacement
+factor as defined in :mod:`drive_common.signals`. DC ripple: peak-to-peak, mean and pp / mean in %.
 """
 from __future__ import annotations
 

@@ -1,13 +1,10 @@
 """Parameter schema of the pfc_controller node (pure: no rclpy).
 
-Defaults reproduce the dissertation's boost PFC (000 ch. III, section 3.3):
-V_o* = 80 V, input range 28.28-70.71 V peak (K_m = 2.5, eq. 3.6), K_pv = 0.1736,
-K_iv = 0.01388, K_pi = 0.005, K_ii = 0.03125 at 80 kHz, protections 8 A / 140 V.
-Two defaults are OUR ADDITIONS, not in 000, and the PF/THD of the shipped PFC
-scenarios depend on them: ``duty_feedforward`` (on) and
-``current_loop_output_scale`` (125); their effect: docs/models.md "Defaults and
-our additions". References, gains, limits and ``enable`` may change at runtime;
-the sample period, line frequency and per-unit bases are ``runtime=False``.
+Defaults reproduce the dissertation's boost PFC (000 ch. III, 3.3): V_o* = 80 V, 28.28-70.71 V peak
+input (K_m = 2.5), K_pv = 0.1736, K_iv = 0.01388, K_pi = 0.005, K_ii = 0.03125 at 80 kHz, trips
+8 A / 140 V. ``duty_feedforward`` and ``current_loop_output_scale`` are OUR ADDITIONS the shipped
+PF/THD depend on (docs/models.md "Defaults and our additions"). Sample period, line frequency and
+per-unit bases are ``runtime=False``.
 """
 from __future__ import annotations
 

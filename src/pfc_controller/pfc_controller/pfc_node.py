@@ -1,12 +1,8 @@
 """pfc_controller node: the lockstep ROS wrapper around :class:`~pfc_controller.core.PfcCore`.
 
-Subscribes ``pfc/measurement`` (dtc_msgs/PfcMeasurement), answers every
-sample with ``pfc/duty_command`` (dtc_msgs/DutyCommand, same step and stamp)
-and publishes ``pfc/status`` (dtc_msgs/PfcStatus). Parameters: see
-:data:`pfc_controller.parameters.PFC_SCHEMA`; a change is validated by
-``PfcCore.check``; accepted changes act from the next sample, rejected ones
-keep the old value and return the reason.
-Run: ``ros2 run pfc_controller pfc_controller --ros-args -p voltage_reference:=90.0``.
+Answers every ``pfc/measurement`` with a ``pfc/duty_command`` (same step and stamp) and publishes
+``pfc/status``; parameter changes (:data:`pfc_controller.parameters.PFC_SCHEMA`) are validated by
+``PfcCore.check`` and act from the next sample.
 """
 from __future__ import annotations
 

@@ -1,15 +1,10 @@
 """Per-unit average current control of the boost PFC with input-voltage feed-forward (000 ch. III).
 
-One :meth:`PfcCore.update` per controller sample: per-unit rectified input A, its
-line-period average V_dc(pu), C = 4 / (pi V_dc(pu) K_m)^2, the voltage PI output
-B, I_ref(pu) = K_m A B C (eq. 3.1) and the current PI to the duty. B is the
-per-unit power demand (the voltage loop does not change with the line); the PIs
-are TI's series ``pid_reg3``; ``current_loop_output_scale`` and
-``duty_feedforward`` are our additions. How the per-unit system combines and why:
-docs/models.md "Per-unit average current control".
-
-Protection (000 3.3): over-current or over-voltage holds the duty at 0, resets
-the current PI and freezes the voltage PI; ``enable`` false holds the duty at 0
+Per sample: per-unit rectified input A, its line-period average, C = 4 / (pi V_dc(pu) K_m)^2, the
+voltage PI output B, I_ref(pu) = K_m A B C (eq. 3.1) and the current PI to the duty (TI ``pid_reg3``
+PIs; ``current_loop_output_scale`` and ``duty_feedforward`` are our additions; docs/models.md
+"Per-unit average current control"). Protection (000 3.3): over-current or over-voltage holds the
+duty at 0, resets the current PI and freezes the voltage PI; ``enable`` false holds the duty at 0
 and resets both loops; on enable the reference ramps from the measured v_o.
 """
 from __future__ import annotations
@@ -146,10 +141,8 @@ def pfc_step(prm, st, buf, avg, n_avg: int, v_in: float, v_o: float, i_l: float,
 
 
 class PfcCore:
-    """Average current control PFC (eqs. 3.1-3.6); ``update`` once per sample.
-
-    The per-sample arithmetic is the compiled :func:`pfc_step` on float64 arrays held here.
-    """
+    """Average current control PFC (eqs. 3.1-3.6); ``update`` once per sample runs the compiled
+    :func:`pfc_step` on float64 arrays held here."""
 
     def __init__(self, params: Mapping[str, Any] | None = None) -> None:
         self._p: dict[str, Any] = {}
@@ -170,10 +163,8 @@ class PfcCore:
         return float(self._prm[P_KM])
 
     def check(self, params: Mapping[str, Any]) -> dict[str, Any]:
-        """The validated snapshot of a parameter change; ParameterError / ValueError to refuse it.
-
-        Nothing of the running core changes (the lockstep node validates every change with this).
-        """
+        """The validated snapshot of a parameter change (this core untouched); ParameterError or
+        ValueError to refuse it."""
         p = PFC_SCHEMA.validate_changes(self._p or PFC_SCHEMA.defaults(), dict(params))
         if self._line_period_changed(p):
             line_period_window(p['line_frequency'], p['sample_period'])   # validates, builds nothing
@@ -207,12 +198,6 @@ class PfcCore:
         prm[P_CKP], prm[P_CKI] = p['current_kp'], p['current_ki']
         prm[P_AVG_FRAC] = self._average.frac
         self._st[S_VI] = min(self._st[S_VI], prm[P_VMAX_OUT])
-
-    def reset(self) -> None:
-        """Back to the power-up state (loops cleared, feed-forward history dropped)."""
-        self._st[:] = 0.0
-        self._st[S_REF] = math.nan
-        self._average.reset()
 
     def update(self, sample: PfcSample) -> tuple[DutySample, PfcStatusSample]:
         """One control sample: measurement at t_k -> duty for [t_k, t_k + T_s) and status."""

@@ -1,16 +1,10 @@
 """Input-voltage feed-forward of 000 ch. III: line-period average (3.2) and C (3.3)-(3.5).
 
-:class:`LinePeriodAverage` is the moving average of the per-unit rectified
-voltage A over exactly one line period T = 1/f (eq. 3.2). T/T_s is rarely an
-integer (80 kHz / 60 Hz = 1333.3 samples), so the window holds the last
-floor(T/T_s) samples plus the fractional weight of the one before: a
-periodic signal sampled at T_s then has a ripple-free average. Before one
-period has been seen it returns the mean of the samples so far.
-
-:func:`feedforward_c` is eq. (3.5), C = 4 / (pi V_dc(pu) K_m)^2, with V_dc(pu)
-clamped to the design input range [2/(pi K_m), 2/pi] (the average of a
-rectified sine of peak V_min ... V_max, per unit of V_max), so C stays in
-[1/K_m^2, 1] during start-up and line drop-outs.
+:class:`LinePeriodAverage` averages the per-unit rectified voltage A over exactly one line period
+T = 1/f: T/T_s is rarely an integer (80 kHz / 60 Hz = 1333.3), so the window holds floor(T/T_s)
+samples plus the fractional weight of the one before (a periodic signal then averages without
+ripple); before one period it is the mean so far. :func:`feedforward_c` is eq. (3.5) with V_dc(pu)
+clamped to the design range [2/(pi K_m), 2/pi], so C stays in [1/K_m^2, 1].
 """
 from __future__ import annotations
 
@@ -57,40 +51,24 @@ def line_period_window(line_frequency: float, sample_period: float) -> tuple[int
 
 
 class LinePeriodAverage:
-    """Running mean of a sampled signal over one line period (O(1) per sample).
+    """Running mean of a sampled signal over one line period (O(1) per sample): n whole samples and
+    the weight frac of the one before; state in float64 arrays that compiled kernels update in place."""
 
-    State in float64 arrays (``buffer``, ``state``) that compiled kernels update in place.
-    """
-
-    __slots__ = ('buffer', 'state', '_n', '_frac')
+    __slots__ = ('buffer', 'state', 'n', 'frac')
 
     def __init__(self, line_frequency: float, sample_period: float) -> None:
-        self._n, self._frac = line_period_window(line_frequency, sample_period)
-        self.buffer = np.zeros(self._n + 1)  # ring: the last n samples plus the one before
+        self.n, self.frac = line_period_window(line_frequency, sample_period)
+        self.buffer = np.zeros(self.n + 1)  # ring: the last n samples plus the one before
         self.state = np.zeros(3)
-
-    @property
-    def n(self) -> int:
-        """Whole samples in the window."""
-        return self._n
-
-    @property
-    def frac(self) -> float:
-        """Weight of the sample n + 1 back (fractional part of T / T_s)."""
-        return self._frac
 
     @property
     def window(self) -> float:
         """Window length in samples (T / T_s)."""
-        return self._n + self._frac
-
-    def reset(self) -> None:
-        self.buffer[:] = 0.0
-        self.state[:] = 0.0
+        return self.n + self.frac
 
     def update(self, value: float) -> float:
         """Add one sample; return the average over the last line period."""
-        return float(average_update(self.buffer, self.state, self._n, self._frac, float(value)))
+        return float(average_update(self.buffer, self.state, self.n, self.frac, float(value)))
 
 
 @njit

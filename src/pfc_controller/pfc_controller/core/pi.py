@@ -1,18 +1,10 @@
 """Discrete PI controller with output limits and anti-windup (000 ch. III, G_v and G_i).
 
-Series ("ideal") form, as the TI F281x digital-motor-control library's
-``pid_reg3`` that the seed's eZdsp F2812 implementation builds on::
-
-    u_p[k] = K_p * e[k]
-    x[k]   = x[k-1] + K_i * u_p[k]          (K_i = T_s / T_i, per sample)
-    u[k]   = clamp(u_p[k] + x[k], lo, hi)
-
-so C(z) = K_p (1 + K_i z / (z - 1)); the PI zero sits near K_i / T_s rad/s.
-Anti-windup by conditional integration: while the error drives the output
-beyond a limit, the integrator advances at most to the value that puts the
-output exactly on that limit (never further), and it is always kept inside
-[lo, hi]; so the output leaves the limit as soon as the error reverses. Limits may be given per
-call (the current loop's limits move with the duty feed-forward).
+Series form, as TI's ``pid_reg3`` that the seed's F2812 implementation builds on: u_p = K_p e,
+x[k] = x[k-1] + K_i u_p (K_i = T_s / T_i), u = clamp(u_p + x, lo, hi). Anti-windup by conditional
+integration: beyond a limit the integrator advances at most to the value that puts the output on
+it, and stays within [lo, hi]. Limits may be given per call (the current loop's move with the
+duty feed-forward).
 """
 from __future__ import annotations
 
@@ -21,7 +13,8 @@ from drive_common.compiled import interpreted, njit
 
 @njit
 def pi_update(kp: float, ki: float, lo: float, hi: float, integral: float, error: float):
-    """One sample of the limited series PI (module doc): (output, integral, unlimited, saturated)."""
+    """One sample of the limited series PI (module doc): (output, integral, unlimited, saturated);
+    saturated = output on a limit with the error pushing beyond it."""
     if lo > hi:  # degenerate window (e.g. feed-forward beyond the duty range)
         lo = hi
     proportional = kp * error
@@ -33,7 +26,6 @@ def pi_update(kp: float, ki: float, lo: float, hi: float, integral: float, error
         candidate = min(integral, max(candidate, lo - proportional))
     integral = min(max(candidate, lo), hi)
     unlimited = proportional + integral
-    # Flag = anti-windup active: output on a limit and the error pushing beyond it.
     if unlimited >= hi:
         return hi, integral, unlimited, unlimited > hi or error > 0.0
     if unlimited <= lo:
@@ -42,7 +34,6 @@ def pi_update(kp: float, ki: float, lo: float, hi: float, integral: float, error
 
 
 _pi_update = interpreted(pi_update)   # PiController's per-call path (no dispatch cost)
-
 
 
 class PiController:
