@@ -12,8 +12,8 @@ __all__ = ['DtcCore', 'DtcStatusSample']
 
 
 class DtcCore:
-    """One DTC controller on a (partial) ``DTC_SCHEMA`` snapshot and a
-    back-EMF table (None: loaded from ``backemf_table_path`` when the mode needs one).
+    """One DTC controller on a (partial) ``DTC_SCHEMA`` snapshot and a back-EMF table (None: loaded
+    from ``backemf_table_path`` when the mode needs one).
 
     ``update(sample)`` runs one sample; ``reconfigure(params)`` acts at the next sample boundary:
     runtime parameters in place (estimator state kept), any other change rebuilds the mode.
@@ -21,15 +21,15 @@ class DtcCore:
 
     def __init__(self, params: dict, backemf: BackEmfTable | None = None) -> None:
         self.params = DTC_SCHEMA.validate_changes(DTC_SCHEMA.defaults(), dict(params))
-        self._backemf = backemf
+        self.backemf = backemf   # the table in use (None without one)
         self._pending: dict | None = None
         self._checked: tuple[tuple, BackEmfTable] | None = None   # the table check last loaded
         self._build()
 
     def _table_for(self, p: dict) -> BackEmfTable | None:
         """The back-EMF table snapshot p needs: the loaded one unless its file or motor changed."""
-        if self._backemf is not None and not self._table_changed(p):
-            return self._backemf
+        if self.backemf is not None and not self._table_changed(p):
+            return self.backemf
         if not p['backemf_table_path']:
             return None
         key = (p['backemf_table_path'], p['motor.pole_pairs'])
@@ -43,8 +43,8 @@ class DtcCore:
 
     def _build(self) -> None:
         p = self.params
-        self._backemf = self._table_for(p)
-        self.mode = mode_class(p['mode']).create(p, self._backemf)
+        self.backemf = self._table_for(p)
+        self.mode = mode_class(p['mode']).create(p, self.backemf)
         self.topology = self.mode.topology
 
     def check(self, params: dict) -> dict:
@@ -53,10 +53,6 @@ class DtcCore:
         p = DTC_SCHEMA.validate_changes(self.params, dict(params))
         mode_class(p['mode']).check(p, self._table_for(p))
         return p
-
-    @property
-    def backemf(self) -> BackEmfTable | None:
-        return self._backemf
 
     def reconfigure(self, params: dict) -> None:
         """Validate changes now (ParameterError on a bad value); apply them at the next sample."""
@@ -67,7 +63,7 @@ class DtcCore:
         new, self._pending = self._pending, None
         structural = [n for n in DTC_SCHEMA.names() if not DTC_SCHEMA[n].runtime and new[n] != self.params[n]]
         if self._table_changed(new):
-            self._backemf = None
+            self.backemf = None
         self.params = new
         if structural:
             self._build()

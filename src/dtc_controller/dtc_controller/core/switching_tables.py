@@ -38,23 +38,17 @@ def components(vector: VoltageVector, flux_angle: float) -> tuple[float, float]:
 
 def select_vector(candidates, flux_angle: float, tangential_sign: int, radial_sign: int) -> VoltageVector:
     """The vector meeting the tangential/radial sign rules at flux_angle (module doc); ValueError if none."""
-    scale = max(v.magnitude for v in candidates)
-    tol = 1e-6 * scale
+    tol = 1e-6 * max(v.magnitude for v in candidates)
     found = []
     for v in candidates:
         radial, tang = components(v, flux_angle)
-        if tang * tangential_sign <= tol:
-            continue
-        if radial_sign == 0 and abs(radial) > tol:
-            continue
-        if radial_sign != 0 and radial * radial_sign <= tol:
-            continue
-        found.append((tang * tangential_sign, abs(radial), v))
+        radial_ok = abs(radial) <= tol if radial_sign == 0 else radial * radial_sign > tol
+        if tang * tangential_sign > tol and radial_ok:
+            found.append((tang * tangential_sign, abs(radial), v))
     if not found:
         raise ValueError(f'no vector turns the flux with sign {tangential_sign} and radial sign '
                          f'{radial_sign} at {math.degrees(flux_angle):.1f} deg')
-    found.sort(key=lambda t: (-t[0], -t[1]))
-    return found[0][2]
+    return max(found, key=lambda t: t[:2])[2]   # the largest tangential, then radial, component
 
 
 def derive_flux_table(vectors, rotation: int = 1, phis=(1, 0, -1), taus=(1, -1),

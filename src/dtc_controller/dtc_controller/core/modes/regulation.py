@@ -127,15 +127,11 @@ class DtcMode:
         return DtcStatusSample.columns(len(step), self.vectors, vector, step=step, rotation=rotation,
                                        speed_measured=speed_m, **values)
 
-    def measure(self, s):
-        """(i_a, i_b, i_c, i_alpha, i_beta, encoder angle, v_dc, v_mid) of a DriveSample (:func:`measure_values`)."""
-        i_a, i_b, i_c = s.phase_current
-        return measure_values(i_a, i_b, i_c, s.encoder_angle, self.encoder_offset, s.dc_link_voltage,
-                              s.midpoint_voltage)
-
     def step(self, s):
         """One sample: DriveSample -> (switch tuple, DtcStatusSample), by the mode's compiled kernel."""
-        i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid = self.measure(s)
+        i_a, i_b, i_c = s.phase_current
+        i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid = measure_values(
+            i_a, i_b, i_c, s.encoder_angle, self.encoder_offset, s.dc_link_voltage, s.midpoint_voltage)
         self.kernel_step(i_a, i_b, i_c, i_al, i_be, theta, v_dc, v_mid, s.mechanical_speed)
         status = self.status_of(s.step, self.rotation, self._out.tolist(), theta, s.mechanical_speed)
         return status.switch_on, status

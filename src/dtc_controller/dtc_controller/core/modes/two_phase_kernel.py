@@ -8,6 +8,7 @@ for the four-switch inverter, the split-phase torques of sectors II/V (eq. 4.4).
 from __future__ import annotations
 
 import math
+from itertools import product
 
 import numpy as np
 
@@ -53,9 +54,7 @@ def coefficient_table() -> np.ndarray:
     """(64, 10) linear voltage model of every leg pattern (index 16 a + 4 b + c):
     a_dc, a_mid, b_dc, b_mid, then (ka, kb) of the open-phase EMF terms of phases a, b, c."""
     out = np.zeros((64, 10))
-    names = {code: leg for leg, code in LEG_CODES.items()}
-    for index in range(64):
-        legs = (names[index >> 4], names[(index >> 2) & 3], names[index & 3])
+    for index, legs in enumerate(product(LEG_CODES, repeat=3)):   # LEG_CODES in code order 0..3
         a_dc, a_mid, b_dc, b_mid, terms = voltage_coefficients(legs)
         out[index, :4] = a_dc, a_mid, b_dc, b_mid
         for x, ka, kb in terms:
