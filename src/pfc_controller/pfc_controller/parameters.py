@@ -16,26 +16,23 @@ from drive_common.telemetry import TELEMETRY_PARAMETERS
 
 def _check_consistency(p: Mapping[str, Any]) -> None:
     """Cross-parameter rules; each failure names the rule."""
-    if p['input_voltage_min'] >= p['input_voltage_max']:
-        raise ParameterError(
-            f"input_voltage_min ({p['input_voltage_min']} V) must be below "
-            f"input_voltage_max ({p['input_voltage_max']} V)")
-    if p['voltage_reference'] <= p['input_voltage_max']:
-        raise ParameterError(
-            f"voltage_reference ({p['voltage_reference']} V) must exceed input_voltage_max "
-            f"({p['input_voltage_max']} V): a boost converter cannot regulate below the input peak")
-    if p['voltage_reference'] >= p['over_voltage_limit']:
-        raise ParameterError(
-            f"voltage_reference ({p['voltage_reference']} V) must stay below "
-            f"over_voltage_limit ({p['over_voltage_limit']} V)")
-    if p['voltage_reference'] > p['output_voltage_base']:
-        raise ParameterError(
-            f"voltage_reference ({p['voltage_reference']} V) must not exceed "
-            f"output_voltage_base ({p['output_voltage_base']} V): V_ref(pu) <= 1")
-    if p['line_frequency'] * p['sample_period'] > 0.01:
-        raise ParameterError(
-            'sample_period must be at most 1/100 of the line period '
-            '(the line-period average needs >= 100 samples per cycle)')
+    v_ref, v_min, v_max = p['voltage_reference'], p['input_voltage_min'], p['input_voltage_max']
+    rules = (
+        (v_min < v_max, f"input_voltage_min ({v_min} V) must be below input_voltage_max ({v_max} V)"),
+        (v_ref > v_max, f"voltage_reference ({v_ref} V) must exceed input_voltage_max ({v_max} V): "
+                        "a boost converter cannot regulate below the input peak"),
+        (v_ref < p['over_voltage_limit'], f"voltage_reference ({v_ref} V) must stay below "
+                                          f"over_voltage_limit ({p['over_voltage_limit']} V)"),
+        (v_ref <= p['output_voltage_base'],
+         f"voltage_reference ({v_ref} V) must not exceed output_voltage_base ({p['output_voltage_base']} V): "
+         "V_ref(pu) <= 1"),
+        (p['line_frequency'] * p['sample_period'] <= 0.01,
+         'sample_period must be at most 1/100 of the line period '
+         '(the line-period average needs >= 100 samples per cycle)'),
+    )
+    for holds, message in rules:
+        if not holds:
+            raise ParameterError(message)
 
 
 PFC_SCHEMA = schema([
@@ -50,15 +47,13 @@ PFC_SCHEMA = schema([
     ParameterSpec('voltage_kp', 0.1736,
                   'voltage PI proportional gain K_pv: per-unit B per per-unit V_o error', '',
                   min_value=0.0, max_value=1000.0),
-    ParameterSpec('voltage_ki', 0.01388,
-                  'voltage PI integral gain K_iv (series form, = T_s/T_i per sample)', '',
-                  min_value=0.0, max_value=1.0),
+    ParameterSpec('voltage_ki', 0.01388, 'voltage PI integral gain K_iv (series form, = T_s/T_i per sample)',
+                  '', min_value=0.0, max_value=1.0),
     ParameterSpec('current_kp', 0.005,
                   'current PI proportional gain K_pi: per-unit output per per-unit current error', '',
                   min_value=0.0, max_value=1000.0),
-    ParameterSpec('current_ki', 0.03125,
-                  'current PI integral gain K_ii (series form, = T_s/T_i per sample)', '',
-                  min_value=0.0, max_value=1.0),
+    ParameterSpec('current_ki', 0.03125, 'current PI integral gain K_ii (series form, = T_s/T_i per sample)',
+                  '', min_value=0.0, max_value=1.0),
     ParameterSpec('current_loop_output_scale', 125.0,
                   'OUR ADDITION (not in 000): duty per unit of current-PI output (the fixed-point PWM '
                   'scaling the seed does not print; 1 = the seed as printed; 125 puts the current-loop crossover at twice the PI zero)', '',
