@@ -55,11 +55,10 @@ class DqBackEmf:
     """k_d(theta), k_q(theta) [V s/rad] of a back-EMF table (000 Fig. 5.10: eq. 5.15 applied to
     k_ba, k_ca), its rotor flux [Wb] and the extremes of |psi_r|."""
 
-    __slots__ = ('table', 'points', '_kd', '_kq', 'rotor_flux_max', 'rotor_flux_min')
+    __slots__ = ('table', '_kd', '_kq', 'rotor_flux_max', 'rotor_flux_min')
 
     def __init__(self, table: BackEmfTable) -> None:
         self.table = table
-        self.points = table.points
         self._kd = periodic_list(table.columns['k_d'])
         self._kq = periodic_list(table.columns['k_q'])
         mags = [math.hypot(a, b) for a, b in zip(table.rotor_flux_alpha, table.rotor_flux_beta)]
