@@ -1,13 +1,7 @@
 """Metrics of the three-phase DTC results (000 ch. V, 001 Tables IX-X), pure numpy.
 
-Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground truth as
-``'plant/state.<field>'`` and controller internals as ``'dtc/status.<field>'``,
-plus keyword options, and returns a float (NaN when the window holds no data).
-Controller and plant rows are paired by their ``step``; ``t_start`` / ``t_end``
-[s] restrict a metric to a time window. Angles are electrical. The names are
-the ``metric:`` keys of the scenarios' checks (the registry refuses a name
-defined in two metric modules); each definition: docs/reference/metrics.md
-"Three-phase DTC". Torque ripple: :mod:`drive_analysis.metrics.ripple`.
+The contract: :mod:`drive_analysis.metrics`; definitions: docs/reference/metrics.md
+"Three-phase DTC"; torque ripple: :mod:`drive_analysis.metrics.ripple`.
 """
 from __future__ import annotations
 
