@@ -1,15 +1,11 @@
 """Launch-free scenario runner: the drive graph as separate processes.
 
-Starts plant, dtc_controller (or the scenario's own ``nodes.controller``,
-under its node name), pfc_controller (when the scenario has one)
-and the recorder exactly as ``ros2 run <pkg> <exe> --ros-args -p ...``
-would, then drives the plant's ``plant/run`` action from event to event so
-each event's parameter change lands at its exact sim time (the plant holds
-time between goals). Shows progress, detects a crashed node (reported with
-the end of its output), and always shuts every process down, also on
-Ctrl-C or SIGTERM. ``pause_at`` holds the plant at given sim times until a
-``~/resume`` (std_srvs/Trigger) call, so a user (or a test) can look at or
-disturb the held graph.
+Starts the scenario's nodes (its own ``nodes.controller`` under its node name) and the recorder
+as ``ros2 run <pkg> <exe> --ros-args -p ...`` would, then drives the plant's ``plant/run``
+action from event to event, so each event's parameter change lands at its exact sim time (the
+plant holds time between goals). Shows progress, reports a crashed node with the end of its
+output, and always shuts every process down, also on Ctrl-C or SIGTERM. ``pause_at`` holds the
+plant at given sim times until a ``~/resume`` (std_srvs/Trigger) call.
 """
 from __future__ import annotations
 
@@ -139,16 +135,15 @@ class GraphRunner:
         self.log_dir = self.out_dir / 'logs'
 
     # --- processes ------------------------------------------------------------
-    def _env(self) -> dict[str, str]:
-        if self.domain_id is None:
-            return dict(os.environ)
-        return isolated_env(self.domain_id)
+    def _placement(self, key: str) -> dict:
+        """Where the program of key runs: NodeProcess's env (and wrapper prefix)."""
+        return {'env': dict(os.environ) if self.domain_id is None else isolated_env(self.domain_id)}
 
     def _start(self, key: str, package: str, executable: str, parameters: dict,
                node_name: str | None = None) -> NodeProcess:
-        process = NodeProcess(package, executable, parameters=parameters, env=self._env(),
-                              log_dir=self.log_dir, node_name=node_name,
-                              remappings=namespace_remappings(self.namespace))
+        process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
+                              node_name=node_name, remappings=namespace_remappings(self.namespace),
+                              **self._placement(key))
         self.processes[key] = process
         return process
 
@@ -196,10 +191,6 @@ class GraphRunner:
                               pause=lambda s: executor.spin_once(timeout_sec=s))
         except WaitTimeout as exc:
             raise RunFailed(str(exc)) from exc
-
-    def _spin_until(self, executor, future, timeout: float, what: str):
-        self._spin_while_waiting(executor, future.done, timeout, what)
-        return future.result()
 
     def run(self) -> RunResult:
         if self.domain_id is not None:          # a domain reserved for this run alone
@@ -309,7 +300,8 @@ class GraphRunner:
     def _set_parameters(self, node, executor, target: str, values: dict) -> None:
         client = self._param_clients[target]
         future = client.set_parameters([Parameter(k, value=v) for k, v in values.items()])
-        response = self._spin_until(executor, future, 30.0, f'{target} set_parameters')
+        self._spin_while_waiting(executor, future.done, 30.0, f'{target} set_parameters')
+        response = future.result()
         for (name, _), result in zip(values.items(), response.results):
             if not result.successful:
                 raise RunFailed(f'{target} refused {name}: {result.reason}')
@@ -317,11 +309,9 @@ class GraphRunner:
     def _drive(self, node, executor, bag_dir: Path) -> RunResult:
         sc = self.scenario
         self._action = ActionClient(node, Run, topics.RUN_ACTION)
-        node_names = {'plant': 'plant', 'dtc_controller': 'dtc_controller',   # in the namespace
-                      'pfc_controller': 'pfc_controller'}
-        if sc.controller is not None:
-            node_names['controller'] = sc.controller.node_name
-        self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
+        self._param_clients = {    # by node name, in the namespace
+            k: AsyncParameterClient(node, sc.controller.node_name if k == 'controller' else k)
+            for k in sc.nodes}
         block_ends = self._watch_status_blocks(node) if self.record else {}
         self._wait_ready(node, executor, self._action)
         self._spin_while_waiting(
@@ -414,10 +404,7 @@ class GraphRunner:
         run of a scenario), and the recorder, stopped after the last hold, has every sample.
         """
         begun = time.monotonic()
-        from bldc_plant_sim.core.lockstep import LockstepSchedule
-        plant = {**self.scenario.node_parameters['plant'],
-                 'pfc_enabled': 'pfc_controller' in self.scenario.nodes}
-        schedule = LockstepSchedule.from_params(plant, plant['base_tick'])
+        schedule = self._schedule()
         ticks = {'dtc_controller': schedule.dtc_ticks, 'pfc_controller': schedule.pfc_ticks}
         for key, end in ends.items():
             if ticks[key] and final_step > 0:
@@ -425,6 +412,13 @@ class GraphRunner:
                 self._spin_while_waiting(executor, lambda: end[0] >= last, 30.0,
                                          f'the last {key} status block (step {last})')
         return time.monotonic() - begun
+
+    def _schedule(self):
+        """The plant's lockstep schedule (:class:`bldc_plant_sim.core.lockstep.LockstepSchedule`)."""
+        from bldc_plant_sim.core.lockstep import LockstepSchedule
+        plant = dict(self.scenario.node_parameters['plant'],
+                     pfc_enabled='pfc_controller' in self.scenario.nodes)
+        return LockstepSchedule.from_params(plant, plant['base_tick'])
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         """Advance the plant to target (s); (final step, final time) or RunFailed."""

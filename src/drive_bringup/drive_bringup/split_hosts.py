@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
@@ -46,17 +47,10 @@ class SplitHostRunner(GraphRunner):
         self.static_peers = static_peers
         self.cut_controller_at = cut_controller_at
 
-    def _start(self, key: str, package: str, executable: str, parameters: dict,
-               node_name: str | None = None):
-        from drive_common.processes import NodeProcess
+    def _placement(self, key: str) -> dict:
         host = PLACEMENT.get(key, RUNNER_HOST)     # helpers (e.g. a live view) beside the runner
-        process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
-                              node_name=node_name,
-                              env=self.hosts.env(host, self.domain_id,
-                                                 static_peers=self.static_peers),
-                              prefix=self.hosts.prefix(host))
-        self.processes[key] = process
-        return process
+        return {'env': self.hosts.env(host, self.domain_id, static_peers=self.static_peers),
+                'prefix': self.hosts.prefix(host)}
 
     def _wait_ready(self, node, executor, action) -> None:
         self._state_seen = -1
@@ -84,10 +78,7 @@ class SplitHostRunner(GraphRunner):
         the runner has the last one the recorder's stop-time drain takes the
         rest instead of stopping short of the end.
         """
-        from bldc_plant_sim.core.lockstep import LockstepSchedule
-        plant = dict(self.scenario.node_parameters['plant'],
-                     pfc_enabled='pfc_controller' in self.scenario.nodes)
-        ticks = LockstepSchedule.from_params(plant, plant['base_tick']).state_ticks
+        ticks = self._schedule().state_ticks
         last = final_step - final_step % ticks
         if not self._spin_while_waiting(executor, lambda: self._state_seen >= last, 30.0, 'the last sample',
                                         raise_timeout=False):
@@ -163,10 +154,8 @@ def main(argv=None) -> int:
         return 0
 
     def run() -> int:
-        if args.domain is not None:
-            return run_in(args.domain)
         from drive_common.processes import reserve_domain
-        with reserve_domain() as domain:
+        with nullcontext(args.domain) if args.domain is not None else reserve_domain() as domain:
             return run_in(domain)
 
     return main_guard(run)
