@@ -17,20 +17,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_shipped, shipped_dir
 from drive_common.cli_output import quiet_on_closed_pipe
 
 
-def study_dir() -> Path:
-    """The shipped studies."""
-    return shipped_dir('studies')
-
-
-def find_study(name_or_path: str) -> Path:
-    """A path as given, or a shipped study's name."""
-    return find_shipped(name_or_path, 'studies')
+study_dir = partial(shipped_dir, 'studies')              # the shipped studies
+find_study = partial(find_shipped, kind='studies')      # a path as given, or a shipped study's name
 
 
 @quiet_on_closed_pipe
