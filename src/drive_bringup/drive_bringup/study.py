@@ -1,17 +1,11 @@
 """Design studies: one scenario run headless at many parameter points, on Dask (no rclpy).
 
-A study file (YAML) names a base scenario, the parameters to vary, how to
-sample them, repeats and the metrics to collect. Every point is a complete,
-validated scenario (the base with the point's values applied), run by
-:func:`drive_bringup.headless.run_headless`, in batches (:func:`batch_size`), each
-one ``dask.distributed`` task: on a ``LocalCluster`` (one single-threaded worker
-process per core) by default, or on any running cluster given its scheduler
-address. Results go to one table (``results.parquet`` and ``results.csv``); each
-finished batch appends a row per point to ``points.jsonl`` at once, so re-running
-a study skips the points already done (key = hash of the point's full parameters).
-
-The study file (schema, targets) and the status of a point (``ok``,
-``protection_trip``, ``error``, ``timeout``): docs/studies.md.
+Every point is a complete, validated scenario (the base with the point's values applied), run
+by :func:`drive_bringup.headless.run_headless` in batches (:func:`batch_size`) of one
+``dask.distributed`` task each, on a local or a running cluster. Each finished batch appends a
+row per point to ``points.jsonl`` at once, so re-running a study skips the points done (key =
+hash of the point's full parameters); the table goes to ``results.parquet`` / ``results.csv``.
+The study file and the status of a point: docs/studies.md.
 """
 from __future__ import annotations
 
