@@ -42,12 +42,9 @@ NODE_PROGRAMS = {
 
 def scenario_programs(sc: Scenario) -> list[tuple[str, str, str, str | None]]:
     """(key, package, executable, node name or None) of each node of the scenario, in start order."""
-    out = []
-    for key in sc.nodes:
-        own = sc.controller if key == 'controller' else None
-        package, executable = (own.package, own.executable) if own else NODE_PROGRAMS[key]
-        out.append((key, package, executable, own.node_name if own else None))
-    return out
+    own = sc.controller
+    return [(key, own.package, own.executable, own.node_name) if key == 'controller'
+            else (key, *NODE_PROGRAMS[key], None) for key in sc.nodes]
 
 
 def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> None:
@@ -225,9 +222,8 @@ class GraphRunner:
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
                 self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
-            plant_params = dict(sc.overrides['plant'])
-            plant_params['run_until'] = 0.0
-            plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
+            plant_params = dict(sc.overrides['plant'], run_until=0.0,
+                                pfc_enabled='pfc_controller' in sc.nodes)
             for key, package, executable, node_name in scenario_programs(sc):
                 self._start(key, package, executable,
                             plant_params if key == 'plant' else dict(sc.overrides[key]),
@@ -269,15 +265,13 @@ class GraphRunner:
             # Your own controller may publish no status (a core returning None): its status
             # topics are waited for only if it publishes them once its commands are visible.
             optional = {_absolute_topic(n) for n in (topics.DTC_STATUS, topics.DTC_STATUS_BLOCK)}
-            gate = self._recorded([_absolute_topic(topics.GATE_COMMAND)])[0]
+            gate = self.namespace + _absolute_topic(topics.GATE_COMMAND)
             self._spin_while_waiting(executor, lambda: node.count_publishers(gate) >= 1,
                                      max(0.0, deadline - time.monotonic()), f'a publisher of {gate}')
             wanted = [t for t in wanted
-                      if t not in optional or node.count_publishers(self._recorded([t])[0]) >= 1]
-        probes = [node.create_subscription(message_class(known_type(t)), self._recorded([t])[0],
-                                           lambda _msg: None,
-                                           topics.STREAM_QOS, raw=True)
-                  for t in wanted]
+                      if t not in optional or node.count_publishers(self.namespace + t) >= 1]
+        probes = [node.create_subscription(message_class(known_type(t)), self.namespace + t,
+                                           lambda _msg: None, topics.STREAM_QOS, raw=True) for t in wanted]
         try:
             self._spin_while_waiting(
                 executor, lambda: all(p.get_publisher_count() >= 1 for p in probes),
@@ -285,11 +279,9 @@ class GraphRunner:
         finally:
             for probe in probes:
                 node.destroy_subscription(probe)
-        self._wait_recorder_matched(node, executor, self._recorded(wanted), deadline)
-
-    def _wait_recorder_matched(self, node, executor, names: list[str], deadline: float) -> None:
-        """Wait until the recorder's own subscriptions have matched every publisher of names
-        (drive_common.recorder_matching: a volatile subscriber matched late misses samples)."""
+        # The recorder's own subscriptions matched with every publisher of them
+        # (drive_common.recorder_matching: a volatile subscriber matched late misses samples).
+        names = self._recorded(wanted)
         matched = RecordersMatched(node, names, required=[topics.RECORDER_MATCHED_SERVICE])
         try:
             self._spin_while_waiting(executor, matched, max(0.0, deadline - time.monotonic()),
