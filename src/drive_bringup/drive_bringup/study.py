@@ -30,8 +30,8 @@ import numpy as np
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-# the same checks as scenarios
-from drive_bringup.scenario import _entry, _known_metric, _mapping, _number, read_named_file
+# the same checks as scenarios (load_study turns their ScenarioError into a StudyError)
+from drive_bringup.scenario import _entry, _fail, _known_metric, _mapping, _number, read_named_file
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -88,10 +88,6 @@ class Study:
     metrics: dict[str, dict]
     timeout: float = 600.0
     repeats: int = 1
-
-
-def _fail(path: Path, key: str, reason: str) -> StudyError:
-    return StudyError(f'{path}: {key}: {reason}')
 
 
 def _count(value, path: Path, key: str, minimum: int = 1) -> int:
@@ -274,9 +270,7 @@ def load_study(path: str | Path) -> Study:
     """Load and validate a study file and every point of it; raise StudyError naming what is wrong."""
     try:
         return _load_study(Path(path))
-    except StudyError:
-        raise
-    except ScenarioError as exc:        # from the value checks shared with scenarios
+    except ScenarioError as exc:        # the value checks are those of scenarios
         raise StudyError(str(exc)) from exc
 
 
