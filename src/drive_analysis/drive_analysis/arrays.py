@@ -1,15 +1,11 @@
 """The flat arrays dict every metric takes, and the helpers to slice it (numpy, no ROS).
 
-A run is one dict, keys ``'<topic without leading slash>.<field>'``:
-``'plant/state.time'`` (s), ``'plant/state.phase_current'`` ((N, 3) A),
-``'dtc/status.torque_estimate'``, ``'pfc/status.<field>'``, ... The headless
-runner builds it directly (:meth:`drive_bringup.headless.HeadlessResult.arrays`);
-a bag gives it through :func:`flatten_columns` of
-:func:`drive_analysis.bag_columns.load_columns`.
-
-Windows: ``t_start <= t <= t_end`` (both ends included, 1e-12 s slack for
-float sample times; None = open). Controller and plant rows are paired by
-their ``step`` (the status of step k and the plant state at t_k).
+A run is one dict, keys ``'<topic without leading slash>.<field>'`` (``'plant/state.time'`` [s],
+``'plant/state.phase_current'`` [(N, 3) A], ``'dtc/status.torque_estimate'``, ...), built by the
+headless runner (:meth:`drive_bringup.headless.HeadlessResult.arrays`) or from a bag
+(:func:`flatten_columns` of :func:`drive_analysis.bag_columns.load_columns`). Windows:
+``t_start <= t <= t_end`` (both ends included, 1e-12 s slack; None = open). Controller and plant
+rows are paired by their ``step`` (the status of step k and the plant state at t_k).
 """
 from __future__ import annotations
 

@@ -98,11 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
 def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
     """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite.
 
-    Every check (the arguments, ``check(scenario)``, the programs a graph
-    run starts) comes before the output
-    directory is touched: a refused run leaves no directory behind.
-    --duration shortens a run; with --live it may also lengthen it (the
-    last setpoints hold), to leave time to turn a knob in the viewer.
+    Every check (the arguments, ``check(scenario)``, the programs a graph run starts) comes
+    before the output directory is touched. --duration shortens a run; with --live it may also
+    lengthen it (the last setpoints hold), to leave time to turn a knob in the viewer.
     """
     scenario = load_scenario(find_scenario(args.scenario))
     if args.duration is not None:

@@ -3,16 +3,11 @@
     split_hosts two_phase_six_switch_torque_step --duration 0.012 --out bags/split
     split_hosts two_phase_six_switch_torque_step --cut-controller-at 0.005 --out bags/cut
 
-Three virtual hosts on one bridged link (``drive_common.netns``, Linux network
-namespaces; needs root): ``plant``, ``controller`` (dtc_controller, pfc_controller)
-and ``supervisor`` (the recorder and this runner). Discovery by multicast, or by
-``ROS_STATIC_PEERS`` with ``--static-peers``; every lockstep message crosses the
-link as UDP. ``--cut-controller-at T`` takes the controller host's link down at
-sim time T: the plant must go to the safe state with a diagnostic (exit 1), not
-hang. Recipe for real machines: docs/multi_host.md.
-
-Exit codes as run_scenario: 0 ok, 1 the run failed, 2 bad arguments or no
-virtual hosts here (not root), 130 interrupted.
+Three virtual hosts (Linux network namespaces, ``drive_common.netns``; needs root) on one
+bridged link: ``plant``, ``controller`` (the controllers) and ``supervisor`` (recorder, runner).
+``--cut-controller-at T`` takes the controller host's link down at sim time T: the plant must
+go to the safe state with a diagnostic (exit 1), not hang. Exit codes as run_scenario (2 also
+without virtual hosts). Discovery and real machines: docs/multi_host.md.
 """
 from __future__ import annotations
 
