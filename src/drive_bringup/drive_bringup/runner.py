@@ -372,20 +372,24 @@ class GraphRunner:
         self._lingering = retire
         return time.monotonic() - begun
 
-    def _watch_status_blocks(self, node) -> dict[str, list[int]]:
-        """Follow the controllers' status blocks: topic -> [last step seen] (-1: none yet)."""
-        from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock
-        watched = {'dtc_controller': (DtcStatusBlock, topics.DTC_STATUS_BLOCK, 'dtc_period'),
-                   'pfc_controller': (PfcStatusBlock, topics.PFC_STATUS_BLOCK, 'pfc_period')}
-        ends = {}
-        for key, (block_type, topic, _) in watched.items():
-            if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario):
-                end = ends[key] = [-1]
+    @staticmethod
+    def _follow_blocks(node, block_type, topic: str) -> list[int]:
+        """[last step of the blocks seen on topic] (-1: none yet), kept up to date."""
+        end = [-1]
 
-                def on_block(block, end=end):
-                    end[0] = max(end[0], block.first_step + (block.count - 1) * block.step_stride)
-                node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
-        return ends
+        def on_block(block):
+            end[0] = max(end[0], block.first_step + (block.count - 1) * block.step_stride)
+        node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
+        return end
+
+    def _watch_status_blocks(self, node) -> dict[str, list[int]]:
+        """Follow the controllers' recorded status blocks: key -> :meth:`_follow_blocks`."""
+        from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock
+        watched = {'dtc_controller': (DtcStatusBlock, topics.DTC_STATUS_BLOCK),
+                   'pfc_controller': (PfcStatusBlock, topics.PFC_STATUS_BLOCK)}
+        return {key: self._follow_blocks(node, block_type, topic)
+                for key, (block_type, topic) in watched.items()
+                if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario)}
 
     def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> float:
         """Wait at a hold until each controller's partial block is out (it flushes once no

@@ -48,16 +48,10 @@ class SplitHostRunner(GraphRunner):
                 'prefix': self.hosts.prefix(host)}
 
     def _wait_ready(self, node, executor, action) -> None:
-        self._state_seen = -1
         if self.record:
             from dtc_msgs.msg import PlantStateBlock
-            node.create_subscription(PlantStateBlock, topics.PLANT_STATE_BLOCK, self._on_state,
-                                     topics.BLOCK_QOS)
+            self._state_end = self._follow_blocks(node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
         super()._wait_ready(node, executor, action)
-
-    def _on_state(self, block) -> None:
-        self._state_seen = max(self._state_seen,
-                               block.first_step + (block.count - 1) * block.step_stride)
 
     def _drive(self, node, executor, bag_dir):
         result = super()._drive(node, executor, bag_dir)
@@ -75,10 +69,10 @@ class SplitHostRunner(GraphRunner):
         """
         ticks = self._schedule().state_ticks
         last = final_step - final_step % ticks
-        if not self._spin_while_waiting(executor, lambda: self._state_seen >= last, 30.0, 'the last sample',
+        if not self._spin_while_waiting(executor, lambda: self._state_end[0] >= last, 30.0, 'the last sample',
                                         raise_timeout=False):
             self.progress(f'warning: plant/state_block step {last} did not reach the supervisor '
-                          f'host within 30 s (last seen {self._state_seen})')
+                          f'host within 30 s (last seen {self._state_end[0]})')
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         cut = self.cut_controller_at
