@@ -67,14 +67,13 @@ class Paired:
         self._columns = {'time': t[keep]}
 
     def __getitem__(self, key: str) -> np.ndarray:
-        column = self._columns.get(key)
-        if column is None:
+        if key not in self._columns:
             side, _, name = key.partition('.')
             topic = {'plant': PLANT, 'dtc': DTC}.get(side)
             if topic is None or name == 'time' or f'{topic}.{name}' not in self._arrays:
                 raise KeyError(key)
-            column = self._columns[key] = np.asarray(self._arrays[f'{topic}.{name}'])[self._rows[side]]
-        return column
+            self._columns[key] = np.asarray(self._arrays[f'{topic}.{name}'])[self._rows[side]]
+        return self._columns[key]
 
     def get(self, key: str, default=None):
         try:
@@ -93,9 +92,7 @@ class Paired:
         return len(self._columns['time'])
 
 
-def paired(arrays: Arrays, t_start=None, t_end=None) -> Paired:
-    """Plant rows at the controller samples within the window (:class:`Paired`)."""
-    return Paired(arrays, t_start, t_end)
+paired = Paired     # paired(arrays, t_start, t_end): the metrics' spelling
 
 
 def largest_step(reference) -> tuple[int, float, float] | None:
