@@ -92,14 +92,11 @@ class Check:
                 and (self.maximum is None or value <= self.maximum))
 
     def criterion(self) -> str:
-        parts = []
-        if self.seed is not None:
-            parts.append(f'{self.seed:g} ± {self.tolerance:g}')
-        if self.minimum is not None:
-            parts.append(f'≥ {self.minimum:g}')
-        if self.maximum is not None:
-            parts.append(f'≤ {self.maximum:g}')
-        return ', '.join(parts)
+        """The pass criterion as text: 'seed ± tolerance', '≥ min', '≤ max', comma separated."""
+        parts = [f'{self.seed:g} ± {self.tolerance:g}' if self.seed is not None else '',
+                 f'≥ {self.minimum:g}' if self.minimum is not None else '',
+                 f'≤ {self.maximum:g}' if self.maximum is not None else '']
+        return ', '.join(part for part in parts if part)
 
 
 @dataclass
