@@ -1,15 +1,11 @@
 """The flat arrays dict every metric takes, and the helpers to slice it (numpy, no ROS).
 
-A run is one dict, keys ``'<topic without leading slash>.<field>'``:
-``'plant/state.time'`` (s), ``'plant/state.phase_current'`` ((N, 3) A),
-``'dtc/status.torque_estimate'``, ``'pfc/status.<field>'``, ... The headless
-runner builds it directly (:meth:`drive_bringup.headless.HeadlessResult.arrays`);
-a bag gives it through :func:`flatten_columns` of
-:func:`drive_analysis.bag_columns.load_columns`.
-
-Windows: ``t_start <= t <= t_end`` (both ends included, 1e-12 s slack for
-float sample times; None = open). Controller and plant rows are paired by
-their ``step`` (the status of step k and the plant state at t_k).
+A run is one dict, keys ``'<topic without leading slash>.<field>'`` (``'plant/state.time'`` [s],
+``'plant/state.phase_current'`` [(N, 3) A], ``'dtc/status.torque_estimate'``, ...), built by the
+headless runner (:meth:`drive_bringup.headless.HeadlessResult.arrays`) or from a bag
+(:func:`flatten_columns` of :func:`drive_analysis.bag_columns.load_columns`). Windows:
+``t_start <= t <= t_end`` (both ends included, 1e-12 s slack; None = open). Controller and plant
+rows are paired by their ``step`` (the status of step k and the plant state at t_k).
 """
 from __future__ import annotations
 
@@ -71,14 +67,13 @@ class Paired:
         self._columns = {'time': t[keep]}
 
     def __getitem__(self, key: str) -> np.ndarray:
-        column = self._columns.get(key)
-        if column is None:
+        if key not in self._columns:
             side, _, name = key.partition('.')
             topic = {'plant': PLANT, 'dtc': DTC}.get(side)
             if topic is None or name == 'time' or f'{topic}.{name}' not in self._arrays:
                 raise KeyError(key)
-            column = self._columns[key] = np.asarray(self._arrays[f'{topic}.{name}'])[self._rows[side]]
-        return column
+            self._columns[key] = np.asarray(self._arrays[f'{topic}.{name}'])[self._rows[side]]
+        return self._columns[key]
 
     def get(self, key: str, default=None):
         try:
@@ -97,9 +92,7 @@ class Paired:
         return len(self._columns['time'])
 
 
-def paired(arrays: Arrays, t_start=None, t_end=None) -> Paired:
-    """Plant rows at the controller samples within the window (:class:`Paired`)."""
-    return Paired(arrays, t_start, t_end)
+paired = Paired     # paired(arrays, t_start, t_end): the metrics' spelling
 
 
 def largest_step(reference) -> tuple[int, float, float] | None:

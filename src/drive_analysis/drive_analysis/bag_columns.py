@@ -1,17 +1,12 @@
 """A bag's drive topics as numpy columns: {topic: {field: array}}.
 
-Every message with a header gets ``t`` (s, sim time from the stamp); array
-fields become 2-D arrays (samples x elements); numbers are float64, strings
-object arrays. A per-sample topic that a block topic of the bag carries
-(``/plant/state`` in ``/plant/state_block``, ``/dtc/status``,
-``/drive/measurement`` and ``/drive/gate_command`` in ``/dtc/status_block``,
-the PFC topics in ``/pfc/status_block``; :mod:`drive_logger.block_topics`)
-is read from every sample of the block (``block_columns``), never mixed with
-the recorded per-sample messages of that name (decimated live topic or raw
-lockstep topic): the columns equal those a bag of the per-sample topics
-gives. Blocks that skip or repeat steps are refused (BagReadError naming the
-topic), not silently analysed. An export directory of tables
-(``ros2 run drive_logger export BAG --to parquet|csv OUT``) reads the same way.
+Every message with a header gets ``t`` (s, sim time from the stamp); array fields become
+(samples x elements) arrays; numbers are float64, strings object arrays. A per-sample topic
+that a block topic of the bag carries (:mod:`drive_logger.block_topics`) is read from every
+sample of the block, never mixed with recorded per-sample messages of that name (decimated live
+or raw lockstep topics): the columns equal those of a bag of the per-sample topics. Blocks that
+skip or repeat steps are refused (BagReadError naming the topic). An export directory of
+tables (``drive_logger export BAG --to parquet|csv OUT``) reads the same way.
 """
 from __future__ import annotations
 
@@ -24,12 +19,6 @@ from drive_logger.block_topics import block_class, block_sources, part_classes, 
 
 ANALYSED_TOPICS = ('/plant/state', '/dtc/status', '/drive/measurement', '/drive/gate_command',
                    '/pfc/status', '/pfc/measurement', '/pfc/duty_command')
-
-
-def _plain(value):
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return list(value)
-    return value
 
 
 def _arrays(cols: dict[str, list]) -> dict[str, np.ndarray]:
@@ -54,7 +43,8 @@ def _recorded_columns(reader: BagReader, topics: list[str]) -> dict[str, dict[st
                 continue
             if hasattr(value, '__slots__'):
                 continue
-            cols.setdefault(name, []).append(_plain(value))
+            cols.setdefault(name, []).append(list(value) if isinstance(value, (list, tuple, np.ndarray))
+                                             else value)
     return {topic: _arrays(cols) for topic, cols in rows.items()}
 
 

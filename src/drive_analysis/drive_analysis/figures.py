@@ -1,10 +1,11 @@
 """The seeds' figures as PNG from bag columns (matplotlib, Agg backend, no ROS).
 
-Each function takes the columns of :func:`drive_analysis.bag_columns.load_columns`
+Each figure of :data:`ALL_FIGURES` takes the columns of :func:`drive_analysis.bag_columns.load_columns`
 and an output path, and returns the path, or None when the bag lacks the data.
 """
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import matplotlib
@@ -27,13 +28,6 @@ def _save(fig, path) -> Path:
     return Path(path)
 
 
-def _save_time_plot(fig, ax, path, ylabel: str, title: str) -> Path:
-    """Label a plot over t (s), add its legend and grid, and save it."""
-    ax.set(xlabel='t (s)', ylabel=ylabel, title=title)
-    ax.legend(), ax.grid(True)
-    return _save(fig, path)
-
-
 def flux_locus(cols, path):
     """Estimated stator flux locus psi_beta vs psi_alpha (Wb)."""
     if not _has(cols, STATUS, 'flux_alpha', 'flux_beta'):
@@ -45,50 +39,42 @@ def flux_locus(cols, path):
     return _save(fig, path)
 
 
-def torque(cols, path):
-    """Torque reference and estimate (controller) and true torque (plant), N m."""
-    if not (_has(cols, STATUS, 'torque_reference') or _has(cols, STATE, 'electromagnetic_torque')):
+def _time_plot(cols, path, ylabel: str, title: str, required, lines):
+    """Plot over t (s) the lines (topic, field, column or None, plot options) the data has;
+    None unless some (topic, field) of required is there."""
+    if not any(_has(cols, topic, name) for topic, name in required):
         return None
     fig, ax = plt.subplots(figsize=(8, 4))
-    if _has(cols, STATE, 'electromagnetic_torque'):
-        ax.plot(cols[STATE]['t'], cols[STATE]['electromagnetic_torque'], lw=0.6, label='true')
-    if _has(cols, STATUS, 'torque_estimate'):
-        ax.plot(cols[STATUS]['t'], cols[STATUS]['torque_estimate'], lw=0.6, label='estimate')
-    if _has(cols, STATUS, 'torque_reference'):
-        ax.plot(cols[STATUS]['t'], cols[STATUS]['torque_reference'], lw=1.2, label='reference')
-    return _save_time_plot(fig, ax, path, 'torque (N m)', 'Electromagnetic torque')
+    for topic, name, column, options in lines:
+        if _has(cols, topic, name):
+            values = cols[topic][name]
+            ax.plot(cols[topic]['t'], values if column is None else values[:, column], **options)
+    ax.set(xlabel='t (s)', ylabel=ylabel, title=title)
+    ax.legend(), ax.grid(True)
+    return _save(fig, path)
 
 
-def phase_currents(cols, path):
-    """True phase currents i_a, i_b, i_c (A)."""
-    if not _has(cols, STATE, 'phase_current'):
-        return None
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for k, name in enumerate('abc'):
-        ax.plot(cols[STATE]['t'], cols[STATE]['phase_current'][:, k], lw=0.6, label=f'i_{name}')
-    return _save_time_plot(fig, ax, path, 'current (A)', 'Phase currents')
-
-
-def speed(cols, path):
-    """Mechanical speed (rad/s), true and reference."""
-    if not _has(cols, STATE, 'mechanical_speed'):
-        return None
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.plot(cols[STATE]['t'], cols[STATE]['mechanical_speed'], label='true')
-    if _has(cols, STATUS, 'speed_reference'):
-        ax.plot(cols[STATUS]['t'], cols[STATUS]['speed_reference'], label='reference')
-    return _save_time_plot(fig, ax, path, 'speed (rad/s)', 'Mechanical speed')
-
-
-def rotor_angle(cols, path):
-    """Electrical rotor angle, true vs estimated (rad)."""
-    if not _has(cols, STATE, 'rotor_angle'):
-        return None
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.plot(cols[STATE]['t'], cols[STATE]['rotor_angle'], lw=0.8, label='true')
-    if _has(cols, STATUS, 'rotor_angle_estimate'):
-        ax.plot(cols[STATUS]['t'], cols[STATUS]['rotor_angle_estimate'], lw=0.8, ls='--', label='estimated')
-    return _save_time_plot(fig, ax, path, 'angle (rad)', 'Electrical rotor angle')
+# the plots over time: true (plant) and controller signals, SI units
+TIME_PLOTS = {
+    'torque': dict(ylabel='torque (N m)', title='Electromagnetic torque',
+                   required=[(STATUS, 'torque_reference'), (STATE, 'electromagnetic_torque')],
+                   lines=[(STATE, 'electromagnetic_torque', None, dict(lw=0.6, label='true')),
+                          (STATUS, 'torque_estimate', None, dict(lw=0.6, label='estimate')),
+                          (STATUS, 'torque_reference', None, dict(lw=1.2, label='reference'))]),
+    'phase_currents': dict(ylabel='current (A)', title='Phase currents',
+                           required=[(STATE, 'phase_current')],
+                           lines=[(STATE, 'phase_current', k, dict(lw=0.6, label=f'i_{name}'))
+                                  for k, name in enumerate('abc')]),
+    'speed': dict(ylabel='speed (rad/s)', title='Mechanical speed',
+                  required=[(STATE, 'mechanical_speed')],
+                  lines=[(STATE, 'mechanical_speed', None, dict(label='true')),
+                         (STATUS, 'speed_reference', None, dict(label='reference'))]),
+    'rotor_angle': dict(ylabel='angle (rad)', title='Electrical rotor angle',
+                        required=[(STATE, 'rotor_angle')],
+                        lines=[(STATE, 'rotor_angle', None, dict(lw=0.8, label='true')),
+                               (STATUS, 'rotor_angle_estimate', None,
+                                dict(lw=0.8, ls='--', label='estimated'))]),
+}
 
 
 def grid(cols, path):
@@ -106,8 +92,8 @@ def grid(cols, path):
     return _save(fig, path)
 
 
-ALL_FIGURES = {'flux_locus': flux_locus, 'torque': torque, 'phase_currents': phase_currents,
-               'speed': speed, 'rotor_angle': rotor_angle, 'grid': grid}
+ALL_FIGURES = {'flux_locus': flux_locus,
+               **{name: partial(_time_plot, **spec) for name, spec in TIME_PLOTS.items()}, 'grid': grid}
 
 
 def draw_all(cols, out_dir) -> dict[str, str]:

@@ -1,15 +1,10 @@
-"""The ``analyze`` summary's helpers: seed metrics on plain numpy arrays of a bag (SI units, no ROS).
+"""The ``analyze`` summary: seed metrics on plain numpy arrays of a bag (SI units, no ROS).
 
-- Phase-current THD and the three-phase THD: 001 eq. (39),
-  ``THD_x = sqrt(sum_{n>=2} X_n^2) / X_1 * 100 %``,
-  ``THD = sqrt((THD_A^2 + THD_B^2 + THD_C^2) / 3)``.
-- Torque ripple factor over the window: 001 eq. (40), ``TRF = T_pk-pk / T_rated * 100 %``.
-- Power factor ``P / (V_rms I_rms)`` over whole line periods (000 ch. III).
-- Torque rise time (10-90 %), ripple, current balance (fundamental per
-  phase), estimation errors against ground truth (torque, wrapped angle).
-Harmonics are the DFT (:mod:`drive_common.signals`) of the signal resampled
-uniformly over a whole number of fundamental periods, so there is no leakage
-for periodic signals. The scenarios' metrics are in :mod:`drive_analysis.metrics`.
+Phase-current THD per phase and in total (001 eq. (39)), the torque ripple factor over the
+window (001 eq. (40)), power factor over whole line periods (000 ch. III), torque rise time
+(10-90 %), ripple, current balance and estimation errors against ground truth. Harmonics are the
+DFT (:mod:`drive_common.signals`) of the signal resampled uniformly over whole fundamental
+periods (no leakage). The scenarios' metrics are in :mod:`drive_analysis.metrics`.
 """
 from __future__ import annotations
 

@@ -1,20 +1,12 @@
 """The fused lockstep loop: plant (+ front end) + compiled DTC mode (+ PFC) for many base ticks in one call.
 
 The tick of :meth:`bldc_plant_sim.core.cosim.CoSimulation.tick` (docs/architecture.md "Time and
-lockstep") without leaving compiled code: at a DTC-due tick the sensors
-(:func:`~bldc_plant_sim.core.sensors.sense`, noise-free), the mode's measurement
-(:func:`~dtc_controller.core.modes.regulation.measure_values`) and sample
-(:func:`~dtc_controller.core.modes.two_phase_kernel.two_phase_step` /
-:func:`~dtc_controller.core.modes.three_phase_kernel.three_phase_step`), the latch (held one
-sample with ``computation_delay``), the record every ``record_every`` ticks
-(:func:`~bldc_plant_sim.core.plant_kernel.state_values`) and the plant's tick
-(:func:`~bldc_plant_sim.core.plant_kernel.advance_legs`, advance_tick's body). With the front
-end, at a PFC-due tick its measurement and sample
-(:func:`~pfc_controller.core.average_current_control.pfc_step`), the duty latch, and per record
-the front end's PlantState fields (:func:`~bldc_plant_sim.core.front_end_kernel.front_end_values`).
-The same functions as the per-sample path, so the trajectories are bit-identical. A peak-current
-trip ends the chunk after its tick (Python records the fault); located events (boost trips
-among them) are returned with their tick.
+lockstep") in compiled code, from the per-sample path's own functions, so the trajectories are
+bit-identical: at a DTC-due tick the noise-free sensors, the mode's measurement and sample
+(two- or three-phase kernel), the latch (``computation_delay``), a record every
+``record_every`` ticks and the plant's tick; with the front end, the PFC sample, the duty latch
+and the front end's PlantState fields. A peak-current trip ends the chunk after its tick
+(Python records the fault); located events (boost trips among them) are returned with their tick.
 """
 from __future__ import annotations
 

@@ -48,7 +48,9 @@ class DaskPrograms:
                 self._start(f'worker{i}', 'worker', self.address, '--nworkers', '1', '--nthreads', '1',
                             '--no-nanny', '--no-dashboard', '--name', f'worker{i}',
                             '--local-directory', str(self.log_dir / f'worker{i}'))
-            self._wait_for_workers(workers, start_timeout)
+            from distributed import Client
+            with Client(self.address, timeout=f'{start_timeout}s') as client:
+                client.wait_for_workers(workers, timeout=start_timeout)
         except BaseException:
             self.close()
             raise
@@ -57,11 +59,6 @@ class DaskPrograms:
         with open(self.log_dir / f'{name}.log', 'w') as log:
             self.procs[name] = subprocess.Popen([dask_command(), *args], stdout=log,
                                                 stderr=subprocess.STDOUT, start_new_session=True)
-
-    def _wait_for_workers(self, count: int, timeout: float) -> None:
-        from distributed import Client
-        with Client(self.address, timeout=f'{timeout}s') as client:
-            client.wait_for_workers(count, timeout=timeout)
 
     def pid(self, name: str) -> int:
         return self.procs[name].pid

@@ -2,13 +2,10 @@
 
 :class:`FusedDtcLoop` is the ``fused`` runner of :class:`bldc_plant_sim.core.cosim.CoSimulation`
 for the DTC core with a compiled mode, or a controller answering every sample with the same
-gates (``constant_gates``, e.g. FixedGateCore); without front end or PFC, with noise-free
-sensors and no shoot-through command. A pending DTC reconfiguration is applied by the
-per-sample path first (it acts at the next DTC sample). Everything else (user controllers,
-the front end) runs per sample. The trajectory is bit-identical to the per-sample path;
-records are kept as arrays (:class:`~bldc_plant_sim.core.cosim.RecordBlock`), objects built
-only when read. It works on the plant's and the schedule's internals (buffers, leg codes,
-the held command) as their own per-sample code does.
+gates (``constant_gates``), with noise-free sensors and no shoot-through command; a pending DTC
+reconfiguration and everything else run per sample. The trajectory is bit-identical to the
+per-sample path; records are kept as arrays (:class:`~bldc_plant_sim.core.cosim.RecordBlock`).
+It works on the plant's and the schedule's internals as their own per-sample code does.
 """
 from __future__ import annotations
 

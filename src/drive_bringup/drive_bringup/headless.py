@@ -88,9 +88,7 @@ def run_headless(scenario: Scenario, record_every: int | None = None, on_tick=No
     """
     started = time.monotonic()
     snapshots = {k: dict(v) for k, v in scenario.node_parameters.items()}
-    plant_params = dict(snapshots['plant'])
-    plant_params['pfc_enabled'] = 'pfc_controller' in snapshots
-    plant = PlantCore(plant_params)
+    plant = PlantCore(dict(snapshots['plant'], pfc_enabled='pfc_controller' in snapshots))
     dtc, pfc = build_controllers(scenario)
     if record_every is None:
         p = plant.params

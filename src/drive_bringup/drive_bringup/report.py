@@ -17,8 +17,6 @@ from drive_analysis import registry
 from drive_analysis.arrays import columns_of, flatten_columns
 from drive_bringup.scenario import Scenario
 
-__all__ = ['evaluate_metrics', 'check_rows', 'write_report', 'fault_verdict', 'FAULT_EXIT']
-
 FAULT_EXIT = 3    # run_scenario's exit code for a run that ended in an unexpected fault state
 
 
@@ -86,7 +84,7 @@ def write_report(scenario: Scenario, result, out_dir: Path, columns=None,
         'headline': {'scenario': scenario.name, 'sim_time_s': result.final_time,
                      'wall_time_s': round(result.wall_time, 2),
                      'samples_per_second': round(result.samples_per_second),
-                     **{k: v for k, v in values.items()},
+                     **values,
                      'checks_passed': f'{sum(r["pass"] for r in rows)}/{len(rows)}'},
     }
     summary = json_safe(summary)

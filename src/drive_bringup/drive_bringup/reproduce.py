@@ -1,15 +1,11 @@
 """reproduce: run every shipped scenario that checks a seed result; print the table.
 
-    reproduce                       # all scenarios with checks, headless, 2 processes
-    reproduce --only two_phase      # names containing a substring
-    reproduce --ros                 # through the ROS graph (slower; recorded bags)
-    reproduce --out reports         # where reproduction.md / .json go
-    reproduce --readme FILE         # also refresh the table between the markers of FILE
-    reproduce --docs docs/reproduction.md   # the same for the documentation site's page
+    reproduce [--only TEXT] [--ros] [--out reports] [--readme FILE] [--docs docs/reproduction.md]
 
-Each row: scenario, seed reference, what is checked, the seed's value, the
-simulated value, the criterion (seed ± tolerance, or bounds) and pass/fail.
-Exit code 0 when every check passes, 1 otherwise.
+Headless in 2 processes by default (--ros: through the ROS graph, recorded bags); --readme and
+--docs refresh the table between the markers of a file. Each row: scenario, seed reference,
+what is checked, the seed's and the simulated value, the criterion (seed ± tolerance, or
+bounds) and pass/fail. Exit code 0 when every check passes, 1 otherwise.
 """
 from __future__ import annotations
 

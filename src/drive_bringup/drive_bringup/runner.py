@@ -1,15 +1,11 @@
 """Launch-free scenario runner: the drive graph as separate processes.
 
-Starts plant, dtc_controller (or the scenario's own ``nodes.controller``,
-under its node name), pfc_controller (when the scenario has one)
-and the recorder exactly as ``ros2 run <pkg> <exe> --ros-args -p ...``
-would, then drives the plant's ``plant/run`` action from event to event so
-each event's parameter change lands at its exact sim time (the plant holds
-time between goals). Shows progress, detects a crashed node (reported with
-the end of its output), and always shuts every process down, also on
-Ctrl-C or SIGTERM. ``pause_at`` holds the plant at given sim times until a
-``~/resume`` (std_srvs/Trigger) call, so a user (or a test) can look at or
-disturb the held graph.
+Starts the scenario's nodes (its own ``nodes.controller`` under its node name) and the recorder
+as ``ros2 run <pkg> <exe> --ros-args -p ...`` would, then drives the plant's ``plant/run``
+action from event to event, so each event's parameter change lands at its exact sim time (the
+plant holds time between goals). Shows progress, reports a crashed node with the end of its
+output, and always shuts every process down, also on Ctrl-C or SIGTERM. ``pause_at`` holds the
+plant at given sim times until a ``~/resume`` (std_srvs/Trigger) call.
 """
 from __future__ import annotations
 
@@ -46,12 +42,9 @@ NODE_PROGRAMS = {
 
 def scenario_programs(sc: Scenario) -> list[tuple[str, str, str, str | None]]:
     """(key, package, executable, node name or None) of each node of the scenario, in start order."""
-    out = []
-    for key in sc.nodes:
-        own = sc.controller if key == 'controller' else None
-        package, executable = (own.package, own.executable) if own else NODE_PROGRAMS[key]
-        out.append((key, package, executable, own.node_name if own else None))
-    return out
+    own = sc.controller
+    return [(key, own.package, own.executable, own.node_name) if key == 'controller'
+            else (key, *NODE_PROGRAMS[key], None) for key in sc.nodes]
 
 
 def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> None:
@@ -139,16 +132,15 @@ class GraphRunner:
         self.log_dir = self.out_dir / 'logs'
 
     # --- processes ------------------------------------------------------------
-    def _env(self) -> dict[str, str]:
-        if self.domain_id is None:
-            return dict(os.environ)
-        return isolated_env(self.domain_id)
+    def _placement(self, key: str) -> dict:
+        """Where the program of key runs: NodeProcess's env (and wrapper prefix)."""
+        return {'env': dict(os.environ) if self.domain_id is None else isolated_env(self.domain_id)}
 
     def _start(self, key: str, package: str, executable: str, parameters: dict,
                node_name: str | None = None) -> NodeProcess:
-        process = NodeProcess(package, executable, parameters=parameters, env=self._env(),
-                              log_dir=self.log_dir, node_name=node_name,
-                              remappings=namespace_remappings(self.namespace))
+        process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
+                              node_name=node_name, remappings=namespace_remappings(self.namespace),
+                              **self._placement(key))
         self.processes[key] = process
         return process
 
@@ -197,10 +189,6 @@ class GraphRunner:
         except WaitTimeout as exc:
             raise RunFailed(str(exc)) from exc
 
-    def _spin_until(self, executor, future, timeout: float, what: str):
-        self._spin_while_waiting(executor, future.done, timeout, what)
-        return future.result()
-
     def run(self) -> RunResult:
         if self.domain_id is not None:          # a domain reserved for this run alone
             return self._run()
@@ -234,9 +222,8 @@ class GraphRunner:
             if self.live:
                 self._start('live_view', 'drive_logger', 'live_view', {})
                 self.progress(f'[{sc.name}] live view: Foxglove app -> open connection -> ws://localhost:8765')
-            plant_params = dict(sc.overrides['plant'])
-            plant_params['run_until'] = 0.0
-            plant_params['pfc_enabled'] = 'pfc_controller' in sc.nodes
+            plant_params = dict(sc.overrides['plant'], run_until=0.0,
+                                pfc_enabled='pfc_controller' in sc.nodes)
             for key, package, executable, node_name in scenario_programs(sc):
                 self._start(key, package, executable,
                             plant_params if key == 'plant' else dict(sc.overrides[key]),
@@ -278,15 +265,13 @@ class GraphRunner:
             # Your own controller may publish no status (a core returning None): its status
             # topics are waited for only if it publishes them once its commands are visible.
             optional = {_absolute_topic(n) for n in (topics.DTC_STATUS, topics.DTC_STATUS_BLOCK)}
-            gate = self._recorded([_absolute_topic(topics.GATE_COMMAND)])[0]
+            gate = self.namespace + _absolute_topic(topics.GATE_COMMAND)
             self._spin_while_waiting(executor, lambda: node.count_publishers(gate) >= 1,
                                      max(0.0, deadline - time.monotonic()), f'a publisher of {gate}')
             wanted = [t for t in wanted
-                      if t not in optional or node.count_publishers(self._recorded([t])[0]) >= 1]
-        probes = [node.create_subscription(message_class(known_type(t)), self._recorded([t])[0],
-                                           lambda _msg: None,
-                                           topics.STREAM_QOS, raw=True)
-                  for t in wanted]
+                      if t not in optional or node.count_publishers(self.namespace + t) >= 1]
+        probes = [node.create_subscription(message_class(known_type(t)), self.namespace + t,
+                                           lambda _msg: None, topics.STREAM_QOS, raw=True) for t in wanted]
         try:
             self._spin_while_waiting(
                 executor, lambda: all(p.get_publisher_count() >= 1 for p in probes),
@@ -294,11 +279,9 @@ class GraphRunner:
         finally:
             for probe in probes:
                 node.destroy_subscription(probe)
-        self._wait_recorder_matched(node, executor, self._recorded(wanted), deadline)
-
-    def _wait_recorder_matched(self, node, executor, names: list[str], deadline: float) -> None:
-        """Wait until the recorder's own subscriptions have matched every publisher of names
-        (drive_common.recorder_matching: a volatile subscriber matched late misses samples)."""
+        # The recorder's own subscriptions matched with every publisher of them
+        # (drive_common.recorder_matching: a volatile subscriber matched late misses samples).
+        names = self._recorded(wanted)
         matched = RecordersMatched(node, names, required=[topics.RECORDER_MATCHED_SERVICE])
         try:
             self._spin_while_waiting(executor, matched, max(0.0, deadline - time.monotonic()),
@@ -309,7 +292,8 @@ class GraphRunner:
     def _set_parameters(self, node, executor, target: str, values: dict) -> None:
         client = self._param_clients[target]
         future = client.set_parameters([Parameter(k, value=v) for k, v in values.items()])
-        response = self._spin_until(executor, future, 30.0, f'{target} set_parameters')
+        self._spin_while_waiting(executor, future.done, 30.0, f'{target} set_parameters')
+        response = future.result()
         for (name, _), result in zip(values.items(), response.results):
             if not result.successful:
                 raise RunFailed(f'{target} refused {name}: {result.reason}')
@@ -317,11 +301,9 @@ class GraphRunner:
     def _drive(self, node, executor, bag_dir: Path) -> RunResult:
         sc = self.scenario
         self._action = ActionClient(node, Run, topics.RUN_ACTION)
-        node_names = {'plant': 'plant', 'dtc_controller': 'dtc_controller',   # in the namespace
-                      'pfc_controller': 'pfc_controller'}
-        if sc.controller is not None:
-            node_names['controller'] = sc.controller.node_name
-        self._param_clients = {k: AsyncParameterClient(node, node_names[k]) for k in sc.nodes}
+        self._param_clients = {    # by node name, in the namespace
+            k: AsyncParameterClient(node, sc.controller.node_name if k == 'controller' else k)
+            for k in sc.nodes}
         block_ends = self._watch_status_blocks(node) if self.record else {}
         self._wait_ready(node, executor, self._action)
         self._spin_while_waiting(
@@ -390,20 +372,24 @@ class GraphRunner:
         self._lingering = retire
         return time.monotonic() - begun
 
-    def _watch_status_blocks(self, node) -> dict[str, list[int]]:
-        """Follow the controllers' status blocks: topic -> [last step seen] (-1: none yet)."""
-        from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock
-        watched = {'dtc_controller': (DtcStatusBlock, topics.DTC_STATUS_BLOCK, 'dtc_period'),
-                   'pfc_controller': (PfcStatusBlock, topics.PFC_STATUS_BLOCK, 'pfc_period')}
-        ends = {}
-        for key, (block_type, topic, _) in watched.items():
-            if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario):
-                end = ends[key] = [-1]
+    @staticmethod
+    def _follow_blocks(node, block_type, topic: str) -> list[int]:
+        """[last step of the blocks seen on topic] (-1: none yet), kept up to date."""
+        end = [-1]
 
-                def on_block(block, end=end):
-                    end[0] = max(end[0], block.first_step + (block.count - 1) * block.step_stride)
-                node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
-        return ends
+        def on_block(block):
+            end[0] = max(end[0], block.first_step + (block.count - 1) * block.step_stride)
+        node.create_subscription(block_type, topic, on_block, topics.BLOCK_QOS)
+        return end
+
+    def _watch_status_blocks(self, node) -> dict[str, list[int]]:
+        """Follow the controllers' recorded status blocks: key -> :meth:`_follow_blocks`."""
+        from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock
+        watched = {'dtc_controller': (DtcStatusBlock, topics.DTC_STATUS_BLOCK),
+                   'pfc_controller': (PfcStatusBlock, topics.PFC_STATUS_BLOCK)}
+        return {key: self._follow_blocks(node, block_type, topic)
+                for key, (block_type, topic) in watched.items()
+                if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario)}
 
     def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> float:
         """Wait at a hold until each controller's partial block is out (it flushes once no
@@ -414,10 +400,7 @@ class GraphRunner:
         run of a scenario), and the recorder, stopped after the last hold, has every sample.
         """
         begun = time.monotonic()
-        from bldc_plant_sim.core.lockstep import LockstepSchedule
-        plant = {**self.scenario.node_parameters['plant'],
-                 'pfc_enabled': 'pfc_controller' in self.scenario.nodes}
-        schedule = LockstepSchedule.from_params(plant, plant['base_tick'])
+        schedule = self._schedule()
         ticks = {'dtc_controller': schedule.dtc_ticks, 'pfc_controller': schedule.pfc_ticks}
         for key, end in ends.items():
             if ticks[key] and final_step > 0:
@@ -425,6 +408,13 @@ class GraphRunner:
                 self._spin_while_waiting(executor, lambda: end[0] >= last, 30.0,
                                          f'the last {key} status block (step {last})')
         return time.monotonic() - begun
+
+    def _schedule(self):
+        """The plant's lockstep schedule (:class:`bldc_plant_sim.core.lockstep.LockstepSchedule`)."""
+        from bldc_plant_sim.core.lockstep import LockstepSchedule
+        plant = dict(self.scenario.node_parameters['plant'],
+                     pfc_enabled='pfc_controller' in self.scenario.nodes)
+        return LockstepSchedule.from_params(plant, plant['base_tick'])
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         """Advance the plant to target (s); (final step, final time) or RunFailed."""

@@ -17,6 +17,7 @@ import argparse
 import os
 import signal
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Callable
 
@@ -97,11 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
 def prepare_run(args, check: Callable[[Scenario], None] | None = None) -> tuple:
     """(scenario, fresh output dir) from the parsed scenario, --duration, --params-file, --out, --overwrite.
 
-    Every check (the arguments, ``check(scenario)``, the programs a graph
-    run starts) comes before the output
-    directory is touched: a refused run leaves no directory behind.
-    --duration shortens a run; with --live it may also lengthen it (the
-    last setpoints hold), to leave time to turn a knob in the viewer.
+    Every check (the arguments, ``check(scenario)``, the programs a graph run starts) comes
+    before the output directory is touched. --duration shortens a run; with --live it may also
+    lengthen it (the last setpoints hold), to leave time to turn a knob in the viewer.
     """
     scenario = load_scenario(find_scenario(args.scenario))
     if args.duration is not None:
@@ -167,13 +166,11 @@ def _main(argv=None) -> int:
     if not args.scenario:
         print('run_scenario: name a scenario (or --list)', file=sys.stderr)
         return 2
-    if args.live and args.headless:
-        print('run_scenario: --live watches the ROS graph; it cannot be combined with --headless', file=sys.stderr)
-        return 2
-    if args.pause_at and args.headless:
-        print('run_scenario: --pause-at holds the ROS graph; it cannot be combined with --headless',
-              file=sys.stderr)
-        return 2
+    for option, given, what in (('--live', args.live, 'watches'), ('--pause-at', args.pause_at, 'holds')):
+        if given and args.headless:
+            print(f'run_scenario: {option} {what} the ROS graph; it cannot be combined with --headless',
+                  file=sys.stderr)
+            return 2
     try:
         normalized(args.namespace)
     except ValueError as exc:
@@ -190,17 +187,14 @@ def _main(argv=None) -> int:
     from drive_bringup.runner import GraphRunner, main_guard
 
     def run() -> int:
-        if args.domain_id is not None or args.join_domain:
-            if args.domain_id is not None:
-                os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
-            result = GraphRunner(scenario, out, record=not args.no_record, live=args.live,
-                                 namespace=args.namespace, pause_at=args.pause_at).run()
-        else:   # default: a private domain, so two runs never mix their graphs
-            from drive_common.processes import reserve_domain
-            with reserve_domain() as domain:
-                result = GraphRunner(scenario, out, domain_id=domain, namespace=args.namespace,
-                                     record=not args.no_record, live=args.live,
-                                     pause_at=args.pause_at).run()
+        from drive_common.processes import reserve_domain
+        if args.domain_id is not None:
+            os.environ['ROS_DOMAIN_ID'] = str(args.domain_id)
+        shared = args.domain_id is not None or args.join_domain
+        # default: a private domain, so two runs never mix their graphs
+        with nullcontext() if shared else reserve_domain() as domain:
+            result = GraphRunner(scenario, out, domain_id=domain, namespace=args.namespace,
+                                 record=not args.no_record, live=args.live, pause_at=args.pause_at).run()
         if result.bag is not None:
             summary = write_report(scenario, result, out)
             print_summary(summary, out)

@@ -1,15 +1,9 @@
 """Scenario files: schema, loading and validation (no rclpy).
 
-A scenario (YAML) names the nodes' parameters, the run length, timed events
-(any node's parameters at an exact sim time), what to record and which
-metrics and figures to report, and optionally the seed values it
-reproduces. Every mistake is reported as ``ScenarioError`` naming the file,
-the key path and the reason; node parameters are validated against each
-node's own parameter schema (the same one the node declares).
-
-The file's keys (``name``, ``duration``, ``nodes``, ``events``, ``record``,
-``metrics``, ``figures``, ``checks``, ``expect_faults``, ...): docs/scenarios.md
-"The scenario file".
+A scenario (YAML) names the nodes' parameters, the run length, timed events, what to record,
+the metrics and figures to report and the seed values it reproduces (docs/scenarios.md "The
+scenario file"). Every mistake is a ``ScenarioError`` naming the file, the key path and the
+reason; node parameters are validated against the schema the node itself declares.
 """
 from __future__ import annotations
 
@@ -91,25 +85,18 @@ class Check:
     maximum: float | None = None
 
     def evaluate(self, value: float | None) -> bool:
-        if value is None or (isinstance(value, float) and math.isnan(value)):
-            return False
-        if self.seed is not None and abs(value - self.seed) > self.tolerance:
-            return False
-        if self.minimum is not None and value < self.minimum:
-            return False
-        if self.maximum is not None and value > self.maximum:
-            return False
-        return True
+        """Whether value passes: within seed ± tolerance and the bounds (None and NaN fail)."""
+        return (value is not None and not (isinstance(value, float) and math.isnan(value))
+                and (self.seed is None or abs(value - self.seed) <= self.tolerance)
+                and (self.minimum is None or value >= self.minimum)
+                and (self.maximum is None or value <= self.maximum))
 
     def criterion(self) -> str:
-        parts = []
-        if self.seed is not None:
-            parts.append(f'{self.seed:g} ± {self.tolerance:g}')
-        if self.minimum is not None:
-            parts.append(f'≥ {self.minimum:g}')
-        if self.maximum is not None:
-            parts.append(f'≤ {self.maximum:g}')
-        return ', '.join(parts)
+        """The pass criterion as text: 'seed ± tolerance', '≥ min', '≤ max', comma separated."""
+        parts = [f'{self.seed:g} ± {self.tolerance:g}' if self.seed is not None else '',
+                 f'≥ {self.minimum:g}' if self.minimum is not None else '',
+                 f'≤ {self.maximum:g}' if self.maximum is not None else '']
+        return ', '.join(part for part in parts if part)
 
 
 @dataclass
@@ -400,7 +387,7 @@ def _controller_program(path: Path, nodes: dict) -> ControllerProgram | None:
     return ControllerProgram(**values)
 
 
-def shipped_dir(kind: str) -> Path:
+def shipped_dir(kind: str = 'scenarios') -> Path:
     """The shipped files of a kind ('scenarios', 'studies'): the source tree (symlink/develop
     installs), else share/drive_bringup/<kind>."""
     source = Path(__file__).resolve().parents[1] / kind
@@ -410,7 +397,7 @@ def shipped_dir(kind: str) -> Path:
     return Path(get_package_share_directory('drive_bringup')) / kind
 
 
-def find_shipped(name_or_path: str, kind: str) -> Path:
+def find_shipped(name_or_path: str, kind: str = 'scenarios') -> Path:
     """A path as given, or a shipped file's name looked up in shipped_dir(kind); ScenarioError
     naming the known ones otherwise."""
     path = Path(name_or_path)
@@ -424,11 +411,4 @@ def find_shipped(name_or_path: str, kind: str) -> Path:
     return candidate
 
 
-def scenario_dir() -> Path:
-    """The shipped scenarios."""
-    return shipped_dir('scenarios')
-
-
-def find_scenario(name_or_path: str) -> Path:
-    """A path as given, or a scenario name looked up in scenario_dir()."""
-    return find_shipped(name_or_path, 'scenarios')
+scenario_dir, find_scenario = shipped_dir, find_shipped      # the shipped scenarios (the default kind)

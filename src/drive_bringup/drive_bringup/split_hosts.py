@@ -3,22 +3,18 @@
     split_hosts two_phase_six_switch_torque_step --duration 0.012 --out bags/split
     split_hosts two_phase_six_switch_torque_step --cut-controller-at 0.005 --out bags/cut
 
-Three virtual hosts on one bridged link (``drive_common.netns``, Linux network
-namespaces; needs root): ``plant``, ``controller`` (dtc_controller, pfc_controller)
-and ``supervisor`` (the recorder and this runner). Discovery by multicast, or by
-``ROS_STATIC_PEERS`` with ``--static-peers``; every lockstep message crosses the
-link as UDP. ``--cut-controller-at T`` takes the controller host's link down at
-sim time T: the plant must go to the safe state with a diagnostic (exit 1), not
-hang. Recipe for real machines: docs/multi_host.md.
-
-Exit codes as run_scenario: 0 ok, 1 the run failed, 2 bad arguments or no
-virtual hosts here (not root), 130 interrupted.
+Three virtual hosts (Linux network namespaces, ``drive_common.netns``; needs root) on one
+bridged link: ``plant``, ``controller`` (the controllers) and ``supervisor`` (recorder, runner).
+``--cut-controller-at T`` takes the controller host's link down at sim time T: the plant must
+go to the safe state with a diagnostic (exit 1), not hang. Exit codes as run_scenario (2 also
+without virtual hosts). Discovery and real machines: docs/multi_host.md.
 """
 from __future__ import annotations
 
 import argparse
 import os
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 
 from drive_bringup.runner import GraphRunner
@@ -46,29 +42,16 @@ class SplitHostRunner(GraphRunner):
         self.static_peers = static_peers
         self.cut_controller_at = cut_controller_at
 
-    def _start(self, key: str, package: str, executable: str, parameters: dict,
-               node_name: str | None = None):
-        from drive_common.processes import NodeProcess
+    def _placement(self, key: str) -> dict:
         host = PLACEMENT.get(key, RUNNER_HOST)     # helpers (e.g. a live view) beside the runner
-        process = NodeProcess(package, executable, parameters=parameters, log_dir=self.log_dir,
-                              node_name=node_name,
-                              env=self.hosts.env(host, self.domain_id,
-                                                 static_peers=self.static_peers),
-                              prefix=self.hosts.prefix(host))
-        self.processes[key] = process
-        return process
+        return {'env': self.hosts.env(host, self.domain_id, static_peers=self.static_peers),
+                'prefix': self.hosts.prefix(host)}
 
     def _wait_ready(self, node, executor, action) -> None:
-        self._state_seen = -1
         if self.record:
             from dtc_msgs.msg import PlantStateBlock
-            node.create_subscription(PlantStateBlock, topics.PLANT_STATE_BLOCK, self._on_state,
-                                     topics.BLOCK_QOS)
+            self._state_end = self._follow_blocks(node, PlantStateBlock, topics.PLANT_STATE_BLOCK)
         super()._wait_ready(node, executor, action)
-
-    def _on_state(self, block) -> None:
-        self._state_seen = max(self._state_seen,
-                               block.first_step + (block.count - 1) * block.step_stride)
 
     def _drive(self, node, executor, bag_dir):
         result = super()._drive(node, executor, bag_dir)
@@ -84,15 +67,12 @@ class SplitHostRunner(GraphRunner):
         the runner has the last one the recorder's stop-time drain takes the
         rest instead of stopping short of the end.
         """
-        from bldc_plant_sim.core.lockstep import LockstepSchedule
-        plant = dict(self.scenario.node_parameters['plant'],
-                     pfc_enabled='pfc_controller' in self.scenario.nodes)
-        ticks = LockstepSchedule.from_params(plant, plant['base_tick']).state_ticks
+        ticks = self._schedule().state_ticks
         last = final_step - final_step % ticks
-        if not self._spin_while_waiting(executor, lambda: self._state_seen >= last, 30.0, 'the last sample',
+        if not self._spin_while_waiting(executor, lambda: self._state_end[0] >= last, 30.0, 'the last sample',
                                         raise_timeout=False):
             self.progress(f'warning: plant/state_block step {last} did not reach the supervisor '
-                          f'host within 30 s (last seen {self._state_seen})')
+                          f'host within 30 s (last seen {self._state_end[0]})')
 
     def _run_goal(self, executor, target: float, started: float) -> tuple[int, float]:
         cut = self.cut_controller_at
@@ -163,10 +143,8 @@ def main(argv=None) -> int:
         return 0
 
     def run() -> int:
-        if args.domain is not None:
-            return run_in(args.domain)
         from drive_common.processes import reserve_domain
-        with reserve_domain() as domain:
+        with nullcontext(args.domain) if args.domain is not None else reserve_domain() as domain:
             return run_in(domain)
 
     return main_guard(run)

@@ -1,17 +1,11 @@
 """Design studies: one scenario run headless at many parameter points, on Dask (no rclpy).
 
-A study file (YAML) names a base scenario, the parameters to vary, how to
-sample them, repeats and the metrics to collect. Every point is a complete,
-validated scenario (the base with the point's values applied), run by
-:func:`drive_bringup.headless.run_headless`, in batches (:func:`batch_size`), each
-one ``dask.distributed`` task: on a ``LocalCluster`` (one single-threaded worker
-process per core) by default, or on any running cluster given its scheduler
-address. Results go to one table (``results.parquet`` and ``results.csv``); each
-finished batch appends a row per point to ``points.jsonl`` at once, so re-running
-a study skips the points already done (key = hash of the point's full parameters).
-
-The study file (schema, targets) and the status of a point (``ok``,
-``protection_trip``, ``error``, ``timeout``): docs/studies.md.
+Every point is a complete, validated scenario (the base with the point's values applied), run
+by :func:`drive_bringup.headless.run_headless` in batches (:func:`batch_size`) of one
+``dask.distributed`` task each, on a local or a running cluster. Each finished batch appends a
+row per point to ``points.jsonl`` at once, so re-running a study skips the points done (key =
+hash of the point's full parameters); the table goes to ``results.parquet`` / ``results.csv``.
+The study file and the status of a point: docs/studies.md.
 """
 from __future__ import annotations
 
@@ -36,8 +30,8 @@ import numpy as np
 from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
-# the same checks as scenarios
-from drive_bringup.scenario import _entry, _known_metric, _mapping, _number, read_named_file
+# the same checks as scenarios (load_study turns their ScenarioError into a StudyError)
+from drive_bringup.scenario import _entry, _fail, _known_metric, _mapping, _number, read_named_file
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -94,10 +88,6 @@ class Study:
     metrics: dict[str, dict]
     timeout: float = 600.0
     repeats: int = 1
-
-
-def _fail(path: Path, key: str, reason: str) -> StudyError:
-    return StudyError(f'{path}: {key}: {reason}')
 
 
 def _count(value, path: Path, key: str, minimum: int = 1) -> int:
@@ -280,9 +270,7 @@ def load_study(path: str | Path) -> Study:
     """Load and validate a study file and every point of it; raise StudyError naming what is wrong."""
     try:
         return _load_study(Path(path))
-    except StudyError:
-        raise
-    except ScenarioError as exc:        # from the value checks shared with scenarios
+    except ScenarioError as exc:        # the value checks are those of scenarios
         raise StudyError(str(exc)) from exc
 
 

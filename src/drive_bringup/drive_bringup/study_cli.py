@@ -1,36 +1,26 @@
 """study: run a design study (a scenario at many parameter points) on Dask.
 
-    study STUDY                          # a path, or a name in drive_bringup/studies/
-    study STUDY --workers 2              # LocalCluster with 2 worker processes (default: one per core)
-    study STUDY --scheduler tcp://HOST:8786   # on a running Dask cluster
-    study STUDY --out DIR                # results directory (default studies/<name>)
-    study STUDY --retry-failed           # also re-run points recorded as error / timeout
-    study STUDY --dry-run                # validate and list the points, run nothing
+    study STUDY [--workers N | --scheduler tcp://HOST:8786] [--out DIR] [--retry-failed] [--dry-run]
     study --list
 
-Points already in DIR/points.jsonl are skipped. Writes DIR/results.parquet,
-results.csv, summary.txt and plots/*.png. Exit code 0 when every point is ok
-or a protection trip, 1 when any point failed (error / timeout), 2 for a
-bad study file or a cluster that cannot be reached.
+STUDY is a path or a shipped study's name. Points already in DIR/points.jsonl (default DIR
+studies/<name>) are skipped; writes results.parquet, results.csv, summary.txt and plots/*.png.
+Exit code 0 when every point is ok or a protection trip, 1 when any point failed (error /
+timeout), 2 for a bad study file or an unreachable cluster (docs/studies.md).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 
 from drive_bringup.scenario import ScenarioError, find_shipped, shipped_dir
 from drive_common.cli_output import quiet_on_closed_pipe
 
 
-def study_dir() -> Path:
-    """The shipped studies."""
-    return shipped_dir('studies')
-
-
-def find_study(name_or_path: str) -> Path:
-    """A path as given, or a shipped study's name."""
-    return find_shipped(name_or_path, 'studies')
+study_dir = partial(shipped_dir, 'studies')              # the shipped studies
+find_study = partial(find_shipped, kind='studies')      # a path as given, or a shipped study's name
 
 
 @quiet_on_closed_pipe

@@ -3,17 +3,31 @@
     python -m drive_bringup.study_findings docs/studies/sampled_hysteresis_torque_deficit
 
 Reads the study's results.parquet, adds the predicted deficit
-(:func:`drive_bringup.sampled_hysteresis.predicted_torque_deficit_N_m`),
-writes plots/deficit_vs_prediction.png and prints a Markdown table.
+(:func:`predicted_torque_deficit_N_m`), writes plots/deficit_vs_prediction.png and prints a
+Markdown table.
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from drive_bringup.sampled_hysteresis import predicted_torque_deficit_N_m
-
 TORQUE_REFERENCE = 0.5157          # N m, the study's T*
+
+
+def predicted_torque_deficit_N_m(sample_period: float, speed: float, torque_reference: float,
+                                 backemf_constant: float = 0.0573, pole_pairs: int = 2,
+                                 resistance: float = 0.315, self_inductance: float = 1.4e-3,
+                                 mutual_inductance: float = 0.3125e-3) -> float:
+    """First-order T* - mean torque [N m] of sampled hysteresis DTC, dT = k_t (E + R i) T_s / L_s
+    (derivation: docs/studies.md), at sample period T_s [s] and mechanical speed w_m [rad/s].
+
+    Defaults: the 000 Appendix A motor (motors/ozturk_bldc.yaml): K [V s/rad per electrical
+    rad/s], p, R [ohm], L, M [H]. The current i is taken at T*.
+    """
+    k_t = 2.0 * pole_pairs * backemf_constant                      # N m/A
+    emf = backemf_constant * pole_pairs * speed                    # V, phase flat top
+    current = torque_reference / k_t                               # A
+    return k_t * (emf + resistance * current) * sample_period / (self_inductance - mutual_inductance)
 
 
 def compare(table):

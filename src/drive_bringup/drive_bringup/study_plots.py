@@ -39,6 +39,7 @@ def plot_study(study, table, out_dir: Path, dpi: int = 80) -> list[Path]:
         if data.empty:
             continue
         fig, ax = plt.subplots(figsize=(5.0, 3.6))
+        ax.set_ylabel(metric)
         if len(names) == 1 and study.axes[0].values:
             stats = data.groupby(names[0])[metric].agg(['mean', 'std']).reset_index()
             ax.errorbar(stats[names[0]], stats['mean'], yerr=stats['std'].fillna(0.0), marker='o')
@@ -55,21 +56,19 @@ def plot_study(study, table, out_dir: Path, dpi: int = 80) -> list[Path]:
                     ax.text(j, i, f'{value:.3g}', ha='center', va='center', fontsize=7,
                             color='k' if value > middle else 'w')
                 fig.colorbar(image, ax=ax, label=metric)
+                ax.set_ylabel(y)
             else:
                 for label, group in data.groupby(y):
                     stats = group.groupby(x)[metric].mean()
                     ax.plot(stats.index, stats.values, marker='o', label=str(label))
                 ax.legend(title=y, fontsize=8)
             ax.set_xlabel(x)
-            ax.set_ylabel(y if _numeric(data, y) and _numeric(data, x) else metric)
         else:
             for name in names:
                 ax.scatter(data[name], data[metric], s=12, label=name)
             ax.set_xlabel(', '.join(names))
             if len(names) > 1:
                 ax.legend(fontsize=8)
-        if not (len(names) == 2 and all(_numeric(data, n) for n in names) and all(a.values for a in study.axes)):
-            ax.set_ylabel(metric)
         ax.set_title(f'{study.name}: {metric}', fontsize=9)
         ax.grid(alpha=0.3)
         fig.tight_layout()

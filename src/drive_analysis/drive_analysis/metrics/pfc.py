@@ -1,13 +1,7 @@
 """Metrics of the boost PFC results (000 ch. III, Figs. 3.4-3.6), pure numpy.
 
-Every metric takes the flat arrays dict of a run (:mod:`drive_analysis.arrays`): plant ground truth as
-``'plant/state.<field>'`` with ``'plant/state.time'``, PFC internals as
-``'pfc/status.<field>'``; plus keyword options; it returns a float (NaN when
-the window holds no data). Options ``t_start`` / ``t_end`` [s] restrict a
-metric to the samples with t_start <= t <= t_end (default: the whole run).
-Line-side metrics use :mod:`drive_common.signals` over the last whole line
-cycles of the window (evenly sampled records). Each metric's definition:
-docs/reference/metrics.md "Boost PFC".
+The contract: :mod:`drive_analysis.metrics`. Line-side metrics use :mod:`drive_common.signals`
+over the last whole line cycles of the window; definitions: docs/reference/metrics.md "Boost PFC".
 """
 from __future__ import annotations
 

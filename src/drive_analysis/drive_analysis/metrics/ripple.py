@@ -1,10 +1,8 @@
 """Torque ripple metrics (000 ch. II / IV and 001 eq. (40)), pure numpy.
 
-Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`) plus keyword
-options and returns a float (NaN when the window holds no data); ``t_start`` /
-``t_end`` [s] restrict it to a window. The switching ripple (high frequency), the
-commutation ripple (low frequency) and 001's torque ripple factor over the
-median electrical period; definitions: docs/reference/metrics.md "Torque ripple".
+The contract: :mod:`drive_analysis.metrics`. Switching (high-frequency) and commutation
+(low-frequency) ripple, and 001's torque ripple factor over the median electrical period;
+definitions: docs/reference/metrics.md "Torque ripple".
 """
 from __future__ import annotations
 

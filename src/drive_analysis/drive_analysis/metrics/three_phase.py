@@ -1,13 +1,7 @@
 """Metrics of the three-phase DTC results (000 ch. V, 001 Tables IX-X), pure numpy.
 
-Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground truth as
-``'plant/state.<field>'`` and controller internals as ``'dtc/status.<field>'``,
-plus keyword options, and returns a float (NaN when the window holds no data).
-Controller and plant rows are paired by their ``step``; ``t_start`` / ``t_end``
-[s] restrict a metric to a time window. Angles are electrical. The names are
-the ``metric:`` keys of the scenarios' checks (the registry refuses a name
-defined in two metric modules); each definition: docs/reference/metrics.md
-"Three-phase DTC". Torque ripple: :mod:`drive_analysis.metrics.ripple`.
+The contract: :mod:`drive_analysis.metrics`; definitions: docs/reference/metrics.md
+"Three-phase DTC"; torque ripple: :mod:`drive_analysis.metrics.ripple`.
 """
 from __future__ import annotations
 
@@ -22,21 +16,22 @@ _PHASES = {'a': 0, 'b': 1, 'c': 2}
 
 
 # ---------------------------------------------------------------------------- 000 ch. V
+def _angle_error(arrays: Arrays, t_start, t_end) -> np.ndarray:
+    """Estimated minus true electrical rotor angle [rad], wrapped to (-pi, pi]."""
+    d = paired(arrays, t_start, t_end)
+    return signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
+
+
 def angle_error_rms_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     """RMS of the estimated minus the true electrical rotor angle [deg] (000 Fig. 5.8)."""
-    d = paired(arrays, t_start, t_end)
-    if not len(d):
-        return math.nan
-    err = signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])
-    return float(np.degrees(signals.rms(err)))
+    err = _angle_error(arrays, t_start, t_end)
+    return float(np.degrees(signals.rms(err))) if len(err) else math.nan
 
 
 def angle_error_max_deg(arrays: Arrays, t_start=None, t_end=None) -> float:
     """Largest |estimated - true electrical rotor angle| [deg]."""
-    d = paired(arrays, t_start, t_end)
-    if not len(d):
-        return math.nan
-    return float(np.degrees(np.max(np.abs(signals.wrap_to_pi(d['dtc.rotor_angle_estimate'] - d['plant.rotor_angle'])))))
+    err = _angle_error(arrays, t_start, t_end)
+    return float(np.degrees(np.max(np.abs(err)))) if len(err) else math.nan
 
 
 def _d_current(arrays: Arrays, t_start, t_end, source: str) -> tuple[np.ndarray, np.ndarray]:
@@ -177,19 +172,17 @@ def phase_current_fundamental_A(arrays: Arrays, phase: str = 'a', t_start=None, 
     return float(spec[1]) if spec is not None and len(spec) > 1 else math.nan
 
 
-def phase_a_current_fundamental_A(arrays: Arrays, **options) -> float:
-    """phase_current_fundamental_A of phase a (a scenario's metrics key is the function name)."""
-    return phase_current_fundamental_A(arrays, 'a', **options)
+def _fundamental_of(phase: str):
+    """phase_current_fundamental_A of one phase, as a metric of its own name."""
+    def metric(arrays: Arrays, **options) -> float:
+        return phase_current_fundamental_A(arrays, phase, **options)
+    metric.__doc__ = f'phase_current_fundamental_A of phase {phase}.'
+    return metric
 
 
-def phase_b_current_fundamental_A(arrays: Arrays, **options) -> float:
-    """phase_current_fundamental_A of phase b."""
-    return phase_current_fundamental_A(arrays, 'b', **options)
-
-
-def phase_c_current_fundamental_A(arrays: Arrays, **options) -> float:
-    """phase_current_fundamental_A of phase c."""
-    return phase_current_fundamental_A(arrays, 'c', **options)
+phase_a_current_fundamental_A = _fundamental_of('a')
+phase_b_current_fundamental_A = _fundamental_of('b')
+phase_c_current_fundamental_A = _fundamental_of('c')
 
 
 def current_imbalance(arrays: Arrays, t_start=None, t_end=None, frequency: float | None = None,

@@ -1,13 +1,8 @@
 """Metrics of the two-phase BLDC DTC results (000 ch. II and IV), pure numpy.
 
-Every metric takes the flat arrays dict (:mod:`drive_analysis.arrays`): plant ground
-truth as ``'plant/state.<field>'`` and controller internals as
-``'dtc/status.<field>'``, plus keyword options, and returns a float (NaN when the
-window holds no data). Controller and plant rows are paired by their ``step``;
-``t_start`` / ``t_end`` [s] restrict a metric to a time window. Rated torque:
-``RATED_TORQUE_000`` (000 App. A). The names are the ``metric:`` keys of the
-scenarios' checks; each definition: docs/reference/metrics.md "Two-phase BLDC
-DTC". Torque ripple: :mod:`drive_analysis.metrics.ripple`.
+The contract: :mod:`drive_analysis.metrics`; rated torque ``RATED_TORQUE_000`` (000 App. A);
+definitions: docs/reference/metrics.md "Two-phase BLDC DTC"; torque ripple:
+:mod:`drive_analysis.metrics.ripple`.
 """
 from __future__ import annotations
 
