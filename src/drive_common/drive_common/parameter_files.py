@@ -1,11 +1,5 @@
-"""ROS 2 parameter files (``--params-file``), read as rcl reads them.
-
-Format: a mapping of node names (``plant``, ``/plant``, ``/ns/plant``) or the
-wildcard ``/**`` to ``{ros__parameters: {...}}``; nested mappings are dotted
-names (``motor: {file: x}`` is ``motor.file``). The nodes themselves load
-files through rcl (``--ros-args --params-file f.yaml``); this module checks a
-file up front (one-line errors naming the file) and gives the scenario runner
-the values for one node.
+"""ROS 2 parameter files (``--params-file``), read as rcl reads them: checked up front with
+one-line errors, and one node's values for the scenario runner (nested keys become dotted names).
 """
 from __future__ import annotations
 
