@@ -43,28 +43,14 @@ def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     return result
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def _kill_inside(namespace: str) -> None:
-    """SIGKILL every process still running in namespace (but this one, see enter())."""
+def _delete(namespace: str) -> None:
+    """SIGKILL every process still running in namespace (but this one, see enter()); delete it."""
     pids = {int(p) for p in _ip('netns', 'pids', namespace, check=False).stdout.split()}
     for pid in pids - {os.getpid()}:
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
-
-
-def _delete(namespace: str) -> None:
-    _kill_inside(namespace)
     _ip('netns', 'delete', namespace, check=False)
 
 
@@ -76,7 +62,7 @@ def remove_stale() -> list[str]:
         name = line.split(' ')[0]
         parts = name.split('-')
         if len(parts) >= 3 and parts[0] == PREFIX and parts[1].isdigit() \
-                and not _pid_alive(int(parts[1])):
+                and not os.path.exists(f'/proc/{parts[1]}'):       # its creator is gone
             _delete(name)
             removed.append(name)
     return removed
@@ -97,7 +83,6 @@ class VirtualHosts:
         self.addresses = {label: f'{SUBNET}.{i + 1}' for i, label in enumerate(self.labels)}
         self._made: list[str] = []
 
-    # --- life cycle -----------------------------------------------------------
     def create(self) -> 'VirtualHosts':
         reason = unavailable_reason()
         if reason:
@@ -144,7 +129,6 @@ class VirtualHosts:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    # --- using the hosts ----------------------------------------------------------
     def prefix(self, host: str) -> list[str]:
         """Command prefix running a program in host (as root: ``ip netns exec NAME``)."""
         return ['ip', 'netns', 'exec', self.namespaces[host]]
