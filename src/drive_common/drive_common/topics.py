@@ -23,8 +23,7 @@ LOCKSTEP_DEPTH = 2000
 STREAM_DEPTH = 10000
 BLOCK_DEPTH = 1000
 LIVE_DEPTH = 100
-FIRST_ANSWER_RESEND = 2.0   # s wall: re-send an unanswered first measurement (lost before matching;
-                            # a controller answers a repeated measurement from its cache)
+FIRST_ANSWER_RESEND = 2.0   # s wall: re-send an unanswered first measurement (lost before matching)
 
 
 def _reliable(depth: int | None) -> QoSProfile:
