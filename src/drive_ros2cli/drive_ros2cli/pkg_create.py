@@ -1,17 +1,6 @@
-"""``ros2 pkg create``: a new ament_python package, upstream ros2pkg's syntax, output and layout.
-
-``ros2 pkg create --build-type ament_python [--node-name N] [--dependencies D ...] NAME``
-writes, as upstream's ament_python template does::
-
-    NAME/package.xml  setup.py  setup.cfg  resource/NAME  NAME/__init__.py  [NAME/N.py]  test/
-
-``--template drive_controller`` (this project's addition) writes a drive
-controller skeleton over ``drive_common.controller_api`` instead of the empty
-node: a parameter schema, a ROS-free core and ``main = run_controller(...)``,
-and a test that steps the core without ROS (docs/write_your_own_controller.md).
-Upstream's lint tests (ament_copyright, ament_flake8, ament_pep257) are not
-generated: those packages are not part of the PyPI-wheel set-up.
-"""
+"""``ros2 pkg create``: a new ament_python package, upstream ros2pkg's syntax, output and layout
+(without its lint tests); ``--template drive_controller`` writes a controller skeleton and a
+core test instead of the empty node (docs/write_your_own_controller.md)."""
 from __future__ import annotations
 
 import getpass
