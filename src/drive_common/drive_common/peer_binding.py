@@ -152,11 +152,9 @@ class PeerBinding:
         if peer and (UNKNOWN_NODE in self.peer_name or self.peer_name == UNDISCOVERED):
             self.peer_name = full_name(peer[0].node_name, peer[0].node_namespace)   # named late
         if not peer:
-            with self._lock:
-                self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
-                                             f'the next counterpart on {self.received} is bound')
-                self.peer, self.peer_name = None, ''
-                self._reported.clear()
+            self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
+                                         f'the next counterpart on {self.received} is bound')
+            self.release()
             return
         for topic, infos in publishers.items():
             for i in infos:
