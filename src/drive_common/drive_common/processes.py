@@ -146,7 +146,7 @@ def _yaml_value(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         return '[' + ', '.join(_yaml_value(v) for v in value) + ']'
     if isinstance(value, (bool, int, float, str)):
-        return json.dumps(value) if not isinstance(value, float) else repr(value)
+        return repr(value) if isinstance(value, float) else json.dumps(value)   # repr: nan, inf
     raise TypeError(f'unsupported parameter value {value!r}')
 
 
