@@ -188,9 +188,7 @@ class BlockPacker:
         block.header.stamp.sec, block.header.stamp.nanosec = divmod(int(stamps[0]), 1_000_000_000)
         block.first_step = self._first_step
         block.count = n
-        offsets = array.array('I')
-        offsets.frombytes((stamps - stamps[0]).astype(np.uint32).tobytes())
-        block.stamp_offset = offsets
+        block.stamp_offset = array.array('I', (stamps - stamps[0]).astype(np.uint32).tobytes())
         if n > 1:
             block.step_stride = self._stride
             block.sample_period = float(stamps[-1] - stamps[0]) / (n - 1) * 1e-9
@@ -202,10 +200,8 @@ class BlockPacker:
             typecode = _ELEMENT[column.element][0]
             if typecode is None:
                 setattr(block, column.name, values.ravel().tolist())
-            else:
-                data = array.array(typecode)
-                data.frombytes(values.tobytes())   # C order: sample-major
-                setattr(block, column.name, data)
+            else:       # C order: sample-major
+                setattr(block, column.name, array.array(typecode, values.tobytes()))
         return block
 
 
