@@ -90,19 +90,12 @@ class ParameterSpec:
             if not isinstance(value, (list, tuple, array.array)):
                 raise ParameterError(f'{self.name}: expected a list, got {value!r}')
             item_type = type(self.default[0]) if self.default else float
-            out = []
             for item in value:
-                if item_type is float:
-                    if isinstance(item, bool) or not isinstance(item, (int, float)):
-                        raise ParameterError(f'{self.name}: expected numbers, got {item!r}')
-                    out.append(float(item))
-                elif item_type is str:
-                    if not isinstance(item, str):
-                        raise ParameterError(f'{self.name}: expected strings, got {item!r}')
-                    out.append(item)
-                else:
-                    out.append(item)
-            return out
+                if item_type is float and (isinstance(item, bool) or not isinstance(item, (int, float))):
+                    raise ParameterError(f'{self.name}: expected numbers, got {item!r}')
+                if item_type is str and not isinstance(item, str):
+                    raise ParameterError(f'{self.name}: expected strings, got {item!r}')
+            return [float(item) for item in value] if item_type is float else list(value)
         raise ParameterError(f'{self.name}: unsupported parameter type {want.__name__}')
 
     def check(self, value: Any) -> Any:
