@@ -1,18 +1,9 @@
 """Action goals whose reply is lost right after discovery: recovered, never run twice.
 
-An action client sees the server ready before the server's reply writers have
-matched it, so Fast DDS may drop the goal reply and the client would wait
-forever; sending the goal again under a new id could run it twice. So
-:func:`send_goal` keeps one goal id for every attempt and asks the action's
-status topic (transient local: every goal the server tracks) whether it was
-accepted: a reply is the answer; no reply but the id in the status: accepted,
-its handle rebuilt from the status; neither: the same request again.
-
-:func:`goal_result` asks again for a result whose reply was lost, once the
-handle or the status topic says the goal has ended (and every
-RESULT_ASK_ANYWAY s in any case). ``wait(done, seconds)`` is how a helper
-waits (:func:`polling_wait` when an executor spins the node elsewhere).
-docs/architecture.md "Faults and diagnostics" (every goal ends).
+Fast DDS may drop a goal or result reply before the server's reply writers matched the
+client. :func:`send_goal` re-sends under one goal id and takes acceptance from the action's
+status topic; :func:`goal_result` asks again once the goal has ended. ``wait(done, seconds)``
+is how a helper waits (:func:`polling_wait` when an executor spins the node elsewhere).
 """
 from __future__ import annotations
 
@@ -39,8 +30,7 @@ def polling_wait(done: Callable[[], bool], seconds: float) -> bool:
 
 
 def within(wait: Wait, timeout: float) -> Wait:
-    """wait, never past timeout s from now, and True once that time has passed (the caller's
-    bound on a helper that has none, e.g. :func:`goal_result`; timeout may be inf)."""
+    """wait, never past timeout s from now (may be inf), and True once that time has passed."""
     ends = time.monotonic() + timeout
 
     def bounded(done: Callable[[], bool], seconds: float):
@@ -94,10 +84,8 @@ def _adopted(client, goal_id, status: int, stamp):
 
 
 def _forget(client, requests) -> None:
-    """Drop the requests still unanswered from rclpy's client: a reply that comes after the
-    goal was taken from its status would be a second handle for one id, and rclpy raises
-    RuntimeError ("Two goals were accepted with the same ID") in the executor; forgotten,
-    it is ignored with rclpy's WARN ("Ignoring unexpected goal response")."""
+    """Drop the unanswered requests from rclpy's client: a late reply would be a second
+    handle for one id (rclpy raises); forgotten, rclpy only warns."""
     forget = getattr(client, '_remove_pending_goal_request', None)
     for request in requests:
         if forget is not None and not request.done():
@@ -106,9 +94,8 @@ def _forget(client, requests) -> None:
 
 def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait = polling_wait,
               feedback=None, response_wait: float = GOAL_RESPONSE_WAIT):
-    """Send goal through an rclpy ActionClient; its goal handle once the server has answered
-    or its status shows the goal accepted. A reply is awaited response_wait s per attempt;
-    TimeoutError after GOAL_ATTEMPTS unanswered attempts."""
+    """Send goal through an rclpy ActionClient; its handle once answered or listed accepted
+    (response_wait s per attempt; TimeoutError after GOAL_ATTEMPTS)."""
     from unique_identifier_msgs.msg import UUID
     watch = watch or GoalStatusWatch.of(client)
     goal_id = UUID(uuid=list(os.urandom(16)))
@@ -124,16 +111,13 @@ def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait 
                 sent = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_id)
                 requests.append(sent)
             except ValueError:
-                # rclpy (Jazzy) race: the executor thread took the answer before send_goal_async
-                # had registered its future ("list.remove(x): x not in list"). The request went
-                # out; the status topic says whether the goal was accepted.
+                # rclpy race: the answer came before send_goal_async registered its future
                 sent = None
             handle = (sent.result() if sent is not None and wait(sent.done, response_wait)
                       and sent.done() else None)
             if handle is not None and (handle.accepted or attempt == 0):
                 return handle            # the answer; a first rejection is a real one
-            # No reply, or a repeat rejected (the server rejects an id it already tracks):
-            # the status topic says whether the goal was accepted.
+            # No reply, or a repeat rejected (an id the server tracks): ask the status topic
             if wait(listed, STATUS_WAIT if handle is None else response_wait) and listed():
                 return _adopted(client, goal_id, *watch.get(key))
             if handle is not None:
@@ -145,17 +129,9 @@ def send_goal(client, goal, *, watch: GoalStatusWatch | None = None, wait: Wait 
 
 
 def goal_result(handle, *, wait: Wait = polling_wait, watch: GoalStatusWatch | None = None):
-    """The result response of an accepted goal (``.status``, ``.result``).
-
-    A result reply can be lost (a reply writer not yet matched; or rclpy's
-    client handling a fast reply before it has registered the request), and
-    the goal handle's own status can miss the goal's end (a short goal whose
-    final status arrived before its goal reply: rclpy drops it). So the result
-    is asked for again every RESULT_ASK_AGAIN s once the handle *or* the
-    action's status topic (``watch``) says the goal has ended, and every
-    RESULT_ASK_ANYWAY s in any case; the first answer wins. No overall
-    timeout; a wait that returns True before the result came ends it with None.
-    """
+    """The result response of an accepted goal (``.status``, ``.result``), asked again every
+    RESULT_ASK_AGAIN s once the handle or status topic says it ended (RESULT_ASK_ANYWAY s in
+    any case); None if a wait returns True first."""
     watch = watch or GoalStatusWatch.of(handle._action_client)
     key = bytes(handle.goal_id.uuid)
 

@@ -1,17 +1,7 @@
-"""The back-EMF table file (docs/architecture.md "Back-EMF table format"): columns, read, write.
+"""The back-EMF table file of the generator test (000 §5.4): columns, read, write.
 
-A CSV written by the plant's generator test (000 §5.4) and read by the plant
-(``motor.backemf.shape: table``) and the controller: ``# key: value`` metadata
-lines (``pole_pairs``, ``points``, ``source``, ``convention``), then the header
-line naming the columns, then one row per electrical angle. Every k is in
-V*s/rad (Wb), ``e = omega_e * k(theta_e)``. Derived columns: phase constants
-without zero sequence from the measured line-to-line pair (000 eq. (5.13)),
-Clarke k_alpha, k_beta and Park k_d, k_q at theta_e (:mod:`drive_common.signals`).
-
-One header rule: the header must name ``theta_e``, ``k_ba`` and ``k_ca`` (what
-the generator test measures); every row has one numeric, finite cell per
-header column. Every error is a :class:`BackEmfTableError` starting
-``<path>:<line>:``.
+Format and rules: docs/architecture.md "Back-EMF table file"; every k in V*s/rad (Wb),
+``e = omega_e * k(theta_e)``. Every error is a :class:`BackEmfTableError` ``<path>:<line>: ...``.
 """
 from __future__ import annotations
 
@@ -91,13 +81,7 @@ def _fail(path, line: int, reason: str) -> BackEmfTableError:
 
 
 def read(path) -> TableFile:
-    """Read and check a table file (rules in the module docstring).
-
-    Also checked: theta_e in rad, strictly increasing within [0, 2 pi) (a last
-    angle far above 2 pi is reported as a likely table in degrees); at least
-    MIN_TABLE_ROWS rows, and as many as a ``# points:`` line says. Read once per
-    process and file version (:mod:`drive_common.file_cache`): the columns are read-only.
-    """
+    """Read and check a table file, once per process and file version (columns read-only)."""
     t = file_cache.from_file('backemf_file', path, lambda: _read(path))
     return TableFile(t.path, dict(t.columns), dict(t.metadata), t.header_line, list(t.row_lines))
 

@@ -1,17 +1,5 @@
-"""Canonical CDR: a message's serialization with zeroed padding and its exact length.
-
-rmw_fastrtps leaves stale bytes of earlier messages in the alignment padding
-of its reused buffer, and after an empty sequence of 8-byte elements
-(rcl_interfaces/ParameterEvent) it appends uninitialised bytes that strict
-readers (rosbags) refuse: two runs of one scenario would record the same values
-in different bytes (docs/architecture.md "Time and lockstep").
-
-:func:`canonical_bytes` walks the fields of the message with the CDR (XCDR1)
-rules, zeroes every padding byte and cuts the bytes after the last field.
-:func:`serialize_zero_padded` (publishers) and :func:`canonicalize` (the
-recorder, for bytes taken off the wire) use it, so the recorded data is a
-function of the values only.
-"""
+"""Canonical CDR: a message's serialization with zeroed padding and its exact length, so the
+recorded bytes depend on the values only (docs/architecture.md "Time and lockstep")."""
 from __future__ import annotations
 
 from rclpy.serialization import deserialize_message, serialize_message
@@ -26,8 +14,7 @@ STRUCT_CODES = {'boolean': '?', 'octet': 'B', 'char': 'B', 'int8': 'b', 'uint8':
 
 
 def padding(body_offset: int, size: int) -> int:
-    """Bytes of padding before an item of `size` at `body_offset` (counted from the
-    encapsulation header's end)."""
+    """Bytes of padding before an item of `size` at `body_offset` (after the encapsulation header)."""
     return -body_offset % size
 
 

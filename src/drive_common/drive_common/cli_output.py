@@ -8,13 +8,11 @@ import sys
 from typing import Callable
 
 CLOSED_PIPE_EXIT = 128 + signal.SIGPIPE
-"""Exit code when the reader of stdout went away (``... | head``), as a shell reports a
-tool that SIGPIPE ended."""
+"""Exit code when the reader of stdout went away (``... | head``), as for a tool SIGPIPE ended."""
 
 
 def quiet_on_closed_pipe(main: Callable[..., int]) -> Callable[..., int]:
-    """Wrap a CLI main: a reader that closed stdout early ends it quietly with
-    :data:`CLOSED_PIPE_EXIT` (:func:`silence_stdout`)."""
+    """Wrap a CLI main: a reader that closed stdout ends it quietly with :data:`CLOSED_PIPE_EXIT`."""
     @functools.wraps(main)
     def wrapped(*args, **kwargs) -> int:
         try:

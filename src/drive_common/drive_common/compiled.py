@@ -1,15 +1,9 @@
-"""One ``njit`` for the stack's compiled per-sample kernels (numba).
+"""One ``njit`` for the stack's compiled per-sample kernels (numba; docs/architecture.md
+"Compiled kernels (numba)").
 
-Each kernel is written once as plain Python on float64 scalars and numpy
-arrays; :func:`njit` compiles it with numba's ``njit`` (``cache=True``, no
-``fastmath``, so IEEE operation order and rounding are those of the Python
-source and compiled runs give bit-identical trajectories to the
-interpreted ones). ``NUMBA_DISABLE_JIT=1`` (numba's own switch) runs the
-same functions as plain Python. Compiled machine code is cached in
-``NUMBA_CACHE_DIR``: ``scripts/env.sh`` sets it to ``<workspace>/.numba_cache``
-and ``scripts/setup.sh`` warms it; when it is unset and this module lives in a
-workspace (a ``scripts/env.sh`` above it), that folder is used too.
-Without numba installed, :func:`njit` returns the function unchanged.
+No ``fastmath``, so compiled runs are bit-identical to interpreted ones
+(``NUMBA_DISABLE_JIT=1``); the cache goes to ``NUMBA_CACHE_DIR``, by default the workspace's
+``.numba_cache``. Without numba, :func:`njit` returns the function unchanged.
 """
 from __future__ import annotations
 
@@ -52,23 +46,14 @@ def njit(fn):
 
 
 def interpreted(kernel):
-    """The plain-Python function of a kernel (itself when the JIT is disabled).
-
-    For interpreted callers making many tiny calls (a comparator, a PI step), where numba's
-    dispatch (about 0.3 us a call) costs more than the arithmetic; same code, same results.
-    """
+    """The plain-Python function of a kernel, for many tiny interpreted calls (numba's dispatch
+    costs more than the arithmetic there)."""
     return getattr(kernel, 'py_func', kernel)
 
 
 def _libm_pow():
-    """C's pow(x, y) from libm, for interpreted and compiled kernels alike.
-
-    CPython's ``x ** y`` on floats is libm's pow, which is not always x * x for y = 2
-    (about 1 in 1000 arguments differ in the last bit), while numba and LLVM turn ``x ** 2``
-    and a call to ``pow(x, 2.0)`` into x * x. Kernels that must match the interpreted
-    arithmetic bit for bit write ``libm_pow(x, 2.0)``: math.pow when interpreted, and compiled
-    a call of glibc's alias ``powf64`` of the same function, which LLVM does not rewrite.
-    """
+    """C's pow(x, y) from libm, for interpreted and compiled kernels alike: LLVM rewrites
+    ``x ** 2`` and ``pow(x, 2.0)`` to x * x (not always libm's result), but not glibc's ``powf64``."""
     if jit_disabled():
         return math.pow
     name = 'powf64' if hasattr(ctypes.CDLL(ctypes.util.find_library('m') or 'libm.so.6'), 'powf64') else 'pow'

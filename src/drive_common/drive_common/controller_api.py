@@ -1,17 +1,8 @@
 """Write your own drive controller: the public contract and a one-call ``main``.
 
-A drive controller takes part in the plant's lockstep exactly as the
-built-in ``dtc_controller`` does (docs/write_your_own_controller.md,
-docs/architecture.md "Time and lockstep"): for every ``drive/measurement``
-of step k it answers one ``drive/gate_command`` carrying step k, and may
-publish a ``dtc/status``. Everything that controls lives in a ROS-free *core*
-class (:class:`ControllerCore`); :func:`run_controller` wraps it in the node base
-the built-ins use (:class:`drive_common.lockstep_controller.LockstepControllerNode`):
-validated parameters, changes applied at the next sample boundary, a re-sent
-measurement answered from the cache, a second graph in the domain refused. The
-same core runs headless (``drive_bringup.headless``), giving the same trajectory.
-
-This module imports no rclpy: a core module may import it.
+A ROS-free core (:class:`ControllerCore`) answers each ``drive/measurement`` of step k with
+a command of step k; :func:`run_controller` wraps it in the built-ins' node base
+(docs/write_your_own_controller.md). Imports no rclpy: a core module may import it.
 """
 from __future__ import annotations
 
@@ -29,22 +20,9 @@ __all__ = ['ALL_OFF', 'CheckedCore', 'ControllerCore', 'DriveSample', 'GateSampl
 
 @runtime_checkable
 class ControllerCore(Protocol):
-    """What a drive controller core provides (no rclpy).
-
-    ``SCHEMA`` (class attribute): its :class:`ParameterSchema`; the node
-        declares it (names, units, ranges, runtime flag) and scenario files
-        are validated against it.
-    ``__init__(params)``: build from a validated snapshot (every name of the
-        schema); raise ParameterError / ValueError to refuse (the node then
-        exits 2 naming the reason).
-    ``update(sample)``: one sample: :class:`DriveSample` of step k ->
-        (:class:`GateSample` of the same step k, status or None). The status
-        is a ``DtcStatusSample`` (``dtc_controller.core.status``; fields the
-        controller has no value for NaN/0) or None for no ``dtc/status``.
-    ``reconfigure(params)``: a full new snapshot, applied from the next
-        ``update`` on (a change arrives between samples, never inside one).
-    ``check(params)`` (optional): validate a changed snapshot without
-        building a core; without it the node builds a throw-away core.
+    """What a drive controller core provides (no rclpy): ``SCHEMA``, ``__init__(params)``,
+    ``update(sample)`` (:class:`DriveSample` of step k -> (:class:`GateSample` of step k, status
+    or None)), ``reconfigure(params)``, optionally ``check(params)`` (docs/write_your_own_controller.md).
     """
 
     SCHEMA: ParameterSchema
@@ -69,12 +47,8 @@ class MalformedCommand(ValueError):
 
 
 def command_problem(command, step: int) -> str | None:
-    """Why a core's answer to sample ``step`` is malformed, or None.
-
-    The plant checks step and topology itself; a ``switch_on`` of another length
-    than 6 cannot be checked there (serialization truncates a longer one to the
-    message's bool[6] and refuses a shorter one), so it is checked here.
-    """
+    """Why a core's answer to sample ``step`` is malformed (not a GateSample, switch_on not 6
+    bools, another step: the plant cannot see a wrong length), or None."""
     if not isinstance(command, GateSample):
         return f'update returned {type(command).__name__}, not a GateSample'
     switches = command.switch_on
@@ -86,13 +60,8 @@ def command_problem(command, step: int) -> str | None:
 
 
 class CheckedCore:
-    """A core whose commands are checked before they are sent (:func:`command_problem`).
-
-    A malformed command raises :class:`MalformedCommand` after ``report`` got its
-    one-line reason: nothing is sent for that sample and the node answers no more
-    (a crashed controller), so the plant times out and applies the safe state,
-    naming the node on /diagnostics.
-    """
+    """A core whose commands are checked before they are sent (:func:`command_problem`); a
+    malformed one is reported and raises :class:`MalformedCommand` (the node ends)."""
 
     def __init__(self, core, report) -> None:
         self.core, self._report = core, report
@@ -137,13 +106,8 @@ def controller_node(core_class: type, node_name: str, *, status: bool = True, **
 
 
 def run_controller(core_class: type, node_name: str, args=None, *, status: bool = True) -> int:
-    """``main`` of a drive controller node: core_class wrapped in the built-ins' node base.
-
-    Subscribes ``drive/measurement``, publishes ``drive/gate_command`` (and
-    ``dtc/status`` when status is True), parameters from ``core_class.SCHEMA``.
-    Returns the exit code (0 on SIGINT/SIGTERM, 2 with a one-line error when
-    the node cannot start, e.g. a rejected parameter).
-    """
+    """``main`` of a drive controller node (``drive/measurement`` in, ``drive/gate_command`` and,
+    with status, ``dtc/status`` out; parameters from ``core_class.SCHEMA``); the exit code."""
     from drive_common.node_main import run_node
     return run_node(lambda: controller_node(core_class, node_name, status=status), args,
                     about=core_class)

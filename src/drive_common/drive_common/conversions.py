@@ -1,9 +1,4 @@
-"""Message <-> core data conversion by field name (the ROS side of the cores).
-
-A core's sample dataclass names its fields after the message's fields, so
-one generic copy serves every message type; the header stamp carries the
-sample's sim time.
-"""
+"""Message <-> core sample conversion by field name; the header stamp carries the sim time."""
 from __future__ import annotations
 
 from dataclasses import fields as dataclass_fields
@@ -46,14 +41,8 @@ def _plain(value):
 
 
 class ReusedMessage:
-    """One message instance, refilled from a core sample before every publish.
-
-    rclpy's ``publish`` copies the message into the middleware before it
-    returns, so a publisher on the lockstep hot path can refill the same
-    instance each sample instead of constructing a new one (the generated
-    ``__init__`` costs as much as copying the fields). Do not keep the
-    returned message: the next ``fill`` overwrites it.
-    """
+    """One message instance, refilled from a core sample before every publish (cheaper than a
+    new one); do not keep the returned message: the next ``fill`` overwrites it."""
 
     def __init__(self, msg_type: type) -> None:
         self.msg = msg_type()
@@ -78,13 +67,8 @@ def _sample_fields(data_type: type) -> tuple[str, ...]:
 
 
 def from_message(msg, data_type: type):
-    """An instance of the dataclass data_type from msg's fields of the same names.
-
-    A dataclass field ``time`` is taken from the header stamp; sequences
-    (numpy arrays for fixed-size numeric arrays) become tuples of plain
-    Python values. The lockstep nodes decode bytes with
-    :class:`drive_common.lockstep_wire.LockstepWire` instead (tested against this).
-    """
+    """An instance of the dataclass data_type from msg's fields of the same names (``time``:
+    the header stamp; sequences become tuples of plain Python values)."""
     values = {}
     for name in _sample_fields(data_type):
         if name == 'time':

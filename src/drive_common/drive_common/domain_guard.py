@@ -1,19 +1,8 @@
 """One drive graph per DDS domain (and namespace): look before starting one.
 
-``run_scenario --domain-id N`` (or ``--join-domain``) looks at the domain's
-graph from a short-lived node before it starts any node or sends any goal,
-and refuses (exit 2, one line naming the domain and the nodes found) when a
-drive graph is already there: a node with an endpoint on a lockstep topic, or
-another scenario runner. The look waits until the graph is stable (no node
-or endpoint appeared or left for SETTLE s), at least LOOK_AT_LEAST s (on a loaded
-machine the first answer of a running graph can take longer than SETTLE) and
-at most DISCOVERY_TIMEOUT s.
-
-Residual race (on one machine a runner's graph_lock refuses the second at
-once): runs started within one discovery interval of each other both find an
-empty domain; their unbound nodes then find each other and refuse (exit 2),
-never mixed. A graph whose lockstep started is bound to its peers
-(drive_common.peer_binding): only the later graph's nodes refuse.
+``run_scenario`` refuses (exit 2) when the settled graph already holds a drive graph: a node
+with an endpoint on a lockstep topic, or another scenario runner (docs/architecture.md "Time
+and lockstep").
 """
 from __future__ import annotations
 
@@ -22,6 +11,7 @@ from typing import Callable
 
 from drive_common import topics
 from drive_common.lockstep_io import listed_nodes
+from drive_common.namespaces import full_name
 
 SETTLE = 0.5               # s without a change in the graph: discovery is done
 DISCOVERY_TIMEOUT = 5.0    # s at most
@@ -36,10 +26,6 @@ class DomainBusy(Exception):
     """A drive graph already runs in the domain (and namespace): refuse to start another."""
 
 
-def _full_name(name: str, namespace: str) -> str:
-    return namespace.rstrip('/') + '/' + name
-
-
 def _graph(node) -> tuple:
     """What discovery has found so far: nodes and topics with their endpoint counts."""
     names = tuple(sorted(node.get_node_names_and_namespaces()))
@@ -51,11 +37,7 @@ def _graph(node) -> tuple:
 def wait_for_stable_graph(node, settle: float = SETTLE, timeout: float = DISCOVERY_TIMEOUT,
                           stop: Callable[[], bool] = lambda: False, least: float = 0.0) -> bool:
     """Wait until the node's view of the graph has not changed for settle s and least s have
-    passed (or timeout s).
-
-    stop is polled with the graph: once it returns True (Ctrl-C, shutdown) the
-    wait ends at once. Return False if stop ended it, else True.
-    """
+    passed (or timeout s); False if stop() returned True meanwhile."""
     start = changed = time.monotonic()
     seen = _graph(node)
     while ((time.monotonic() - changed < settle or time.monotonic() - start < least)
@@ -78,11 +60,11 @@ def drive_graph_nodes(node) -> list[str]:
         for info in (*node.get_publishers_info_by_topic(resolved),
                      *node.get_subscriptions_info_by_topic(resolved)):
             if (info.node_name, info.node_namespace) != me:
-                found.add(_full_name(info.node_name, info.node_namespace))
+                found.add(full_name(info.node_name, info.node_namespace))
     runners = [(n, ns) for n, ns in listed_nodes(node)
                if n == RUNNER_NODE and ns == node.get_namespace()]
     if len(runners) > (me in runners):         # another runner, whatever this node's name
-        found.add(_full_name(*runners[0]))
+        found.add(full_name(*runners[0]))
     return sorted(found)
 
 

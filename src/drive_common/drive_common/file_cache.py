@@ -1,13 +1,7 @@
-"""Per-process memo of values built from files (motor files, back-EMF tables) and their derivations.
+"""Per-process LRU memo of values built from files (motor files, back-EMF tables).
 
-A value built from a file is keyed by the file's real path and a digest of its
-bytes (reading and hashing a motor file or table costs tens of microseconds,
-parsing it milliseconds), so an edited file is read again however quickly it
-was rewritten; a file that cannot be read is never cached (the builder reports
-the error). Values are shared by every caller (the cores of many study points in
-one worker): callers must not change them, and numpy arrays in them are made
-read-only (:func:`frozen`). The least recently used entries beyond MAX_ENTRIES
-are dropped.
+Keyed by the file's real path and a digest of its bytes, so an edited file is read again;
+an unreadable file is never cached. Values are shared: callers must not change them.
 """
 from __future__ import annotations
 

@@ -1,18 +1,9 @@
-"""ROS wrapper shared by the lockstep controllers (dtc_controller, pfc_controller, your own).
+"""ROS node base of the lockstep controllers (controller authors: :mod:`drive_common.controller_api`).
 
-Controller authors: start from :mod:`drive_common.controller_api`; this module is
-the node base behind it. A controller node answers each measurement of step k
-with a command of the same step and publishes its status; all control lives in
-a ROS-agnostic core (``update(sample) -> (command, status)``, ``reconfigure``),
-and this class converts CDR bytes to and from the core's samples
-(:mod:`drive_common.lockstep_wire`), declares the parameter schema and swaps
-accepted changes in at the next sample boundary. A repeated measurement is
-answered with the same command; it answers once its view of the graph has
-settled, a second graph in the domain makes it refuse (exit 2), then it is bound
-to its plant (:mod:`drive_common.peer_binding`). Telemetry: every sample goes into a status
-block, the status topic carries the decimated live samples, and a partial block
-goes out after HOLD_FLUSH s without a measurement and at stop (docs/architecture.md
-"Time and lockstep", "Telemetry: blocks and live topics").
+Answers each measurement of step k with the core's command of step k (a repeated one with
+the same command), swaps accepted parameter changes in at the next sample, and publishes
+status blocks and the decimated live status (docs/architecture.md "Time and lockstep",
+"Telemetry: blocks and live topics").
 """
 from __future__ import annotations
 
@@ -46,10 +37,7 @@ __all__ = ['LockstepChannels', 'LockstepControllerNode']
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
 HOLD_FLUSH = 0.5           # s without a measurement after which a partial block goes out
-# The same after the first sample answered: the plant's first exchange (binding this node,
-# re-sending an answer lost before matching every 2 s) can take seconds on a loaded machine,
-# and a flush there would split the first block depending on wall time.
-FIRST_HOLD_FLUSH = 5.0
+FIRST_HOLD_FLUSH = 5.0     # the same until the second sample (a slow first exchange is no hold)
 POLL = 0.1                 # s per wait for measurements (the stop flag is checked between)
 MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
@@ -72,12 +60,8 @@ class LockstepChannels:
 class LockstepControllerNode(Node):
     """Measurement in, command + status out, one core update per sample.
 
-    schema: the node's parameter schema (declared once here).
-    make_core: builds the core from a validated parameter snapshot; raises
-        ParameterError (or ValueError/OSError for bad files) to refuse.
-    check: validates a changed snapshot the same way without building a core;
-        default: the core's own ``check`` (``DtcCore.check``, ``PfcCore.check``), else
-        a throw-away core built with make_core.
+    make_core(snapshot): the core, or ParameterError/ValueError/OSError to refuse;
+    check(snapshot): validates a change (default: the core's ``check``, else make_core).
     """
 
     def __init__(self, node_name: str, *, schema: ParameterSchema,
@@ -95,7 +79,6 @@ class LockstepControllerNode(Node):
         try:
             self.core = make_core(dict(self.parameters.values))
         except (ParameterError, ValueError, OSError) as exc:
-            # Do not start half-configured: the caller (main) reports and exits.
             raise ParameterError(str(exc)) from exc
         self._check = check or getattr(self.core, 'check', None) or make_core
         self.samples_answered = 0
@@ -112,8 +95,6 @@ class LockstepControllerNode(Node):
                                       self._block_pub.publish if self._block_pub else None,
                                       *self._telemetry_settings(self.parameters.values))
         self._last_measurement = self._last_command = self._last_stamp = None   # bytes, bytes, (sec, ns)
-        # A thread waits on the measurement subscription directly (lockstep_io) and
-        # answers each sample; parameters and services stay on this node's executor.
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
         self._conflict: str | None = None     # a second graph found: refuse to run (exit 2)
         self._peer_heard_at = time.monotonic()   # the bound plant's last measurement (for HOLD_FLUSH)
@@ -132,15 +113,13 @@ class LockstepControllerNode(Node):
 
     def _answer_samples(self) -> None:
         import rclpy
-        # Discovery first: a node started late in a running graph must see its namesake and
-        # the graph's controller before it binds to that graph's plant (it then refuses).
+        # Discovery first: a node started late in a running graph must refuse, not bind.
         if not wait_for_stable_graph(self, stop=lambda: self._stop.is_set()
                                      or not rclpy.ok(context=self.context)):
             return
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
                 self._receiver.poll(POLL)
-                # (an outsider's messages wake the poll too: only the bound plant's count)
                 quiet = HOLD_FLUSH if self.samples_answered > 1 else FIRST_HOLD_FLUSH
                 if time.monotonic() - self._peer_heard_at >= quiet:
                     self._telemetry.flush()      # no measurement for a while: the plant holds
@@ -229,11 +208,9 @@ class LockstepControllerNode(Node):
             self._publish_status(status, sample, command, sec, nanosec)
         self.samples_answered += 1
 
-    # --- telemetry --------------------------------------------------------
     def _match_telemetry_readers(self) -> None:
-        """Before the first answer (sim time starts with it): every reader of the status and
-        block topics already in the graph (a recorder, a test) is matched, or it would miss
-        the first samples; at most MATCH_WAIT s, as the plant does for its own topics."""
+        """Before the first answer: wait (at most MATCH_WAIT s) until every reader of the
+        telemetry topics already in the graph is matched, or it would miss the first samples."""
         publishers = [p for p in (self._status_pub, self._block_pub) if p is not None]
         if not wait_until(lambda: readers_matched(self, publishers) or self._stop.is_set(),
                           MATCH_WAIT, 0.01, raise_timeout=False):
@@ -242,8 +219,7 @@ class LockstepControllerNode(Node):
 
     @staticmethod
     def _telemetry_settings(values) -> tuple[int, float]:
-        """(telemetry.block_size, telemetry.live_period) of a snapshot (defaults if the
-        node's schema has no telemetry)."""
+        """(telemetry.block_size, telemetry.live_period) of a snapshot, or the defaults."""
         return (values.get('telemetry.block_size', DEFAULT_BLOCK_SIZE),
                 values.get('telemetry.live_period', DEFAULT_LIVE_PERIOD))
 

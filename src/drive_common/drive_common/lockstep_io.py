@@ -1,20 +1,9 @@
 """Direct receive for the lockstep hot path, and the one-graph-per-domain check.
 
-An executor's ``spin_once`` rebuilds its wait set and task bookkeeping on
-every call, which in rclpy costs more than the rest of a lockstep sample.
-The lockstep subscriptions therefore live on the node itself (so ``ros2
-node info`` shows them) but in a :class:`DirectCallbackGroup`, which no
-executor ever waits on or takes from; :class:`DirectReceiver` waits on them
-with one persistent rcl wait set and hands each message to the
-subscription's callback, the way rclpy's own ``wait_for_message`` does.
-Services, parameters and actions stay on the node's normal executor.
-
-:func:`graph_conflict` finds a second graph in the node's DDS domain (a
-second node of the same name, a second publisher of a topic only this node
-may publish): the lockstep protocol matches commands by step only, so two
-graphs in one domain would silently answer each other's samples. It counts
-nodes by :func:`listed_nodes`, which leaves out the stale entries rmw's graph
-cache may keep of a departed process (they would make a node refuse for good).
+An executor's ``spin_once`` costs more than a lockstep sample, so the lockstep subscriptions
+sit in a :class:`DirectCallbackGroup` no executor takes from, and :class:`DirectReceiver`
+waits on them with one persistent rcl wait set. :func:`graph_conflict` finds a second graph
+in the domain (docs/architecture.md "Time and lockstep").
 """
 from __future__ import annotations
 
@@ -27,11 +16,7 @@ from drive_common.parameters import ParameterError
 
 
 class DirectCallbackGroup(CallbackGroup):
-    """Entities no executor runs: rclpy's executors skip a group whose ``can_execute`` is False.
-
-    Subscriptions in this group are received only by a :class:`DirectReceiver`,
-    so each message is taken by exactly one thread.
-    """
+    """Entities no executor runs (only a :class:`DirectReceiver` takes their messages)."""
 
     def can_execute(self, entity) -> bool:
         return False
@@ -44,12 +29,9 @@ class DirectCallbackGroup(CallbackGroup):
 
 
 class DirectReceiver:
-    """Wait on subscriptions and dispatch what arrives.
+    """Wait on subscriptions (in a :class:`DirectCallbackGroup`) and dispatch what arrives.
 
-    The subscriptions must be in a :class:`DirectCallbackGroup` (or on a node
-    no executor spins), or an executor would take their messages too. Only
-    one thread may call :meth:`poll` (the wait set is not shared), and the
-    node must not be destroyed while it does (stop and join that thread first).
+    One thread only calls :meth:`poll`; join it before the node is destroyed.
     """
 
     def __init__(self, context, subscriptions, with_info: bool = False,
@@ -66,12 +48,8 @@ class DirectReceiver:
         self._wait_set = _rclpy.WaitSet(len(self._subscriptions), 0, 0, 0, 0, 0, context.handle)
 
     def poll(self, timeout: float) -> int:
-        """Dispatch every message; if none had arrived, wait up to timeout s (0: do not wait)
-        and dispatch what arrives; count them.
-
-        What has arrived is taken without the wait set (a pipelined peer's next
-        message is often there already, and a wait costs more than a take).
-        """
+        """Dispatch every message; if none had arrived, wait up to timeout s and dispatch what
+        arrives; count them (a take without the wait set is cheaper than a wait)."""
         dispatched = self._dispatch(self._subscriptions)
         if dispatched or timeout <= 0.0:
             return dispatched
@@ -117,11 +95,7 @@ def unmatched_topics(node, publishers) -> list[str]:
 
 
 def readers_matched(node, publishers) -> bool:
-    """Whether each publisher is matched with every subscriber its topic has in the graph.
-
-    Checked before a run's first sample by the plant and the controllers, so a
-    reader already in the graph (a recorder, a monitor) misses no sample.
-    """
+    """Whether each publisher is matched with every subscriber its topic has in the graph."""
     return not unmatched_topics(node, publishers)
 
 
@@ -130,16 +104,8 @@ class GraphConflict(ParameterError):
 
 
 def listed_nodes(node) -> list[tuple[str, str]]:
-    """(name, namespace) of every node in the graph, without the stale entries of departed ones.
-
-    rmw's graph cache (rmw_dds_common, Jazzy) can keep, for good, a node whose process
-    has left (seen on a loaded machine, next to a live namesake; likely a
-    ``ros_discovery_info`` update handled after the participant's removal, which
-    re-creates it). Such an entry has no enclave: a node's enclave comes with its
-    participant's discovery, which precedes its ``ros_discovery_info``. An entry without
-    one is kept only if it is the one node of its name and the graph lists endpoints of
-    that name (the graph is asked by name, so a namesake's endpoints would vouch for it).
-    """
+    """(name, namespace) of every node in the graph, without rmw's stale entries of departed
+    ones: an entry without enclave counts only as the one node of its name with endpoints."""
     entries = node.get_node_names_and_namespaces_with_enclaves()
     names = [(name, namespace) for name, namespace, _ in entries]
     return [(name, namespace) for name, namespace, enclave in entries
@@ -158,8 +124,7 @@ def _has_endpoints(node, name: str, namespace: str) -> bool:
 def graph_conflict(node, sole_publisher_of=()) -> str | None:
     """Why node must not run in its domain (a second graph is there), or None.
 
-    sole_publisher_of: topics this node publishes that no other node may
-    (the plant's measurements, a controller's commands).
+    sole_publisher_of: topics this node publishes that no other node may.
     """
     domain = node.context.get_domain_id()
     me = (node.get_name(), node.get_namespace())

@@ -1,16 +1,8 @@
 """The lockstep messages as CDR bytes, straight from and into the core samples.
 
-Each lockstep sample is one measurement out and one command back
-(DriveMeasurement/GateCommand, PfcMeasurement/DutyCommand). A typed rclpy take or
-publish costs several times a raw one on the critical path of every sample
-(``benchmarks/bench_lockstep_wire.py``, docs/benchmarks.md), so the lockstep nodes
-publish and take these messages serialized and convert bytes <-> the core's
-sample dataclass (:mod:`drive_common.samples`) here, with one precompiled
-:class:`struct.Struct` per message type. The bytes are exactly rclpy's
-``serialize_message`` of the same message (XCDR1 little endian) with every
-padding byte zero, so any ROS reader sees ordinary messages; the tests check
-both directions against rclpy. A message type qualifies when it is a
-``std_msgs/Header`` followed by fixed-size primitives and arrays.
+A typed rclpy take or publish costs several times a raw one, so the lockstep nodes convert
+bytes <-> sample dataclass here with one :class:`struct.Struct` per message type: rclpy's
+serialization with zeroed padding. Qualifies: a ``std_msgs/Header`` then fixed-size fields.
 """
 from __future__ import annotations
 
@@ -56,13 +48,8 @@ def _tail_format(fields, offset: int) -> tuple[str, int]:
 
 
 class LockstepWire:
-    """CDR bytes <-> core sample for one lockstep message type.
-
-    msg_type: the dtc_msgs message (header + fixed fields). sample_type: the
-    core dataclass with the same field names (``time``, if it has one, is
-    the header stamp in s, :func:`drive_common.conversions.seconds`).
-    frame_id: the header frame_id written by :meth:`encode` (any is read).
-    """
+    """CDR bytes <-> core sample_type (same field names; ``time``: the header stamp in s) for
+    msg_type; frame_id: the one :meth:`encode` writes (any is read)."""
 
     def __init__(self, msg_type: type, sample_type: type, frame_id: str = '') -> None:
         self.msg_type, self.sample_type = msg_type, sample_type
@@ -71,8 +58,7 @@ class LockstepWire:
         missing = [n for n in names if n != 'time' and n not in {f[0] for f in self._fields}]
         if missing:
             raise TypeError(f'{sample_type.__name__}: no {msg_type.__name__} field for {missing}')
-        # Sample fields in dataclass order -> (index into the flat unpacked values, count);
-        # None: the header stamp in s.
+        # Sample fields -> (index into the flat unpacked values, count); None: the stamp in s.
         spans, index = {}, 0
         for name, _, count in self._fields:
             spans[name] = (index, count)

@@ -1,13 +1,6 @@
-"""Several drives in one DDS domain, one ROS namespace each.
-
-A drive's nodes started with ``-r __ns:=/NAME`` resolve every relative topic,
-service and action under ``/NAME``; the three global topics a node uses
-(``/clock``: sim time, published by the plant and read by ``use_sim_time``;
-``/diagnostics``; ``/parameter_events``) are remapped into it too, so each
-drive has its own sim clock, diagnostics and parameter events
-(:func:`namespace_remappings`; ``run_scenario --namespace NAME`` applies
-them, README "Several drives in one domain" shows them for hand starts).
-"""
+"""Several drives in one DDS domain, one ROS namespace each; the global topics (``/clock``,
+``/diagnostics``, ``/parameter_events``) are remapped into it too (README "Several drives in
+one domain")."""
 from __future__ import annotations
 
 GLOBAL_TOPICS = ('/clock', '/diagnostics', '/parameter_events')
@@ -23,6 +16,11 @@ def normalized(namespace: str | None) -> str:
         raise ValueError(f'namespace {namespace!r}: letters, digits and _ only, '
                          'each part starting with a letter or _')
     return '/' + name
+
+
+def full_name(name: str, namespace: str) -> str:
+    """'/ns/name' of a node's name and namespace."""
+    return namespace.rstrip('/') + '/' + name
 
 
 def namespace_remappings(namespace: str | None) -> dict[str, str]:

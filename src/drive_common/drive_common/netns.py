@@ -1,17 +1,8 @@
-"""Virtual hosts on one machine: Linux network namespaces joined by a bridge.
+"""Virtual hosts on one machine: Linux network namespaces joined by a bridge (docs/multi_host.md).
 
-Each host is a network namespace with its loopback up and one ``eth0`` (a veth
-pair to a bridge in a separate "switch" namespace), an address ``10.213.0.<n>/24``
-and, unless ``multicast=False``, a multicast route. DDS in two such namespaces
-sees two machines on one LAN: everything goes over UDP on the link (no shared
-memory) and SPDP multicast discovery works across the bridge. Nothing touches
-the root namespace's interfaces or routes.
-
-:class:`VirtualHosts` creates them (unique names), gives the command prefix that
-runs a program in a host (``ip netns exec <name>``) and its ROS environment, cuts a
-host's link, and always tears everything down, including namespaces left by a
-SIGKILLed run (their creator's pid is in the name). Needs root and iproute2's
-``ip``; see docs/multi_host.md and ``drive_bringup.split_hosts``.
+Each host has loopback, one ``eth0`` (veth to a bridge in a "switch" namespace) at
+``10.213.0.<n>/24`` and a multicast route, so DDS sees machines on one LAN. Namespaces left
+by a SIGKILLed run (its pid is in the name) are removed. Needs root and iproute2's ``ip``.
 """
 from __future__ import annotations
 
@@ -28,8 +19,7 @@ PREFIX = 'dtcvh'          # every namespace made here starts with this
 SUBNET = '10.213.0'       # /24 inside the bridge; only ever routed inside our namespaces
 _NETNS_DIR = Path('/run/netns')
 _CLONE_NEWNET = 0x40000000
-# Fast DDS profile for a graph across hosts: larger socket receive buffers and a
-# 20 ms heartbeat, so a datagram lost in a burst is repaired at once (see the file).
+# Fast DDS profile across hosts: larger receive buffers, 20 ms heartbeat (see the file).
 FASTDDS_PROFILE = Path(__file__).with_name('fastdds_network.xml')
 
 
@@ -53,28 +43,14 @@ def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     return result
 
 
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def _kill_inside(namespace: str) -> None:
-    """SIGKILL every process still running in namespace (but this one, see enter())."""
+def _delete(namespace: str) -> None:
+    """SIGKILL every process still running in namespace (but this one, see enter()); delete it."""
     pids = {int(p) for p in _ip('netns', 'pids', namespace, check=False).stdout.split()}
     for pid in pids - {os.getpid()}:
         try:
             os.kill(pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
-
-
-def _delete(namespace: str) -> None:
-    _kill_inside(namespace)
     _ip('netns', 'delete', namespace, check=False)
 
 
@@ -86,20 +62,15 @@ def remove_stale() -> list[str]:
         name = line.split(' ')[0]
         parts = name.split('-')
         if len(parts) >= 3 and parts[0] == PREFIX and parts[1].isdigit() \
-                and not _pid_alive(int(parts[1])):
+                and not os.path.exists(f'/proc/{parts[1]}'):       # its creator is gone
             _delete(name)
             removed.append(name)
     return removed
 
 
 class VirtualHosts:
-    """Named hosts as network namespaces on one bridged link; a context manager.
-
-    ``hosts`` are short labels (``'plant'``, ``'controller'``); host i gets
-    address ``10.213.0.<i+1>``. ``multicast=False``: no multicast route, so
-    only unicast discovery (static peers) can work, as on a network that
-    does not carry multicast.
-    """
+    """Named hosts (short labels; host i at ``10.213.0.<i+1>``) on one bridged link; a context
+    manager. multicast False: no multicast route (only static peers discover)."""
 
     def __init__(self, hosts: Sequence[str] = ('a', 'b'), multicast: bool = True) -> None:
         if len(set(hosts)) != len(hosts) or not hosts or len(hosts) > 250:
@@ -112,7 +83,6 @@ class VirtualHosts:
         self.addresses = {label: f'{SUBNET}.{i + 1}' for i, label in enumerate(self.labels)}
         self._made: list[str] = []
 
-    # --- life cycle -----------------------------------------------------------
     def create(self) -> 'VirtualHosts':
         reason = unavailable_reason()
         if reason:
@@ -143,9 +113,7 @@ class VirtualHosts:
         self._made.append(name)
 
     def _route_multicast(self, ns: str) -> None:
-        # DDS discovery (SPDP) goes to 239.255.0.1: without a default route the
-        # kernel needs a multicast route to send it out of eth0. Without it
-        # (multicast=False) the hosts are on a network without multicast.
+        # SPDP discovery goes to 239.255.0.1: without a default route it needs this route
         if self.multicast:
             _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
 
@@ -161,22 +129,14 @@ class VirtualHosts:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    # --- using the hosts ----------------------------------------------------------
     def prefix(self, host: str) -> list[str]:
         """Command prefix running a program in host (as root: ``ip netns exec NAME``)."""
         return ['ip', 'netns', 'exec', self.namespaces[host]]
 
     def env(self, host: str, domain_id: int, base: Mapping[str, str] | None = None,
             static_peers: bool = False) -> dict[str, str]:
-        """ROS environment for a node in host: the shared domain and how to discover.
-
-        Fast DDS loads :data:`FASTDDS_PROFILE` unless the base environment
-        names a profile file already. Default: ``ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`` (multicast SPDP on
-        the link). ``static_peers``: unicast only, as on a network without
-        multicast: range ``LOCALHOST`` plus every other host's address in
-        ``ROS_STATIC_PEERS`` (ROS 2 "Improved Dynamic Discovery": hosts that
-        name each other as static peers discover each other).
-        """
+        """ROS environment for a node in host: the shared domain, :data:`FASTDDS_PROFILE` (unless
+        set), discovery range SUBNET, or with static_peers LOCALHOST plus the others as peers."""
         env = dict(os.environ if base is None else base)
         env['ROS_DOMAIN_ID'] = str(domain_id)
         env.pop('ROS_LOCALHOST_ONLY', None)
@@ -195,11 +155,7 @@ class VirtualHosts:
         return subprocess.run([*self.prefix(host), *command], **kwargs)
 
     def enter(self, host: str) -> None:
-        """Move this process into host's network namespace (setns(2)).
-
-        Call it before any thread is started (the DDS threads of rclpy
-        inherit the namespace of the thread that makes them).
-        """
+        """Move this process into host's network namespace (setns(2)), before any thread starts."""
         libc = ctypes.CDLL(None, use_errno=True)
         fd = os.open(_NETNS_DIR / self.namespaces[host], os.O_RDONLY)
         try:

@@ -1,10 +1,5 @@
-"""``--help`` of a node executable: what the node is and its parameters, from its schema (no rclpy).
-
-A node's command line is ROS's (``--ros-args -p name:=value``,
-``--params-file``, ``-r __ns:=/ns``); ``-h`` / ``--help`` before
-``--ros-args`` prints this text and exits 0 without starting the node
-(:func:`drive_common.node_main.run_node`).
-"""
+"""``--help`` of a node executable (before ``--ros-args``): what the node is and its parameters,
+from its schema; prints and exits 0 without starting anything (no rclpy)."""
 from __future__ import annotations
 
 import inspect
@@ -81,11 +76,8 @@ def node_usage(package: str, executable: str, summary: str,
 
 
 def print_node_help(about: Callable | type) -> int:
-    """Print the help of a node (nothing is started); return 0.
-
-    about: the node class or factory, or (a node built by a generic
-        factory) the class whose module and ``SCHEMA`` describe it.
-    """
+    """Print the help of a node described by about (a node class or factory, or a class
+    whose module and ``SCHEMA`` describe it); return 0."""
     package = (getattr(about, '__module__', '') or 'node').split('.')[0]
     executable = os.path.basename(sys.argv[0]) or package
     print(node_usage(package, executable, summary_of(about), schema_of(about)))

@@ -1,23 +1,8 @@
 """The one ``main`` of every executable: start a node, run it, stop it cleanly.
 
-:func:`run_node` follows the demos' talker idiom (init, build, spin,
-destroy, shutdown) with the drive stack's rules: a node that cannot start
-prints one line naming the program and the reason and exits 2 (no
-traceback); SIGINT and SIGTERM end it with exit 0. The node's executor
-spins in a background thread; the main thread waits for a signal, or runs the
-node's own ``work`` loop (recorder, replay) and returns when it is done.
-
-A bug is not survived: an exception that escapes any thread of the node
-prints its traceback and ends the process with exit 1, as an rclpy node whose
-callback raises does. The node leaves the graph, so nothing keeps waiting on
-a node that will never answer (the plant applies the safe state once its
-command timeout has passed).
-
-A node that does not stop can be asked where it is: SIGUSR1 prints the stack
-of every thread to stderr (:data:`STACK_DUMP_SIGNAL`; drive_common.processes
-sends it before it escalates from SIGINT). A node started by
-drive_common.processes stops, as on SIGINT, when the process that started it
-ends, even killed (drive_common.starter).
+:func:`run_node`: a node that cannot start prints one line and exits 2; SIGINT/SIGTERM end
+it with 0; an exception escaping any thread prints its traceback and exits 1. SIGUSR1
+(:data:`STACK_DUMP_SIGNAL`) prints every thread's stack; a node stops when its starter ends.
 """
 from __future__ import annotations
 
@@ -44,8 +29,7 @@ def fail(reason: object, code: int = 2) -> int:
 
 
 def node_alive(node) -> bool:
-    """Whether node's rcl handle is still valid (destroy_node not called, or deferred by rclpy
-    because the handle was in use)."""
+    """Whether node's rcl handle is still valid (not destroyed, or destruction deferred)."""
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
     try:
         return bool(node.handle.pointer)
@@ -54,9 +38,8 @@ def node_alive(node) -> bool:
 
 
 def destroy_node_and_actions(node) -> None:
-    """node.destroy_node(), then its action clients and servers: rclpy's destroy_node leaves
-    them, and each holds the rcl node (listed in the graph, its DDS participant alive)
-    until it is garbage-collected."""
+    """node.destroy_node(), then its action clients and servers (rclpy leaves them holding
+    the rcl node until garbage-collected)."""
     waitables = list(node.waitables)
     node.destroy_node()
     for waitable in waitables:
@@ -67,15 +50,9 @@ def destroy_node_and_actions(node) -> None:
 
 def spin_in_background(executor, name: str = 'executor',
                        on_refusal: Callable[[ParameterError], None] | None = None) -> threading.Thread:
-    """A started daemon thread that spins executor until it or its context shuts down.
-
-    An entity that another thread destroys while the executor builds its wait set
-    makes rclpy raise InvalidHandle there; the thread spins on (the next wait leaves
-    the entity out) instead of dying and leaving every other entity unserved; a context
-    or executor shut down meanwhile (rclpy: "context is not valid", or the executor's
-    guard condition gone) ends it quietly.
-    on_refusal: called with a ParameterError a callback raised (e.g. GraphConflict: the
-    node refuses to run), which then ends the thread; without it the error propagates.
+    """A started daemon thread spinning executor until it or its context shuts down; an entity
+    destroyed meanwhile (InvalidHandle) does not end it. on_refusal(ParameterError): called
+    with a callback's refusal (e.g. GraphConflict), which ends the thread; else it propagates.
     """
     from rclpy.executors import ExternalShutdownException
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
@@ -112,15 +89,9 @@ def spin_in_background(executor, name: str = 'executor',
 
 
 def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTERM)) -> None:
-    """SIGINT/SIGTERM set ``stop``, from a relay thread woken by the signal's wakeup byte.
-
-    Python runs a signal handler in the main thread only, and only once that thread wakes;
-    the kernel may deliver the signal to any thread (to another one whenever the main
-    thread already has a signal pending, e.g. the SIGUSR1 of a stack request), and a main
-    thread blocked in ``stop.wait()`` then never wakes. The C-level handler writes the
-    signal number to :func:`signal.set_wakeup_fd`'s pipe from whichever thread took it; a
-    relay thread reads it and sets the event (set in a handler, it could also deadlock on
-    the event's lock, held by the interrupted ``stop.wait()``). Main thread only.
+    """SIGINT/SIGTERM set ``stop``, from a relay thread reading :func:`signal.set_wakeup_fd`'s
+    pipe (a signal delivered to another thread would never wake a main thread in
+    ``stop.wait()``, and setting the event in a handler could deadlock). Main thread only.
     """
     read_fd, write_fd = os.pipe()
     os.set_blocking(write_fd, False)
@@ -139,16 +110,10 @@ def stop_on_signals(stop: threading.Event, signals=(signal.SIGINT, signal.SIGTER
 def run_node(factory: Callable[[], object], args=None, *, multithreaded: bool = False,
              work: Callable[[object, threading.Event], None] | None = None,
              errors: tuple[type[BaseException], ...] = (), about: object | None = None) -> int:
-    """Run the node built by ``factory`` until SIGINT/SIGTERM (or ``work`` returns).
+    """Run the node built by ``factory`` until SIGINT/SIGTERM (or ``work`` returns); exit code.
 
-    args: command line (``--ros-args`` with ``-p``, ``-r``, ``--params-file``).
-    multithreaded: spin with a 4-thread executor (a node whose action
-        callback runs long, the plant).
-    work: ``work(node, stop)`` runs in the main thread while the executor
-        serves the node; ``stop`` is set by SIGINT/SIGTERM.
-    errors: further exception types that mean "cannot start" (exit 2).
-    about: what ``-h``/``--help`` describes (default: factory, see
-        :func:`drive_common.node_help.print_node_help`); help starts nothing.
+    multithreaded: a 4-thread executor; work(node, stop): runs in the main thread; errors:
+    more "cannot start" types (exit 2); about: what ``--help`` describes (default: factory).
     """
     argv = sys.argv if args is None else args
     if wants_help(argv):

@@ -1,11 +1,5 @@
-"""ROS 2 parameter files (``--params-file``), read as rcl reads them.
-
-Format: a mapping of node names (``plant``, ``/plant``, ``/ns/plant``) or the
-wildcard ``/**`` to ``{ros__parameters: {...}}``; nested mappings are dotted
-names (``motor: {file: x}`` is ``motor.file``). The nodes themselves load
-files through rcl (``--ros-args --params-file f.yaml``); this module checks a
-file up front (one-line errors naming the file) and gives the scenario runner
-the values for one node.
+"""ROS 2 parameter files (``--params-file``), read as rcl reads them: checked up front with
+one-line errors, and one node's values for the scenario runner (nested keys become dotted names).
 """
 from __future__ import annotations
 
@@ -19,13 +13,16 @@ class ParameterFileError(ValueError):
     """The file cannot be read or is not a ROS 2 parameter file; the message names it."""
 
 
-def _flatten(prefix: str, mapping: dict, out: dict[str, Any]) -> None:
+def flatten(mapping: dict, prefix: str = '') -> dict[str, Any]:
+    """{dotted name: value} of nested mappings (``motor: {file: x}`` -> ``motor.file``)."""
+    out = {}
     for key, value in mapping.items():
         name = f'{prefix}{key}'
         if isinstance(value, dict):
-            _flatten(name + '.', value, out)
+            out.update(flatten(value, name + '.'))
         else:
             out[name] = value
+    return out
 
 
 def read_params_file(path: str | Path) -> dict[str, dict[str, Any]]:
@@ -45,8 +42,7 @@ def read_params_file(path: str | Path) -> dict[str, dict[str, Any]]:
     for node, body in data.items():
         if not isinstance(body, dict) or not isinstance(body.get('ros__parameters'), dict):
             raise ParameterFileError(f'params file {path}: {node}: expected a ros__parameters mapping')
-        sections[str(node)] = {}
-        _flatten('', body['ros__parameters'], sections[str(node)])
+        sections[str(node)] = flatten(body['ros__parameters'])
     return sections
 
 

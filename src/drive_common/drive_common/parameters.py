@@ -1,11 +1,7 @@
 """Node parameter schemas: declared once, validated in one place (no rclpy).
 
-Each node describes its parameters as a :class:`ParameterSchema` of
-:class:`ParameterSpec` entries (type from the default, unit, range, choices,
-whether a change is allowed while the simulation runs). The ROS wrapper
-(:mod:`drive_common.ros_parameters`) turns the schema into declared
-parameters with descriptors; the same schema validates values from YAML
-scenario files and from the headless runner, so the rules live here once.
+The same :class:`ParameterSchema` is declared by the node (:mod:`drive_common.ros_parameters`)
+and validates scenario files and the headless runner.
 """
 from __future__ import annotations
 
@@ -25,21 +21,8 @@ class ParameterError(ValueError):
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One node parameter.
-
-    name: ROS parameter name (dots allowed for grouping).
-    default: default value; its Python type is the parameter's type
-        (a list of floats or of strings for array parameters).
-    description: what it is (one line).
-    unit: SI unit, '' for dimensionless/enumerations.
-    min_value, max_value: inclusive range for numbers (None = open).
-    choices: allowed values for enumerations (strings or ints).
-    runtime: True if it may change while the simulation runs; False means
-        only while the node is held/idle (changes while running are rejected).
-    length: required length for list parameters (None = any).
-    read_only: fixed at start (``--ros-args -p`` / ``--params-file``); the
-        ROS descriptor says read_only and a runtime set is refused.
-    """
+    """One node parameter: its type is the default's (list: of floats or strings); SI unit;
+    inclusive range (None: open); runtime False: changes only while held; read_only: set at start."""
 
     name: str
     default: Any
@@ -107,19 +90,12 @@ class ParameterSpec:
             if not isinstance(value, (list, tuple, array.array)):
                 raise ParameterError(f'{self.name}: expected a list, got {value!r}')
             item_type = type(self.default[0]) if self.default else float
-            out = []
             for item in value:
-                if item_type is float:
-                    if isinstance(item, bool) or not isinstance(item, (int, float)):
-                        raise ParameterError(f'{self.name}: expected numbers, got {item!r}')
-                    out.append(float(item))
-                elif item_type is str:
-                    if not isinstance(item, str):
-                        raise ParameterError(f'{self.name}: expected strings, got {item!r}')
-                    out.append(item)
-                else:
-                    out.append(item)
-            return out
+                if item_type is float and (isinstance(item, bool) or not isinstance(item, (int, float))):
+                    raise ParameterError(f'{self.name}: expected numbers, got {item!r}')
+                if item_type is str and not isinstance(item, str):
+                    raise ParameterError(f'{self.name}: expected strings, got {item!r}')
+            return [float(item) for item in value] if item_type is float else list(value)
         raise ParameterError(f'{self.name}: unsupported parameter type {want.__name__}')
 
     def check(self, value: Any) -> Any:
@@ -185,11 +161,8 @@ class ParameterSchema:
 
     def validate_changes(self, current: Mapping[str, Any], changes: Mapping[str, Any],
                          running: bool = False) -> dict[str, Any]:
-        """Return the new full snapshot with changes applied, or raise ParameterError.
-
-        Names the schema does not own are ignored (e.g. use_sim_time); a
-        parameter with runtime=False is rejected while running.
-        """
+        """The new full snapshot with changes applied (names not in the schema ignored), or
+        ParameterError (also a runtime=False change while running)."""
         snapshot = dict(current)
         for name, value in changes.items():
             spec = self._by_name.get(name)
@@ -207,10 +180,7 @@ class ParameterSchema:
 
     def resolve(self, overrides: Mapping[str, Any] | None = None,
                 strict: bool = True) -> dict[str, Any]:
-        """Defaults updated with overrides (e.g. from a scenario file), validated.
-
-        strict: an unknown name raises ParameterError naming it.
-        """
+        """Defaults updated with overrides, validated (strict: an unknown name is an error)."""
         overrides = dict(overrides or {})
         if strict:
             unknown = sorted(set(overrides) - set(self._by_name))

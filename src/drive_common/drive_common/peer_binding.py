@@ -1,23 +1,8 @@
-"""Peer binding: once the lockstep starts, each side hears only its peer.
+"""Peer binding: once the lockstep starts, each side hears only its peer (by DDS writer gid).
 
-The lockstep protocol matches a command to a measurement by step only, so any
-other publisher on a lockstep topic could answer or feed a run. Each side binds
-to its peer by publisher identity (the DDS writer GUID) when the lockstep
-starts: the plant each command topic to the publisher of the first command it
-takes, a controller the measurement topic to the publisher of the first
-measurement. Only a lockstep counterpart (it also subscribes to this side's
-topic) can be bound; every other publisher is then ignored and reported once
-(``/diagnostics`` WARN and the log), until the bound publisher leaves the graph.
-An intruder whose publisher the graph lists without its node's name yet is
-reported once the name comes; one the graph does not list (it sent and left)
-is named by its DDS participant's other endpoints, or reported by gid when the
-run ends (:meth:`PeerBinding.flush`): never dropped unreported, never named by
-a guess while its own name is still coming.
-
-rclpy gives no publisher per message, so :class:`IdentifiedTake` calls rcl's
-``rcl_take_serialized_message`` through ctypes (``publisher_gid`` =
-``endpoint_gid``). An RMW that leaves it empty binds nothing.
-docs/architecture.md "Time and lockstep".
+Every other publisher on the lockstep topics is ignored and reported once. rclpy gives no
+publisher per message, so :class:`IdentifiedTake` calls rcl's ``rcl_take_serialized_message``
+through ctypes. Rules: docs/architecture.md "Time and lockstep" (peer binding).
 """
 from __future__ import annotations
 
@@ -28,6 +13,8 @@ import threading
 from typing import Callable
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy  # noqa: F401 - loads librcl
+
+from drive_common.namespaces import full_name
 
 GID_SIZE = 16              # RMW_GID_STORAGE_SIZE (rmw/types.h, Jazzy)
 NO_GID = bytes(GID_SIZE)   # an RMW that does not say who published
@@ -79,10 +66,7 @@ _rcl.rcl_take_serialized_message.argtypes = [ctypes.c_void_p, ctypes.POINTER(_Ui
 
 
 class IdentifiedTake:
-    """Take a subscription's messages as CDR bytes with the publisher's gid (rcl's take).
-
-    One buffer per subscription, reused (rcl grows it); one thread only.
-    """
+    """Take a subscription's messages as CDR bytes with the publisher's gid; one thread only."""
 
     def __init__(self, subscription) -> None:
         self._sub = subscription
@@ -111,20 +95,12 @@ class IdentifiedTake:
             pass
 
 
-def endpoint_name(info) -> str:
-    """'/ns/node' of a topic endpoint info."""
-    return info.node_namespace.rstrip('/') + '/' + info.node_name
-
-
 class PeerBinding:
-    """The one peer a node hears on its lockstep topics (see the module docstring).
+    """The one peer a node hears on its lockstep topics.
 
-    node: the node (graph queries, the log). received: the topic whose
-    publisher is bound; sent: the topic this node publishes (a counterpart
-    subscribes to it). watched: every lockstep topic on which other publishers
-    are reported once bound. report(message, values): a diagnostic (WARN).
-    may_bind(): whether the node may bind now (False: it found a second graph
-    and refuses to run; a late node must never join a running graph).
+    received: the topic whose publisher is bound; sent: the topic a counterpart subscribes to;
+    watched: topics whose other publishers are reported; report(message, values): a WARN
+    diagnostic; may_bind(): False once the node found a second graph.
     """
 
     def __init__(self, node, received: str, sent: str, watched=(),
@@ -174,20 +150,18 @@ class PeerBinding:
         publishers = {t: self._node.get_publishers_info_by_topic(t) for t in self.watched}
         peer = [i for i in publishers[self.received] if bytes(i.endpoint_gid) == self.peer]
         if peer and (UNKNOWN_NODE in self.peer_name or self.peer_name == UNDISCOVERED):
-            self.peer_name = endpoint_name(peer[0])     # its name discovered after binding
+            self.peer_name = full_name(peer[0].node_name, peer[0].node_namespace)   # named late
         if not peer:
-            with self._lock:
-                self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
-                                             f'the next counterpart on {self.received} is bound')
-                self.peer, self.peer_name = None, ''
-                self._reported.clear()
+            self._node.get_logger().info(f'lockstep peer {self.peer_name} left the graph: '
+                                         f'the next counterpart on {self.received} is bound')
+            self.release()
             return
         for topic, infos in publishers.items():
             for i in infos:
                 gid = bytes(i.endpoint_gid)
                 if ((i.node_name, i.node_namespace) != self._me and gid != self.peer
                         and gid not in self._reported):
-                    self._intruder(gid, topic, endpoint_name(i))
+                    self._intruder(gid, topic, full_name(i.node_name, i.node_namespace))
 
     def flush(self) -> None:
         """The end of a run: every intruder still unnamed is reported now, by its gid."""
@@ -203,21 +177,18 @@ class PeerBinding:
             self._reported.clear()
 
     def _counterpart(self, gid: bytes) -> str | None:
-        """The publisher's node name if it is a lockstep counterpart (it subscribes to sent).
-
-        Same process: the subscription's gid has the publisher's DDS participant prefix
-        (a node's name can be discovered later than its endpoints).
-        """
+        """The publisher's node name if its process (gid participant prefix) subscribes to sent;
+        None if not (or not discovered yet: its next message is looked at again)."""
         readers = self._node.get_subscriptions_info_by_topic(self.sent)
         if any(bytes(r.endpoint_gid)[:PARTICIPANT_PREFIX] == gid[:PARTICIPANT_PREFIX]
                for r in readers):
             return self._publisher_name(self.received, gid)
-        return None      # not discovered yet: not bound (its next message is looked at again)
+        return None
 
     def _publisher_name(self, topic: str, gid: bytes) -> str:
         for i in self._node.get_publishers_info_by_topic(topic):
             if bytes(i.endpoint_gid) == gid:
-                return endpoint_name(i)
+                return full_name(i.node_name, i.node_namespace)
         return UNDISCOVERED
 
     @staticmethod
@@ -225,12 +196,8 @@ class PeerBinding:
         return name != UNDISCOVERED and UNKNOWN_NODE not in name
 
     def _name_of(self, topic: str, gid: bytes) -> str:
-        """The node of publisher gid on topic; if the graph does not list it (it left, or is
-        not discovered yet), the node(s) of any endpoint of the same DDS participant.
-
-        A listed publisher whose node's name has not come yet is not named by its
-        participant: a process with several nodes would have its other nodes blamed.
-        """
+        """The node of publisher gid on topic; if unlisted, the named node(s) of its DDS
+        participant (a listed one is never named by its participant's other nodes)."""
         name = self._publisher_name(topic, gid)
         if name != UNDISCOVERED:
             return name                  # its node, or rmw's placeholder until the name comes
@@ -239,7 +206,7 @@ class PeerBinding:
             for info in (self._node.get_publishers_info_by_topic(other)
                          + self._node.get_subscriptions_info_by_topic(other)):
                 if bytes(info.endpoint_gid)[:PARTICIPANT_PREFIX] == prefix:
-                    nodes.add(endpoint_name(info))
+                    nodes.add(full_name(info.node_name, info.node_namespace))
         nodes = sorted(n for n in nodes if self._named(n))
         if not nodes:
             return name
@@ -247,9 +214,8 @@ class PeerBinding:
 
     def _intruder(self, gid: bytes, topic: str, name: str, heard: bool = False,
                   final: bool = False) -> None:
-        """Report an intruder once: log and diagnostic, both with its node name. One the graph
-        does not name yet is reported later: seen in the graph, once named; heard (its
-        messages taken), by name or, at the run's end, by gid."""
+        """Report an intruder once, by node name (log and diagnostic); one not named yet is
+        kept (if heard) for a later report, by name or, at the run's end, by gid."""
         with self._lock:
             if (gid in self._reported or gid == self.peer
                     or name == self._node.get_fully_qualified_name()):

@@ -1,16 +1,8 @@
 """Start drive nodes as ``ros2 run`` does, each graph in its own DDS domain.
 
-- :func:`reserve_domain` hands out a ROS_DOMAIN_ID no other process on this
-  machine holds (a file lock per id), so parallel runs never see each
-  other's topics; :func:`isolated_env` adds localhost-only discovery;
-  :func:`graph_lock` lets one runner at a time drive a graph in a given domain.
-- :class:`NodeProcess` starts ``<prefix>/lib/<package>/<executable> --ros-args ...``
-  exactly as ``ros2 run`` does (or any command line), in its own process
-  group, and always tears it down (SIGINT, then SIGTERM, then SIGKILL); a
-  drive node it started also stops by itself if the starter dies.
-
-Used by the scenario runner, compare_replay and the test harness
-(:mod:`drive_testing.harness`).
+:func:`reserve_domain` hands out a ROS_DOMAIN_ID no other process here holds (a file
+lock per id); :func:`graph_lock` lets one runner at a time drive a graph in a domain;
+:class:`NodeProcess` runs a node in its own process group and always tears it down.
 """
 from __future__ import annotations
 
@@ -35,8 +27,7 @@ STACK_DUMP_MARK = '(most recent call first)'   # faulthandler's line per thread
 
 DOMAIN_RANGE = range(1, 101)
 DOMAIN_COOLDOWN = 60.0   # s a released domain id rests before it is handed out again
-# Machine-wide, as the domain ids are: not under TMPDIR, which a caller may set per run (the
-# tutorial blocks of test_docs do), so that two runs at once never hand out the same id.
+# Machine-wide, as the domain ids are (not under TMPDIR, which a caller may set per run).
 _LOCK_DIR = Path('/tmp/dtc_drive_ros_domains')
 _KEPT: dict[int, int] = {}   # domain id -> lock descriptor, held until this process exits
 
@@ -54,15 +45,13 @@ def catches_signal(pid: int, sig: int) -> bool:
 
 
 def keep_reserved(domain_id: int) -> None:
-    """Hold domain_id's reservation until this process exits, not just until its
-    :func:`reserve_domain` block ends: for a domain where a participant of this process
-    may outlive the block (a node whose destruction rclpy had to defer)."""
+    """Hold domain_id's reservation until this process exits, not just its
+    :func:`reserve_domain` block (a participant here may outlive the block)."""
     _KEPT.setdefault(domain_id, -1)
 
 
 def _locked(path: Path) -> tuple[int, bool]:
-    """(descriptor of path, opened or created, whether this process now holds its exclusive
-    lock): a lock file machine-wide, released when the descriptor is closed."""
+    """(descriptor of lock file path, whether this process now holds its exclusive lock)."""
     fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o666)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -73,13 +62,8 @@ def _locked(path: Path) -> tuple[int, bool]:
 
 @contextmanager
 def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
-    """Reserve a ROS_DOMAIN_ID unused by any other holder on this machine.
-
-    Ids released less than ``cooldown`` s ago are taken only when nothing
-    else is free: the participants of nodes that were just killed linger in
-    DDS discovery until their lease runs out, and a new test in the same
-    domain could match them.
-    """
+    """Reserve a ROS_DOMAIN_ID no other holder here has; ids released less than cooldown s
+    ago come last (killed nodes linger in DDS discovery until their lease runs out)."""
     _LOCK_DIR.mkdir(parents=True, exist_ok=True)
     ids = list(DOMAIN_RANGE)
     random.SystemRandom().shuffle(ids)
@@ -113,12 +97,8 @@ def reserve_domain(cooldown: float = DOMAIN_COOLDOWN) -> Iterator[int]:
 
 @contextmanager
 def graph_lock(domain_id: int, namespace: str = '') -> Iterator[None]:
-    """Hold this machine's lock on the drive graph of (domain_id, namespace) for one runner.
-
-    A second ``run_scenario`` on this machine for the same domain and namespace is refused at
-    once (DomainBusy), however slowly discovery answers on a loaded machine; graphs of other
-    machines and hand-started nodes are found by :mod:`drive_common.domain_guard`'s look.
-    """
+    """Hold this machine's lock on the drive graph of (domain_id, namespace); a second
+    runner is refused at once (DomainBusy). Other machines: :mod:`drive_common.domain_guard`."""
     from drive_common.domain_guard import RUNNER_NODE, DomainBusy
     _LOCK_DIR.mkdir(parents=True, exist_ok=True)
     fd, locked = _locked(_LOCK_DIR / f'graph_{domain_id}{namespace.rstrip("/").replace("/", "_")}.lock')
@@ -163,16 +143,10 @@ def executable_path(package: str, executable: str) -> Path:
 
 
 def _yaml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, float):
-        return repr(value)
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, str):
-        return json.dumps(value)
     if isinstance(value, (list, tuple)):
         return '[' + ', '.join(_yaml_value(v) for v in value) + ']'
+    if isinstance(value, (bool, int, float, str)):
+        return repr(value) if isinstance(value, float) else json.dumps(value)   # repr: nan, inf
     raise TypeError(f'unsupported parameter value {value!r}')
 
 
@@ -197,12 +171,10 @@ def ros_arguments(parameters: Mapping[str, Any] | None = None,
 
 
 class NodeProcess:
-    """A node started as ``ros2 run`` would, in its own process group.
+    """A node started as ``ros2 run`` would, in its own process group; a context manager.
 
-    Use as a context manager or call :meth:`stop`; output goes to a log file
-    (:meth:`output` reads it) so a failing test can show what the node said.
-    Without log_dir the file lives in a temporary folder that :meth:`stop`
-    removes, keeping the text for :meth:`output`.
+    Output goes to a log file (:meth:`output`); without log_dir, to a temporary folder
+    that :meth:`stop` removes (the text kept).
     """
 
     def __init__(self, package: str, executable: str, *,
@@ -253,8 +225,8 @@ class NodeProcess:
             pass
 
     def dump_stacks(self, wait: float = 0.0) -> bool:
-        """Ask a running drive node for the stacks of its threads (STACK_DUMP_SIGNAL, into its
-        output) and wait up to wait s for them; whether it was asked."""
+        """Ask a drive node for its threads' stacks (into its output), wait up to wait s
+        for them; whether it was asked."""
         if self.process.poll() is not None or not catches_signal(self.process.pid, STACK_DUMP_SIGNAL):
             return False
         dumped = self.output().count(STACK_DUMP_MARK)
@@ -264,12 +236,8 @@ class NodeProcess:
         return True
 
     def stop(self, timeout: float = 5.0) -> int | None:
-        """Stop the node (SIGINT, then SIGTERM, then SIGKILL); return its exit code.
-
-        A drive node still running timeout s after SIGINT is first asked for the
-        stacks of its threads (drive_common.node_main.STACK_DUMP_SIGNAL, into its
-        output): where it hangs is then on record.
-        """
+        """Stop the node (SIGINT, SIGTERM, SIGKILL, timeout s each; its stacks dumped before
+        escalating); return its exit code."""
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
             if self.process.poll() is not None:
                 break

@@ -1,17 +1,14 @@
 """Whether the recorders in the graph have matched a node's publishers from their own side.
 
-DDS discovery is one-sided for a moment: a publisher can list a subscriber as
-matched before that subscriber has matched the publisher, and a volatile
-subscriber that matches only after the first samples went out never gets
-them. A recorder tells, on its ``~/matched_publishers`` service
-(dtc_msgs/srv/MatchedPublishers), how many publishers each of its
-subscriptions has matched; the plant (before its first run) and the scenario
-runner ask every recorder until its answer covers every publisher.
+DDS discovery is one-sided for a moment, so the plant and the runner ask each recorder's
+``~/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers) until it covers every publisher.
 """
 from __future__ import annotations
 
 import time
 from typing import Iterable
+
+from drive_common.namespaces import full_name
 
 SERVICE_SUFFIX = '/matched_publishers'
 SERVICE_TYPE = 'dtc_msgs/srv/MatchedPublishers'
@@ -19,12 +16,8 @@ RESEND_PERIOD = 1.0   # s: a request unanswered this long is sent again (a reply
 
 
 class RecordersMatched:
-    """A predicate, polled: True once every recorder has matched every publisher of topics.
-
-    A recorder counts once its service is in the graph (``required`` services
-    are waited for even before); topics it does not subscribe are not asked.
-    The node's executor must serve ``callback_group`` while this is polled.
-    """
+    """A predicate, polled: True once every recorder (and ``required`` service) has matched every
+    publisher of the topics it subscribes; an executor must serve ``callback_group`` meanwhile."""
 
     def __init__(self, node, topic_names: Iterable[str], required: Iterable[str] = (),
                  callback_group=None) -> None:
@@ -51,7 +44,7 @@ class RecordersMatched:
     def _recorded(self, service: str) -> list[str]:
         recorder = service[:-len(SERVICE_SUFFIX)]
         return [t for t in self.topics
-                if any(_full_name(i.node_namespace, i.node_name) == recorder
+                if any(full_name(i.node_name, i.node_namespace) == recorder
                        for i in self.node.get_subscriptions_info_by_topic(t))]
 
     def _answered(self, service: str) -> bool:
@@ -78,7 +71,3 @@ class RecordersMatched:
                 request = MatchedPublishers.Request(topics=asked)
                 self._pending[service] = (client.call_async(request), asked, time.monotonic())
         return False
-
-
-def _full_name(namespace: str, name: str) -> str:
-    return namespace.rstrip('/') + '/' + name

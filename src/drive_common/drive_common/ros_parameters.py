@@ -1,18 +1,6 @@
-"""Bind a :class:`~drive_common.parameters.ParameterSchema` to an rclpy node.
-
-Declares every parameter once with a ParameterDescriptor (type, range,
-description with unit) and installs one set-parameters callback that
-validates through the schema; a whole number given for a double (array)
-parameter is taken as that double (:func:`as_declared_type`). A rejected
-change keeps the old value and returns the reason to the caller
-(``ros2 param set`` prints it). Accepted
-changes are handed to ``on_change`` as a full new snapshot; the node swaps
-it in at its next sample boundary.
-
-With ``sim_time``, the node's ``/parameter_events`` carry sim time instead
-of the node's (wall) clock (:class:`SimStampedEvents`; docs/architecture.md
-"Bags").
-"""
+"""Bind a :class:`~drive_common.parameters.ParameterSchema` to an rclpy node: declared with
+descriptors, every change validated by the schema (a rejected one keeps the old value and
+returns the reason), accepted ones handed to ``on_change`` as a full snapshot."""
 from __future__ import annotations
 
 from typing import Any, Callable, Union
@@ -58,12 +46,8 @@ def constraints(spec: ParameterSpec) -> str:
 
 
 def as_declared_type(schema: ParameterSchema, params: list) -> list:
-    """params with a whole number given for a double (array) parameter as that double (array).
-
-    ROS types ``-p run_until:=20`` or ``ros2 param set /plant load.torque 1`` as
-    an integer, which rclpy refuses for a parameter declared double; the number
-    means the same, so it is taken (a value of any other type is still refused).
-    """
+    """params with a whole number given for a double (array) parameter as that double (array)
+    (``-p run_until:=20`` arrives as an integer, which rclpy refuses)."""
     from rclpy.parameter import Parameter
     out = []
     for param in params:
@@ -95,23 +79,8 @@ def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
 
 
 class SimStampedEvents:
-    """Stands in for a node's ``/parameter_events`` publisher: stamps each event with sim time.
-
-    rclpy (Jazzy) stamps a ParameterEvent with ``node._clock.now()`` in
-    ``Node._set_parameters_atomically_common``, just before it calls
-    ``node._parameter_event_publisher.publish``; nothing else uses that
-    publisher. Re-stamping the event here touches only parameter events: the
-    node's clock stays as it is, so timers, the action server's goal stamps,
-    the time source and every other thread never see a borrowed time (which
-    swapping ``node._clock`` for the duration of a set would risk). The result
-    is what rclpy gives a node that runs on sim time (``use_sim_time``); the
-    drive nodes make sim time, so they cannot take it from /clock.
-
-    sim_time: the node's sim time, in s or as the builtin_interfaces/Time of
-        a sample (the plant: its current time; a controller: the stamp of the
-        last sample it answered), or None before it has one (the event keeps
-        rclpy's stamp, the node's clock).
-    """
+    """Stands in for a node's ``/parameter_events`` publisher: stamps each event with sim_time()
+    (s or a Time; None: rclpy's stamp kept), leaving the node's clock alone."""
 
     def __init__(self, publisher, sim_time: Callable[[], SimTime]) -> None:
         self._publisher = publisher
@@ -139,15 +108,8 @@ class SimStampedEvents:
 class SchemaParameters:
     """Declared parameters of one node, validated by its schema.
 
-    node: the rclpy node.
-    schema: the node's ParameterSchema.
-    on_change: called with the new full snapshot before it is accepted; it
-        may refuse by raising ParameterError (the old values are kept).
-    is_running: returns True while runtime=False parameters must be refused.
-    sim_time: the node's sim time or None (see :class:`SimStampedEvents`);
-        given, every parameter event after the declaration carries it. The
-        declaration's own events (and rclpy's ``use_sim_time``) keep the
-        node's clock: the node has no sim time before its state exists.
+    on_change(snapshot): may refuse with ParameterError; is_running(): True while runtime=False
+    parameters are refused; sim_time: stamps later parameter events (:class:`SimStampedEvents`).
     """
 
     def __init__(self, node, schema: ParameterSchema,
@@ -158,8 +120,7 @@ class SchemaParameters:
         self._schema = schema
         self._on_change = on_change
         self._is_running = is_running
-        # Start-up overrides (-p, --params-file) as the declared type; rclpy has no public
-        # hook before a declaration takes its override (pre-set callbacks come later).
+        # Start-up overrides as the declared type (rclpy has no public hook for them).
         overrides = getattr(node, '_parameter_overrides', None)
         if isinstance(overrides, dict):
             overrides.update({p.name: p for p in as_declared_type(schema, list(overrides.values()))})
@@ -180,9 +141,8 @@ class SchemaParameters:
         return self.values[name]
 
     def add_pre_set(self, hook: Callable[[list], list]) -> None:
-        """Run hook(parameters) -> parameters on every change before it is validated, after
-        whole numbers became doubles. rclpy joins the lists its own pre-set callbacks return
-        (each sees the original list), so a node chains its hooks here instead."""
+        """Run hook(parameters) -> parameters on every change before validation (chained here:
+        rclpy's own pre-set callbacks each see the original list)."""
         self._pre_set.append(hook)
 
     def _before_set(self, params: list) -> list:

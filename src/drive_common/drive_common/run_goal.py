@@ -1,16 +1,7 @@
 """Client side of the plant's ``plant/run`` action, for runners, benchmarks, tests and scripts.
 
-Built on :mod:`drive_common.action_goals`: a goal or result reply lost
-right after discovery is recovered (the goal keeps its id; the action's
-status topic says whether it was accepted), so a goal never runs twice and
-relative goals are as safe as absolute ones.
-
-- :func:`send_run_goal`: the goal handle of a goal to ``target`` s;
-- :func:`run_goal_result`: the ``Run.Result`` of an accepted goal;
-- :func:`run_to`: both, with a bound on the wait for the result.
-
-``wait(done, seconds)`` as in :mod:`drive_common.action_goals` (default:
-poll, the node being spun by an executor elsewhere).
+Lost replies are recovered as in :mod:`drive_common.action_goals` (a goal never runs twice);
+``wait(done, seconds)`` as there.
 """
 from __future__ import annotations
 
@@ -36,12 +27,8 @@ def run_goal_result(handle, *, wait: Wait = polling_wait):
 
 def run_to(action, target: float, *, relative: bool = False, timeout: float = 120.0,
            wait: Wait = polling_wait):
-    """Run the plant to ``target`` s and return the ``Run.Result``.
-
-    ValueError if the plant rejects the goal (another run holds it, a bad
-    target); TimeoutError if it answers no request (send_run_goal);
-    WaitTimeout if no result came within timeout s (wall) of the acceptance.
-    """
+    """Run the plant to ``target`` s and return the ``Run.Result``: ValueError if rejected,
+    TimeoutError if unanswered, WaitTimeout if no result within timeout s (wall)."""
     handle = send_run_goal(action, target, relative=relative, wait=wait)
     if not handle.accepted:
         raise ValueError(f'the plant rejected the Run goal to {target} s (see its log)')

@@ -1,10 +1,7 @@
-"""Plain data exchanged between cores, one field per message field (no rclpy).
+"""Plain data exchanged between cores, one field per dtc_msgs message field (no rclpy).
 
-The plant core produces these, the controller cores consume and produce
-them; the ROS wrappers convert them to and from serialized dtc_msgs lockstep
-messages by field name (:mod:`drive_common.lockstep_wire`; message objects:
-:mod:`drive_common.conversions`), and the headless co-simulation passes them
-directly. Units as in the messages: SI, electrical angles.
+Converted by field name (:mod:`drive_common.lockstep_wire`, :mod:`drive_common.conversions`).
+Units as in the messages: SI, electrical angles.
 """
 from __future__ import annotations
 

@@ -1,17 +1,8 @@
 """Signal maths shared by the cores and the analysis (pure Python / numpy, no ROS).
 
-Frames (docs/architecture.md "Conventions"): amplitude-invariant
-Clarke ``x_alpha = (2 x_a - x_b - x_c) / 3``, ``x_beta = (x_b - x_c) / sqrt(3)``
-(000 eq. (1.21) scaled by 2/3); Park ``x_d = x_alpha cos(theta) + x_beta sin(theta)``,
-``x_q = -x_alpha sin(theta) + x_beta cos(theta)``. The scalar functions take
-floats (the per-sample hot paths); :func:`clarke` and :func:`park` also take
-numpy arrays.
-
-Spectrum of a periodic record (000 ch. III, 001 eq. (39)): the record is cut
-to a whole number m of fundamental periods, harmonic h is DFT bin h*m (no
-leakage), amplitudes are peak values, ``THD = sqrt(sum_{h>=2} X_h^2) / X_1``
-(a ratio; callers scale to %), ``PF = mean(v i) / (V_rms I_rms)`` and the
-displacement factor is the cosine of the angle between the fundamentals.
+Frames: amplitude-invariant Clarke (000 eq. (1.21) scaled by 2/3) and Park
+(docs/architecture.md "Conventions"). Spectrum of a record of m whole periods (000 ch. III,
+001 eq. (39)): harmonic h is DFT bin h*m, peak amplitudes, THD as a ratio.
 """
 from __future__ import annotations
 

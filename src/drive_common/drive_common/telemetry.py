@@ -1,12 +1,5 @@
-"""Telemetry rates without rclpy: block-size limits, the telemetry parameters, live-topic decimation.
-
-Full-rate telemetry travels in sample blocks (:mod:`drive_common.telemetry_blocks`,
-dtc_msgs/*Block); the per-sample topics people and live tools watch are
-decimated in sim time by :class:`Decimator`. Both rates are node parameters
-(:data:`TELEMETRY_PARAMETERS`), pure so the headless runner and scenario
-files validate them with the same rules as the nodes
-(docs/architecture.md "Telemetry: blocks and live topics").
-"""
+"""Telemetry rates without rclpy: block-size limits, the telemetry parameters, live-topic decimation
+(docs/architecture.md "Telemetry: blocks and live topics")."""
 from __future__ import annotations
 
 from drive_common.parameters import ParameterSpec
@@ -47,15 +40,8 @@ def nanoseconds(seconds: float) -> int:
 
 
 class Decimator:
-    """Which samples a decimated live topic publishes: the first at or after each grid time.
-
-    The grid is j * period in sim time (j = 0, 1, ...), so the live topic
-    shows every M-th sample when the sample period divides the period
-    (M = period / sample period: 40 at 1 ms and 25 us), picks the same
-    samples in every run (determinism), and never needs the plant's tick.
-    period 0 keeps every sample. Sim time going backwards (a new run)
-    restarts the grid.
-    """
+    """Which samples a decimated live topic publishes: the first at or after each sim time
+    j * period (period 0: every sample); sim time going backwards restarts the grid."""
 
     def __init__(self, period: float) -> None:
         if not period >= 0.0:   # also refuses NaN

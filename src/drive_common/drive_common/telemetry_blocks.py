@@ -1,18 +1,8 @@
 """Sample blocks: N consecutive per-sample messages as one typed message of arrays.
 
-A block type (dtc_msgs/PlantStateBlock, DtcStatusBlock, PfcStatusBlock) holds,
-for ``count`` samples, one array per field of its per-sample messages (its
-*parts*, :data:`BLOCK_PARTS`; measurement and command fields prefixed
-``measurement_`` / ``command_``); fixed-size arrays become flat sample-major
-sequences, strings one value per block. Sample i has ``step = first_step + i *
-step_stride`` and stamp ``header.stamp + stamp_offset[i]`` ns (docs/architecture.md
-"Telemetry: blocks and live topics").
-
-:class:`BlockPacker` collects one sample at a time and hands back a filled
-block every N samples (``flush`` for the partial one); a sample that breaks the
-step pattern or changes a per-block string closes the block early, so a block
-always expands to exactly the messages that went in. :func:`expand` and
-:func:`block_columns` are the inverse (bit-exact, NaN payloads kept).
+:class:`BlockPacker` fills blocks one sample at a time; :func:`expand` and
+:func:`block_columns` are the bit-exact inverse. Layout and rules:
+docs/architecture.md "Telemetry: blocks and live topics".
 """
 from __future__ import annotations
 
@@ -53,11 +43,11 @@ _HEADER_FIELDS = ('header', 'step')
 
 @dataclass(frozen=True)
 class Column:
-    """One block array: per-sample field `source` of part `part`."""
+    """One block array: per-sample field `source` of part `part` (index into the block's parts)."""
 
-    name: str          # block field
-    part: int          # index into the block's parts
-    source: str        # field of the per-sample message
+    name: str
+    part: int
+    source: str
     element: str       # rosidl element type ('double', 'boolean', ...)
     width: int         # elements per sample (1 for scalars)
 
@@ -114,18 +104,10 @@ def stamp_ns(stamp) -> int:
 
 
 class BlockPacker:
-    """Collects samples of one block type; a filled block every `size` samples.
+    """Collects samples of one block type; a new, filled block every `size` samples.
 
-    ``append(stamp_ns, *records)`` takes one record per part of the block
-    (see :data:`BLOCK_PARTS`): anything with the per-sample message's field
-    names as attributes (the core sample dataclasses the nodes fill their
-    messages from, or the messages themselves), all of the same ``step``.
-    stamp_ns is the samples' header stamp in ns. The values are copied at
-    once (a value out of its field's range raises here, and the sample is
-    not taken; but numpy truncates a float given for an integer field where
-    the per-sample message would refuse it); it returns the finished block
-    or None. A returned block is
-    a new message the caller may keep.
+    ``append(stamp_ns, *records)``: one record per part (:data:`BLOCK_PARTS`), anything with
+    the message's field names, all of one ``step``; copied at once; the finished block or None.
     """
 
     def __init__(self, block_type: type, size: int) -> None:
@@ -137,8 +119,7 @@ class BlockPacker:
             raise TypeError(f'{block_type.__name__}: per-block fields must come from the first part')
         self._block_getter = (_tuple_getter([c.source for c in self.layout.per_block])
                               if self.layout.per_block else None)
-        # One preallocated record per sample, each block field a column of it; the
-        # spare last row takes a sample that opens a new block while the old is built.
+        # The spare last row takes a sample that opens a new block while the old is built.
         self._buffer = np.zeros(self.size + 1, dtype=[
             (c.name, _ELEMENT[c.element][1], (c.width,) if c.width > 1 else ())
             for c in self.layout.columns])
@@ -207,9 +188,7 @@ class BlockPacker:
         block.header.stamp.sec, block.header.stamp.nanosec = divmod(int(stamps[0]), 1_000_000_000)
         block.first_step = self._first_step
         block.count = n
-        offsets = array.array('I')
-        offsets.frombytes((stamps - stamps[0]).astype(np.uint32).tobytes())
-        block.stamp_offset = offsets
+        block.stamp_offset = array.array('I', (stamps - stamps[0]).astype(np.uint32).tobytes())
         if n > 1:
             block.step_stride = self._stride
             block.sample_period = float(stamps[-1] - stamps[0]) / (n - 1) * 1e-9
@@ -221,20 +200,15 @@ class BlockPacker:
             typecode = _ELEMENT[column.element][0]
             if typecode is None:
                 setattr(block, column.name, values.ravel().tolist())
-            else:
-                data = array.array(typecode)
-                data.frombytes(values.tobytes())   # C order: sample-major
-                setattr(block, column.name, data)
+            else:       # C order: sample-major
+                setattr(block, column.name, array.array(typecode, values.tobytes()))
         return block
 
 
 class BlockStream:
-    """A node's full-rate block topic and its decimated live topic, for the plant and the
-    lockstep controllers alike: the packer (None: no block topic) and the live decimator,
-    retuned at a sample boundary when the telemetry parameters change; a block is
-    published (CDR padding zeroed) when full or flushed, from any thread.
+    """A node's full-rate block topic (packer None: none) and its decimated live topic.
 
-    publish: the block publisher's ``publish`` (takes the serialized block).
+    publish: the block publisher's ``publish``; blocks go out serialized, padding zeroed.
     """
 
     def __init__(self, block_type: type | None, publish, block_size: int, live_period: float) -> None:
@@ -292,13 +266,8 @@ def sample_stamps_ns(block) -> np.ndarray:
 
 
 def block_columns(block) -> dict[str, np.ndarray]:
-    """Every field of a block as an array of count rows (width > 1: shape (count, width)).
-
-    Adds ``step`` (uint64) and ``time`` (s, float64, computed from the
-    stamp as conversions.seconds does for a per-sample message); a
-    per-block string is repeated per row. Raises ValueError for a block
-    whose arrays do not match its count.
-    """
+    """Every field of a block as count rows (width > 1: (count, width)), plus ``step`` and
+    ``time`` (s, as conversions.seconds); ValueError if the arrays do not match count."""
     lay = layout(type(block))
     check_lengths(block, lay)
     count = block.count
@@ -320,13 +289,8 @@ def block_columns(block) -> dict[str, np.ndarray]:
 
 
 def expand(block, indices=None) -> Iterator[tuple]:
-    """The per-sample messages of a block, one tuple per sample in BLOCK_PARTS order.
-
-    Each message equals, byte for byte once serialized, the one its node
-    would have published for that sample: same step, header stamp and
-    frame_id, every field value (NaN payloads included). indices: only these
-    samples (ascending sample indexes in the block; None: every sample).
-    """
+    """The per-sample messages of a block, one tuple per sample in BLOCK_PARTS order, each
+    byte-identical to what its node would have published; indices: only these (ascending)."""
     lay = layout(type(block))
     check_lengths(block, lay)
     count = block.count
@@ -362,13 +326,10 @@ def expand(block, indices=None) -> Iterator[tuple]:
 
 
 def step_gaps(blocks) -> list[str]:
-    """Where consecutive blocks of one topic skip or repeat steps; empty when continuous.
+    """Where consecutive blocks (recorded order) skip or repeat steps; empty when continuous.
 
-    blocks: the block messages in recorded order (anything with first_step,
-    step_stride and count). A block continues the previous one when it
-    starts one stride after the previous block's last step (the stride of
-    the block itself, or the last one known for a one-sample block, so a
-    period change seen only through a one-sample block reads as a skip).
+    A block continues the previous one one stride after its last step (a one-sample block:
+    the last stride known).
     """
     problems: list[str] = []
     last_step, stride = None, 0

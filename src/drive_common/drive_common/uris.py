@@ -1,10 +1,4 @@
-"""``package://<pkg>/<path>`` file names, resolved the same way by every node and runner.
-
-Scenario files and parameter files name shipped data (motor files, back-EMF
-tables) this way so they work from a source checkout and from an installed
-workspace alike: the package's source tree first (a symlink install points
-there), else its installed share directory.
-"""
+"""``package://<pkg>/<path>`` file names: the package's source tree first, else its share directory."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,10 +7,7 @@ SCHEME = 'package://'
 
 
 def resolve_path(value: str) -> str:
-    """A plain path unchanged; ``package://<pkg>/<path>`` -> an absolute path.
-
-    Raises FileNotFoundError naming the URI when the package is unknown.
-    """
+    """A plain path unchanged; ``package://<pkg>/<path>`` -> an absolute path (FileNotFoundError)."""
     if not value.startswith(SCHEME):
         return value
     package, _, rel = value[len(SCHEME):].partition('/')

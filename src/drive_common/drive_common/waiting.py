@@ -1,9 +1,4 @@
-"""One waiting loop: poll a condition until it holds or a deadline passes.
-
-Every place that waits for the graph (matching, services, a recorder's
-subscriptions, a future) calls :func:`wait_until`; between polls it sleeps,
-or does useful work instead (``pause``: spin an executor, take messages).
-"""
+"""One waiting loop: poll a condition until it holds or a deadline passes."""
 from __future__ import annotations
 
 import threading
@@ -18,12 +13,9 @@ class WaitTimeout(TimeoutError):
 def wait_until(predicate: Callable[[], Any], timeout: float, interval: float = 0.01,
                what: str = 'condition', *, pause: Callable[[float], Any] = time.sleep,
                raise_timeout: bool = True) -> Any:
-    """Poll predicate until it returns a truthy value and return that value.
+    """Poll predicate (``pause(interval)`` between polls) until it returns a truthy value; that value.
 
-    timeout: s (monotonic clock); interval: s passed to ``pause`` between polls.
-    After timeout, raise :class:`WaitTimeout` naming ``what``, or, with
-    ``raise_timeout=False``, return the last (falsy) value. An exception of
-    predicate (e.g. a crashed peer) ends the wait at once.
+    After timeout s, :class:`WaitTimeout` naming ``what`` (raise_timeout False: the last value).
     """
     deadline = time.monotonic() + timeout
     while True:

@@ -1,16 +1,9 @@
 """Hysteresis phase-current control with six-step commutation of the BLDC of 000.
 
-The classic BLDC drive that 000 ch. I compares DTC with: two phases conduct
-at a time (120 deg six-step), the pair is chosen from the encoder angle, and
-a hysteresis comparator keeps the pair current within +-``current_band`` of
-I* = T* / k_t. With the ideal trapezoid, both conducting phases on their
-flat tops, T = 2 p K I (000 App. A: k_t = 2 p K = 0.2292 N m/A, see
-motors/ozturk_bldc.yaml). Bipolar chopping: +V_dc or -V_dc across the pair.
-
-``ros2 run drive_examples hysteresis_current_controller`` runs it as a
-node; docs/write_your_own_controller.md walks through this file. Its
-per-sample arithmetic, :func:`pair_current_step`, is compiled by numba as the
-stack's own cores are (``NUMBA_DISABLE_JIT=1``: the same code interpreted).
+The classic BLDC drive that 000 ch. I compares DTC with: two phases conduct (120 deg
+six-step), the pair chosen from the encoder angle, and a hysteresis comparator keeps the
+pair current within +-``current_band`` of I* = T* / k_t (000 App. A: k_t = 2 p K), chopping
++V_dc or -V_dc across the pair. docs/write_your_own_controller.md walks through this file.
 """
 import math
 
@@ -37,11 +30,8 @@ SCHEMA = schema([
 @njit
 def pair_current_step(encoder_angle, encoder_offset, i_a, i_b, i_c, torque_reference,
                       torque_constant, current_band, current_limit, chop):
-    """One sample of the comparator: (theta_e [rad], sector 0..5, pair current [A], chop +-1).
-
-    Sector from theta_e (sector 0 from 30 deg), I* = T*/k_t within +-current_limit, pair
-    current (i_plus - i_minus)/2 against I* +- current_band (chop held inside the band).
-    """
+    """One sample of the comparator (numba-compiled): (theta_e [rad], sector 0..5 from 30 deg,
+    pair current (i_plus - i_minus)/2 [A], chop +-1, held inside I* +- current_band)."""
     theta = (encoder_angle + encoder_offset) % (2.0 * math.pi)
     sector = int(((theta - math.pi / 6.0) % (2.0 * math.pi)) // (math.pi / 3.0)) % 6
     plus, minus = PAIRS[sector]

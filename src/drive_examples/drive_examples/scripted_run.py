@@ -1,10 +1,7 @@
 """A launch-free script that drives a running plant through its ``plant/run`` action.
 
-Start a plant and a controller (``ros2 run ...``), then
-``ros2 run drive_examples scripted_run --to 0.02 --then 0.01``: the plant runs
-to t = 0.02 s, holds, then runs 0.01 s more (a relative goal); each result is
-printed. :func:`drive_common.run_goal.run_to` recovers a goal or result reply
-lost right after discovery, and never runs a goal twice.
+``ros2 run drive_examples scripted_run --to 0.02 --then 0.01``: the plant runs to t = 0.02 s,
+holds, then runs 0.01 s more (a relative goal); each result is printed.
 """
 from __future__ import annotations
 

@@ -1,13 +1,7 @@
-"""``ros2 <command> <verb> ...``: argument parsing and dispatch.
+"""``ros2 <command> <verb> ...``: argparse dispatch to :mod:`drive_ros2cli.verbs`, as upstream ros2cli.
 
-Each command lives in :mod:`drive_ros2cli.verbs` (``node``, ``topic``,
-``param``, ``service``, ``action``, ``interface``, ``run``, ``pkg``,
-``bag``) and registers its verbs with argparse, so usage, ``-h`` and
-errors look like upstream ros2cli: a wrong argument or an unknown verb
-prints the usage and exits 2. A verb returns its exit code; a
-:class:`~drive_ros2cli.errors.CliError` prints its one-line message on
-stderr and exits 1 (upstream returns an error string, which Python prints
-and turns into exit code 1).
+A bad argument prints the usage and exits 2; a :class:`~drive_ros2cli.errors.CliError` prints
+its one-line message on stderr and exits 1.
 """
 from __future__ import annotations
 
@@ -58,8 +52,7 @@ def main(argv=None) -> int:
     parser = make_parser()
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)   # where a stuck verb hangs
-    # Ctrl-C ends a verb even when a non-interactive shell started it in the background,
-    # which leaves SIGINT ignored (Python then keeps it ignored).
+    # Ctrl-C ends a verb even when a non-interactive shell started it with SIGINT ignored
     signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return int(args.main(args) or 0)
@@ -68,9 +61,7 @@ def main(argv=None) -> int:
         return exc.code
     except KeyboardInterrupt:
         return int(signal.SIGINT)      # as upstream: Ctrl-C ends a streaming verb with code 2
-    except BrokenPipeError:
-        # The reader went away (`ros2 param list | head`): stop quietly, and keep Python's
-        # final flush of stdout from raising again at exit.
+    except BrokenPipeError:      # the reader went away (`ros2 param list | head`)
         silence_stdout()
         return 0
 

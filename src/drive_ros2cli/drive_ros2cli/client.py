@@ -1,18 +1,13 @@
-"""The command's own ROS node: discovery, graph queries and calls with time-outs.
-
-There is no ros2 daemon in the embedded set-up, so every command is a
-"direct node" (upstream ``--no-daemon``): it joins the graph, waits
-``--spin-time`` s for discovery (and until the graph stops changing, at
-most a few seconds more), then queries rclpy's graph API. The node is
-hidden (leading underscore) like upstream's, so it does not show in
-``ros2 node list``. Every remote call waits at most a stated time.
-"""
+"""The command's own hidden ROS node (no daemon: upstream's ``--no-daemon``): discovery for
+``--spin-time`` s and until the graph settles, graph queries, and calls with time-outs."""
 from __future__ import annotations
 
 import os
 import time
 from typing import Callable
 
+from drive_common.namespaces import full_name
+from drive_common.waiting import wait_until
 from drive_ros2cli.errors import CliError
 
 SETTLE_PERIOD = 1.0      # s the graph must stay unchanged to count as discovered
@@ -58,10 +53,6 @@ def split_node_name(full_name: str) -> tuple[str, str]:
     return name, namespace or '/'
 
 
-def join_node_name(name: str, namespace: str) -> str:
-    return namespace.rstrip('/') + '/' + name
-
-
 class CliNode:
     """Context manager: rclpy context + hidden node for one command."""
 
@@ -92,7 +83,6 @@ class CliNode:
         destroy_node_and_actions(self.node)    # (action verbs add an action client)
         rclpy.try_shutdown(context=self.context)
 
-    # ------------------------------------------------------------- discovery
     def _snapshot(self):
         """Nodes, topics with their endpoint counts, services: what discovery still adds to."""
         node = self.node
@@ -128,13 +118,9 @@ class CliNode:
             self.executor.spin_once(timeout_sec=min(left, 0.05))
 
     def wait_for(self, predicate: Callable[[], object], timeout: float) -> object:
-        """Spin until predicate() is truthy; return its value, or None after timeout s."""
-        deadline = time.monotonic() + timeout
-        while True:
-            value = predicate()
-            if value or time.monotonic() > deadline:
-                return value
-            self.executor.spin_once(timeout_sec=0.05)
+        """Spin until predicate() is truthy; its value (the last, falsy one after timeout s)."""
+        return wait_until(predicate, timeout, 0.05, pause=lambda t: self.executor.spin_once(timeout_sec=t),
+                          raise_timeout=False)
 
     def call(self, future, timeout: float, what: str):
         """Result of a future, spinning; CliError naming ``what`` after timeout s."""
@@ -147,10 +133,9 @@ class CliNode:
             raise CliError(f'{what}: {future.exception()}')
         return future.result()
 
-    # ------------------------------------------------------------ graph view
     def node_names(self, include_hidden: bool = False) -> list[str]:
         self.discover()
-        names = {join_node_name(n, ns) for n, ns in self.node.get_node_names_and_namespaces()}
+        names = {full_name(n, ns) for n, ns in self.node.get_node_names_and_namespaces()}
         return sorted(n for n in names if include_hidden or not is_hidden(n))
 
     def require_node(self, full_name: str, timeout: float = NAME_WAIT, include_hidden: bool = True) -> str:

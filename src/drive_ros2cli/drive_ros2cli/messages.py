@@ -1,17 +1,4 @@
-"""Interface types and message <-> YAML conversion (rosidl_runtime_py's job, not in the wheels).
-
-- :func:`interface_class` imports ``pkg/msg/Type``, ``pkg/srv/Type``,
-  ``pkg/action/Type`` (or ``pkg/Type`` for a message).
-- :func:`to_plain` turns a message into ordered plain Python data (field
-  order of the .msg file; arrays become lists, bytes become str) and
-  :func:`to_yaml` prints it the way upstream's ``message_to_yaml`` does
-  (block style, no key sorting).
-- :func:`fill` sets a message's fields from a mapping parsed from YAML, with
-  each value converted to the field's type; a wrong field name or value is a
-  CliError naming the field.
-- :func:`interface_text` is the installed ``.msg``/``.srv``/``.action`` file,
-  for ``ros2 interface show``.
-"""
+"""Interface types and message <-> YAML conversion (rosidl_runtime_py's job, not in the wheels)."""
 from __future__ import annotations
 
 import importlib
@@ -42,6 +29,7 @@ def split_type(type_name: str, default_kind: str = 'msg') -> tuple[str, str, str
 
 
 def interface_class(type_name: str, default_kind: str = 'msg'):
+    """The class of ``pkg/kind/Type`` (or ``pkg/Type`` of default_kind)."""
     pkg, kind, name = split_type(type_name, default_kind)
     try:
         return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
@@ -104,7 +92,7 @@ def _convert(field_type: str, value, where: str):
 
 
 def fill(msg, values, prefix: str = ''):
-    """Set msg's fields from a mapping (YAML-parsed); returns msg."""
+    """Set msg's fields from a mapping (YAML-parsed), converted to their types; returns msg."""
     if values is None:
         return msg
     if not isinstance(values, dict):

@@ -1,17 +1,6 @@
-"""``ros2 pkg create``: a new ament_python package, upstream ros2pkg's syntax, output and layout.
-
-``ros2 pkg create --build-type ament_python [--node-name N] [--dependencies D ...] NAME``
-writes, as upstream's ament_python template does::
-
-    NAME/package.xml  setup.py  setup.cfg  resource/NAME  NAME/__init__.py  [NAME/N.py]  test/
-
-``--template drive_controller`` (this project's addition) writes a drive
-controller skeleton over ``drive_common.controller_api`` instead of the empty
-node: a parameter schema, a ROS-free core and ``main = run_controller(...)``,
-and a test that steps the core without ROS (docs/write_your_own_controller.md).
-Upstream's lint tests (ament_copyright, ament_flake8, ament_pep257) are not
-generated: those packages are not part of the PyPI-wheel set-up.
-"""
+"""``ros2 pkg create``: a new ament_python package, upstream ros2pkg's syntax, output and layout
+(without its lint tests); ``--template drive_controller`` writes a controller skeleton and a
+core test instead of the empty node (docs/write_your_own_controller.md)."""
 from __future__ import annotations
 
 import getpass
@@ -62,20 +51,18 @@ def _maintainer_email(args) -> str:
 
 
 def package_xml(name: str, fmt: int, description: str, maintainer: str, email: str, license_: str,
-                depends: list[str], test_depends: list[str], build_type: str) -> str:
+                depends: list[str]) -> str:
+    """The package.xml of an ament_python package (the only build type created here)."""
     schema = (f'<?xml-model href="http://download.ros.org/schema/package_format{fmt}.xsd" '
-              'schematypens="http://www.w3.org/2001/XMLSchema"?>\n')
-    lines = ['<?xml version="1.0"?>', schema.rstrip('\n'), f'<package format="{fmt}">',
+              'schematypens="http://www.w3.org/2001/XMLSchema"?>')
+    lines = ['<?xml version="1.0"?>', schema, f'<package format="{fmt}">',
              f'  <name>{name}</name>', '  <version>0.0.0</version>',
              f'  <description>{description}</description>',
              f'  <maintainer email="{email}">{maintainer}</maintainer>', f'  <license>{license_}</license>', '']
-    if build_type == 'ament_cmake':
-        lines += ['  <buildtool_depend>ament_cmake</buildtool_depend>', '']
     if depends:
         lines += [f'  <depend>{d}</depend>' for d in depends] + ['']
-    if test_depends:
-        lines += [f'  <test_depend>{d}</test_depend>' for d in test_depends] + ['']
-    lines += ['  <export>', f'    <build_type>{build_type}</build_type>', '  </export>', '</package>', '']
+    lines += ['  <test_depend>python3-pytest</test_depend>', '', '  <export>',
+              '    <build_type>ament_python</build_type>', '  </export>', '</package>', '']
     return '\n'.join(lines)
 
 
@@ -233,7 +220,6 @@ def create_main(args) -> int:
     depends = list(args.dependencies)
     if args.template:
         depends = [d for d in CONTROLLER_DEPENDENCIES if d not in depends] + depends
-    test_depends = ['python3-pytest']
     print('going to create a new package')
     print('package name:', name)
     print('destination directory:', destination.resolve())
@@ -259,7 +245,7 @@ def create_main(args) -> int:
 
     folder(root)
     put(root / 'package.xml', package_xml(name, args.package_format, args.description, args.maintainer_name,
-                                          email, args.license, depends, test_depends, args.build_type))
+                                          email, args.license, depends))
     print('creating source folder')
     folder(root / name)
     put(root / 'setup.py', setup_py(name, node, args.maintainer_name, email, args.description, args.license))

@@ -1,12 +1,5 @@
-"""YAML for parameter values: floats stay floats in both directions.
-
-PyYAML follows YAML 1.1, which reads ``1e-06`` (no dot) as a string; rcl's
-parameter-file parser and YAML 1.2 read it as a float. :func:`load_yaml`
-reads such exponent forms as floats too, so ``ros2 param set /plant x 1e-06``
-and a hand-written parameter file mean what they say. :func:`dump_yaml`
-writes floats in a form every reader takes as float (``1.0e-06``: PyYAML's
-representer inserts the dot), arrays as lists, mappings in key order.
-"""
+"""YAML for parameter values: floats stay floats in both directions (``1e-06`` is a float, as
+for rcl and YAML 1.2, not PyYAML's YAML 1.1 string; dumped as ``1.0e-06``)."""
 from __future__ import annotations
 
 import re

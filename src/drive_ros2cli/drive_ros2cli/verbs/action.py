@@ -2,8 +2,9 @@
 from __future__ import annotations
 
 from drive_common.action_goals import goal_result, send_goal, within
+from drive_common.namespaces import full_name
 from drive_ros2cli import messages
-from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, join_node_name, print_names_and_types
+from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, absolute_name, print_names_and_types
 from drive_ros2cli.errors import CliError
 from drive_ros2cli.verbs import add_verb
 
@@ -54,7 +55,7 @@ def info_main(args) -> int:
             raise CliError(f"Unknown action '{name}'")
         clients, servers = [], []
         for node_name, namespace in cli.node.get_node_names_and_namespaces():
-            full = join_node_name(node_name, namespace)
+            full = full_name(node_name, namespace)
             for found, lookup in ((clients, get_action_client_names_and_types_by_node),
                                   (servers, get_action_server_names_and_types_by_node)):
                 for action, types in lookup(cli.node, node_name, namespace):
@@ -84,9 +85,7 @@ def send_goal_main(args) -> int:
         def on_feedback(feedback) -> None:
             print(f'Feedback:\n    {messages.to_yaml(feedback.feedback)}', flush=True)
 
-        # A reply lost right after discovery is recovered without sending the goal twice
-        # (the goal keeps its id; the action's status topic says whether it was accepted).
-        try:
+        try:         # a reply lost right after discovery is recovered, the goal never sent twice
             handle = send_goal(client, goal, wait=cli.wait_for, response_wait=args.timeout,
                                feedback=on_feedback if args.feedback else None)
         except TimeoutError as exc:

@@ -1,14 +1,5 @@
-"""``ros2 bag record|play|info|reindex`` on the project's recorder, replay and bag reader.
-
-rosbag2 ships no wheels: ``record`` runs ``drive_logger recorder`` and
-``play`` runs ``drive_logger replay`` (exec'd, so Ctrl-C reaches the node and
-the bag is finalized), with rosbag2's option names mapped to their
-parameters; ``info`` reads metadata.yaml through
-:class:`drive_logger.bag_reader.BagReader` (for a block topic also its
-samples, and any skipped or repeated steps between its blocks); ``reindex`` rebuilds the footer,
-summary and metadata.yaml of a bag whose recorder was killed
-(:mod:`drive_logger.bag_reindex`).
-"""
+"""``ros2 bag record|play|info|reindex`` on drive_logger's recorder, replay, reader and reindex
+(rosbag2 ships no wheels); record and play exec the node with rosbag2's options as parameters."""
 from __future__ import annotations
 
 import json
@@ -162,13 +153,7 @@ def info_main(args) -> int:
 
 
 def reindex_main(args) -> int:
+    from drive_logger import bag_reindex
     if not Path(args.bag_path).is_dir():
         raise CliError(f"bag '{args.bag_path}' is not a bag directory")
-    try:
-        from drive_logger import bag_reindex
-    except ImportError:
-        raise CliError('bag reindex needs drive_logger.bag_reindex, which this install lacks') from None
-    if hasattr(bag_reindex, 'main'):
-        return int(bag_reindex.main([args.bag_path]) or 0)
-    bag_reindex.reindex(args.bag_path)
-    return 0
+    return int(bag_reindex.main([args.bag_path]) or 0)

@@ -32,9 +32,7 @@ def all_interfaces() -> dict[str, list[str]]:
         for line in content.splitlines():
             kind, _, file = line.strip().partition('/')
             stem, _, suffix = file.rpartition('.')
-            if kind in found and suffix == kind:
-                found[kind].add(f'{package}/{kind}/{stem}')
-            elif kind in found and suffix == 'idl' and stem:
+            if kind in found and (suffix == kind or suffix == 'idl' and stem):
                 found[kind].add(f'{package}/{kind}/{stem}')
     return {k: sorted(v) for k, v in found.items()}
 

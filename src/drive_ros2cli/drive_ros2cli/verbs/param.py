@@ -1,19 +1,11 @@
-"""``ros2 param list|get|set|describe|dump|load`` through a node's parameter services.
-
-Calls go through rclpy's AsyncParameterClient (the services ros2cli
-calls), each with a time-out (``--timeout`` to find the node and its
-services, ``--service-timeout`` per call; default 5 s), so a node that
-advertises the services but never answers cannot hang the command.
-``dump`` writes the standard parameter-file YAML that ``load`` (this one
-and upstream's) reads back with the same types: floats always carry a dot
-or an exponent form read as float (``1.0e-06``), arrays stay lists, an
-empty array is loaded with the node's declared array type.
-"""
+"""``ros2 param list|get|set|describe|dump|load`` through rclpy's AsyncParameterClient, every
+call with a time-out; ``dump`` writes YAML that ``load`` reads back with the same types."""
 from __future__ import annotations
 
 import re
 import sys
 
+from drive_common.parameter_files import flatten
 from drive_ros2cli.client import DEFAULT_TIMEOUT, CliNode, add_node_arguments
 from drive_ros2cli.errors import CliError
 from drive_ros2cli.yaml_values import dump_yaml, load_yaml
@@ -149,12 +141,7 @@ def get_main(args) -> int:
 
 
 def format_get(value, hide_type: bool = False) -> str:
-    """The line `ros2 param get` prints for a ParameterValue, as upstream ros2param's get verb.
-
-    Integer and double arrays arrive as array.array; upstream prints them as
-    lists (``Double values are: [0.1, 0.0, 0.0]``, ros2cli PR 804), the other
-    arrays are lists already (bytes as ``[b'\\x01']``, booleans as ``[True]``).
-    """
+    """The line `ros2 param get` prints for a ParameterValue, as upstream (arrays as lists)."""
     label, attr = GET_LABELS[value.type]
     shown = getattr(value, attr)
     if hasattr(shown, 'tolist'):
@@ -249,17 +236,6 @@ def dump_main(args) -> int:
     return 0
 
 
-def _flatten(tree: dict, prefix: str = '') -> dict:
-    out = {}
-    for key, value in tree.items():
-        name = f'{prefix}.{key}' if prefix else str(key)
-        if isinstance(value, dict):
-            out.update(_flatten(value, name))
-        else:
-            out[name] = value
-    return out
-
-
 def parameters_for_node(document, node_name: str, use_wildcard: bool, path: str) -> dict:
     """Flat name -> value of node_name's ros__parameters in a parameter file (wildcard first)."""
     if not isinstance(document, dict):
@@ -272,7 +248,7 @@ def parameters_for_node(document, node_name: str, use_wildcard: bool, path: str)
             continue
         if not isinstance(entry, dict) or not isinstance(entry.get('ros__parameters'), dict):
             raise CliError(f"{path}: '{key}' has no ros__parameters mapping")
-        found.update(_flatten(entry['ros__parameters']))
+        found.update(flatten(entry['ros__parameters']))
     if not found and not any(k in document for k in keys):
         raise CliError(f'Param file does not contain parameters for {node_name}, '
                        f"only for nodes: {', '.join(map(str, document))}")
