@@ -1,15 +1,9 @@
 """ROS side of the plant's fault record: every fault logged and on /diagnostics when it happens.
 
-docs/architecture.md "Faults and diagnostics". The ROS-agnostic core counts
-faults in :class:`~bldc_plant_sim.core.faults.FaultRecord` and queues them; the
-plant node calls :meth:`FaultReporter.flush` after each tick (a no-op without
-a new fault) and :meth:`FaultReporter.report` for the faults it detects itself
-(a late, invalid or malformed command, a lost controller). Each fault gives, at
-its sim time, an ERROR log line, an ERROR DiagnosticStatus ``plant: faults``
-(sim_time, step, kind, node and the event's own values) and the PlantState
-fault fields. A safe-state exit is logged at INFO with an OK status. Repeats
-of one kind are shown at most once per REPEAT_PERIOD of sim time (the next
-report says how many were left out); every one is counted.
+docs/faults.md: the core queues faults in :class:`~bldc_plant_sim.core.faults.FaultRecord`;
+the node calls :meth:`FaultReporter.flush` after each tick and :meth:`FaultReporter.report` for
+faults it detects itself. Each gives an ERROR log line and a ``plant: faults`` status at its sim
+time (a safe-state exit: INFO / OK); repeats of a kind are shown at most once per REPEAT_PERIOD.
 """
 from __future__ import annotations
 
@@ -64,13 +58,8 @@ def run_end(core, counts_before: list[int]) -> RunEnd:
 
 
 class FaultReporter:
-    """Logs and diagnoses the fault events of a plant core (see the module docstring).
-
-    node: the rclpy node (logger, /diagnostics publisher owner); core: its PlantCore
-    (read each time: the node may replace nothing but its fields change);
-    node_of(kind): the node a core-detected fault is attributed to (e.g. the gate
-    command publisher for a shoot-through), '' for the plant itself.
-    """
+    """Logs and diagnoses the fault events of the core core_of() returns (module docstring);
+    node_of(kind): the node a core-detected fault is attributed to ('' for the plant itself)."""
 
     def __init__(self, node, core_of: Callable[[], object], publish: Callable[[DiagnosticArray], None],
                  node_of: Callable[[FaultKind], str] | None = None) -> None:
@@ -84,16 +73,11 @@ class FaultReporter:
 
     def report(self, kind: FaultKind, message: str, node: str = '',
                values: dict[str, str] | None = None) -> bool:
-        """Record a fault the node detected (at the core's sim time) and report it now.
-
-        The helper for faults seen outside the core (command timeout, invalid or
-        malformed command, lost controller, an intruder on a lockstep topic).
-        Returns whether it was shown (False: a repeat within REPEAT_PERIOD, counted only).
-        """
+        """Record a fault the node detected, at the core's sim time, and report it now; whether it
+        was shown (False: a repeat within REPEAT_PERIOD, counted only)."""
         core = self._core_of()
         event = core.faults.record(kind, core.time, core.step, message, node, **(values or {}))
-        shown = self.flush(until=event)
-        return shown
+        return self.flush(until=event)
 
     def flush(self, until: FaultEvent | None = None) -> bool:
         """Log and diagnose the core's queued events; whether `until` (if given) was shown."""

@@ -1,13 +1,9 @@
 """The ``plant`` node: lockstep time master over the ROS-agnostic PlantCore.
 
-docs/architecture.md "Time and lockstep" and "Faults and diagnostics". A thin
-node over named parts: :mod:`.lockstep_loop` (the stepping thread, channels,
-pipelining, command waits and their faults), :mod:`.run_action` (plant/run and
-run_until), :mod:`.peer_watch` (peers awaited, bound, named; a second graph),
-:mod:`.parameter_merging` (parameters and motor files) and
-:mod:`.faults_reporting` (faults and diagnostics). The node itself publishes
-ground truth and /clock, serves plant/reset_protection and stops cleanly:
-:meth:`PlantNode.stop` ends a run and waits for it (Ctrl-C at any moment).
+A thin node over :mod:`.lockstep_loop` (stepping thread), :mod:`.run_action` (plant/run,
+run_until), :mod:`.peer_watch` (peers), :mod:`.parameter_merging` (parameters, motor files) and
+:mod:`.faults_reporting` (faults, diagnostics). It publishes ground truth and /clock, serves
+plant/reset_protection and stops cleanly (:meth:`PlantNode.stop`, Ctrl-C at any moment).
 """
 from __future__ import annotations
 
@@ -90,8 +86,6 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._state_msg = ReusedMessage(PlantState)
         self._state_lock = threading.RLock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
-        # Every fault logged + on /diagnostics at its sim time (faults_reporting.py); also
-        # the helper for faults found on the receive side: self.faults.report(kind, ...).
         self.faults = FaultReporter(self, lambda: self.core, self._diag_pub.publish,
                                     lambda kind: self._sources(ControllerKind.GATE)
                                     if kind == FaultKind.SHOOT_THROUGH else '')
@@ -140,9 +134,8 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         if self._clock_due():
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
             if not self._clock_acked:
-                # Once: every /clock reader (a recorder) has matched this node from its own
-                # side before the run goes on; a reader that matches a publisher only after
-                # its first samples went out never gets them (the start check sees our side).
+                # Once: every /clock reader (a recorder) matched from its own side, or it
+                # would miss the first samples.
                 self._clock_acked = True
                 if not self._clock_pub.wait_for_all_acked(Duration(seconds=FIRST_CLOCK_ACK_WAIT)):
                     self.get_logger().warning(
@@ -164,9 +157,7 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self.get_logger().info(f'plant/reset_protection at t = {self.core.time:.6f} s: {message}')
         if not self._running:                # else the stepping thread reports it after its tick
             self.faults.flush()              # the safe-state exit, if the reset ended one
-        # Sim time holds: the blocks are complete up to here; the reset's extra
-        # sample of the same step goes out on the live topic only (a block
-        # would repeat the step).
+        # The reset's extra sample of this step goes out on the live topic only.
         self._flush_state_block()
         with self._state_lock:
             self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))

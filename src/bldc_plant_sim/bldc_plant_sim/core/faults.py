@@ -1,14 +1,9 @@
 """The plant's fault record (pure Python): every fault counted, the first one latched.
 
-docs/architecture.md "Faults and diagnostics". A fault is anything that makes a
-run not a good one: a protection trip (detected inside the integration by the
-core), a shoot-through request, or a controller's command that is invalid,
-late or gone (detected by the node, recorded here too). The record keeps a
-counter per :class:`FaultKind` and the total (PlantState ``fault_count``,
-``fault_counts[kind]``), the first fault's kind, sim time and text (NaN /
-FAULT_NONE while there is none), and a bounded queue of new :class:`FaultEvent` s
-that the ROS node drains after each tick to log and diagnose them (the headless
-runner may ignore it). The no-fault path costs nothing per tick.
+docs/faults.md: a protection trip, a shoot-through request, or a controller's command that is
+invalid, late or gone. The record keeps a counter per :class:`FaultKind` and the total
+(PlantState ``fault_count``, ``fault_counts``), the first fault's kind, time and text, and a
+bounded queue of new :class:`FaultEvent` s that the ROS node drains after each tick.
 """
 from __future__ import annotations
 
@@ -118,11 +113,8 @@ class FaultRecord:
         return f'{self.first_kind.label} (first fault at t = {self.first_time:.6f} s: {self.first_text})'
 
     def end_state(self, total_before: int = 0, active: bool = False) -> str:
-        """How a run ended: 'ended normally' or 'ended in fault state <kind> (first fault ...)'.
-
-        A run ended in a fault state when a fault was recorded since total_before
-        (the total at its start) or a protection / safe state is still active.
-        """
+        """'ended normally', or 'ended in fault state <kind> (first fault ...)' after a fault since
+        the total was total_before or with a protection / safe state active."""
         if self.total == total_before and not active:
             return 'ended normally'
         if self.first_kind == FaultKind.NONE:
