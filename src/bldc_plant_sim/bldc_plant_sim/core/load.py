@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .dc_link import array_slot
-from .link_kernel import LD_SIZE, LD_MODE, LD_SPEED, LD_TORQUE, LD_VISCOUS, shaft_step
+from .link_kernel import LD_SIZE, LD_MODE, LD_SPEED, LD_TORQUE, LD_VISCOUS
 
 MODES = ('torque', 'viscous', 'dynamometer')
 
@@ -44,8 +44,3 @@ class LoadMachine:
         if self.mode == 'viscous':
             return self.viscous * w
         return 0.0
-
-    def step(self, inertia: float, friction: float, w0: float, te: float, dt: float):
-        """Advance the shaft over dt with average T_e = te (:func:`.link_kernel.shaft_step`):
-        (w1, w_avg, t_load, friction_energy, load_energy)."""
-        return shaft_step(self.x, inertia, friction, w0, te, dt)
