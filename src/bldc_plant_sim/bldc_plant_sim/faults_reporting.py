@@ -8,13 +8,12 @@ time (a safe-state exit: INFO / OK); repeats of a kind are shown at most once pe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
-from bldc_plant_sim.core.faults import FaultEvent, FaultKind, FaultRecord
+from bldc_plant_sim.core.faults import FaultEvent, FaultKind
 from drive_common.conversions import time_msg
 
 REPEAT_PERIOD = 0.1      # s of sim time between two shown reports of one fault kind
@@ -29,32 +28,6 @@ def diagnostic_array(name: str, level: bytes, message: str, values: dict[str, st
     status = DiagnosticStatus(level=level, name=name, message=message, hardware_id=HARDWARE_ID,
                               values=[KeyValue(key=k, value=v) for k, v in values.items()])
     return DiagnosticArray(header=Header(stamp=time_msg(sim_time)), status=[status])
-
-
-@dataclass(frozen=True)
-class RunEnd:
-    """How a run ended (Run.Result end_state / fault_count / first_fault_time / first_fault)."""
-
-    end_state: str           # 'ended normally' or 'ended in fault state <kind> (first fault ...)'
-    fault_count: int         # faults recorded during the run
-    first_fault_time: float  # s, the plant's first fault (NaN if none)
-    first_fault: str         # its kind label ('' if none)
-    fault_kinds: tuple = ()  # kind labels of the faults recorded during the run
-
-    @property
-    def faulted(self) -> bool:
-        return self.end_state != 'ended normally'
-
-
-def run_end(core, counts_before: list[int]) -> RunEnd:
-    """The end state of a run that started with core.faults.counts == counts_before."""
-    record: FaultRecord = core.faults
-    active = bool(core.protection) or core.in_safe_state
-    first = record.first_kind
-    kinds = record.kinds_since(counts_before)
-    before = sum(counts_before)
-    return RunEnd(record.end_state(before, active), record.since(before),
-                  record.first_time, first.label if first else '', kinds)
 
 
 class FaultReporter:

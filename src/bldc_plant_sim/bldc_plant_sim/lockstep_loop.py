@@ -10,16 +10,15 @@ from __future__ import annotations
 
 import struct
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from bldc_plant_sim.core.faults import FaultKind
+from bldc_plant_sim.core.faults import FaultKind, run_end
 from bldc_plant_sim.core.lockstep import ControllerKind
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.faults_reporting import run_end
 from drive_common import topics
 from drive_common.conversions import sec_nanosec
 from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver
@@ -101,36 +100,27 @@ class WaitReporter:
             self._logger.info(f'waiting {now - self._start:.0f} s {self._limit} for {what}')
 
 
-class _Inbox:
-    """Latest command per step from the controller bound by ``binding`` (drive_common.peer_binding)."""
-
-    def __init__(self, binding: PeerBinding) -> None:
-        self.commands: dict[int, Any] = {}
-        self.binding = binding
-
-    def put(self, msg) -> None:
-        self.commands[msg.step] = msg
-
-    def take(self, step: int):
-        msg = self.commands.pop(step, None)
-        if msg is not None or len(self.commands) > 64:
-            for stale in [s for s in self.commands if s < step]:
-                del self.commands[stale]
-        return msg
-
-
 @dataclass
 class _Channel:
     """One controller's side of the lockstep: its endpoints, commands and the one being computed."""
 
     kind: ControllerKind
     spec: ChannelSpec
-    inbox: _Inbox
+    binding: PeerBinding                        # the controller whose commands are taken
     publisher: Any                              # of the measurements (raw CDR bytes)
     wire: LockstepWire                          # measurement sample -> CDR bytes
     subscription: Any = None                    # of the commands (received by the stepping thread)
     awaiting: tuple[int, float] | None = None   # pipelined: (step, deadline) of the pending command
     last_sent: bytes = b''                      # the last measurement, serialized
+    commands: dict = field(default_factory=dict)   # latest command message per step
+
+    def take(self, step: int):
+        """The command message of step, or None; older ones are dropped as stale."""
+        msg = self.commands.pop(step, None)
+        if msg is not None or len(self.commands) > 64:
+            for stale in [s for s in self.commands if s < step]:
+                del self.commands[stale]
+        return msg
 
     def send(self, data: bytes) -> None:
         """Publish a measurement (kept for a resend to a controller that matched late)."""
@@ -148,10 +138,9 @@ class LockstepLoop:
         for kind, spec in CHANNELS.items():
             publisher = self.create_publisher(spec.measurement_type, spec.measurement_topic,
                                               topics.LOCKSTEP_QOS)
-            inbox = _Inbox(PeerBinding(self, spec.command_topic, spec.measurement_topic,
-                                       report=self._diagnose_intruder,
-                                       may_bind=lambda: self._conflict is None))
-            channel = _Channel(kind, spec, inbox, publisher,
+            binding = PeerBinding(self, spec.command_topic, spec.measurement_topic,
+                                  report=self._diagnose_intruder, may_bind=lambda: self._conflict is None)
+            channel = _Channel(kind, spec, binding, publisher,
                                LockstepWire(spec.measurement_type, spec.measurement_sample))
             channel.subscription = self.create_subscription(
                 spec.command_type, spec.command_topic, self._receive(channel),
@@ -174,18 +163,18 @@ class LockstepLoop:
         """The node is being stopped (Ctrl-C, SIGTERM, stop()): a clean end, logged at INFO."""
         return self._stopping.is_set() or not rclpy.ok(context=self.context)
 
-    def _await(self, inbox: _Inbox, step: int, deadline: float | None):
+    def _await(self, channel: _Channel, step: int, deadline: float | None):
         """The command for step, waiting until deadline (None: FAULTED_GLANCE from now)."""
-        msg = inbox.take(step)
+        msg = channel.take(step)
         if msg is None and deadline is None:
             deadline = time.monotonic() + FAULTED_GLANCE
         while msg is None:
             remaining = deadline - time.monotonic()
             if remaining <= 0.0 or self._halted():
                 self._receiver.poll(0.0)
-                return inbox.take(step)
+                return channel.take(step)
             self._receiver.poll(min(remaining, 0.05))
-            msg = inbox.take(step)
+            msg = channel.take(step)
         return msg
 
     def _first_answer(self, channel: _Channel, k: int) -> Any:
@@ -194,7 +183,7 @@ class LockstepLoop:
         timeout = self.parameters['startup_timeout']
         deadline = self._run_started + timeout      # the whole start-up shares one timeout
         while True:
-            msg = self._await(channel.inbox, k, min(deadline, time.monotonic() + topics.FIRST_ANSWER_RESEND))
+            msg = self._await(channel, k, min(deadline, time.monotonic() + topics.FIRST_ANSWER_RESEND))
             if msg is not None:
                 return msg
             halted = self._halted()
@@ -261,7 +250,7 @@ class LockstepLoop:
             if not self._interrupted():      # (publishing fails once the context is shut down)
                 self.faults.flush()
                 for channel in self._channels.values():
-                    channel.inbox.binding.flush()    # an intruder that sent and left, by gid
+                    channel.binding.flush()    # an intruder that sent and left, by gid
             self.last_run_end = run_end(self.core, faults_before)
             self.last_run_started = not self._start_failed or self.core.step != first_step
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
@@ -280,12 +269,12 @@ class LockstepLoop:
         """The due, valid command of one controller, or None (safe state): its first in a run
         waits for readiness; a silent or invalid one is faulted once, until a valid command
         (a silent one is then waited for only FAULTED_GLANCE per due sample)."""
-        which, inbox = channel.kind, channel.inbox
+        which = channel.kind
         if which in self._startup_pending:
             msg = self._first_answer(channel, k)
             self._startup_pending.discard(which)
         else:
-            msg = self._await(inbox, k, None if which in self._silent else deadline)
+            msg = self._await(channel, k, None if which in self._silent else deadline)
             if msg is None and self._halted():
                 return None           # the run ends (Ctrl-C, shutdown): no command is missing
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
@@ -309,13 +298,13 @@ class LockstepLoop:
         return msg
 
     def _receive(self, channel: _Channel):
-        """The raw callback of a command topic: decode into the inbox; an undecodable message is
+        """The raw callback of a command topic: decode into channel.commands; an undecodable one is
         dropped as a malformed_command fault (its step then times out)."""
-        spec, inbox = channel.spec, channel.inbox
+        spec = channel.spec
         wire = LockstepWire(spec.command_type, spec.command_sample)
 
         def receive(data: bytes, publisher: bytes) -> None:
-            if not inbox.binding.accepts(publisher):
+            if not channel.binding.accepts(publisher):
                 return                       # not the bound controller: ignored (reported once)
             try:
                 command = wire.decode(data)[0]
@@ -324,7 +313,7 @@ class LockstepLoop:
                                    f'{spec.command_topic}: malformed message dropped: {exc}',
                                    self._sources(channel.kind), {'controller': channel.kind.value})
                 return
-            inbox.put(command)
+            channel.commands[command.step] = command
         return receive
 
     def _tick(self) -> None:

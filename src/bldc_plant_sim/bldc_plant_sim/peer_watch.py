@@ -43,9 +43,9 @@ class PeerWatch:
         """The node(s) publishing this controller's commands, for a diagnostic (one that left
         the graph named as the last one seen)."""
         channel = getattr(self, '_channels', {}).get(which)
-        if channel is not None and channel.inbox.binding.bound:
-            self._last_sources[which] = channel.inbox.binding.peer_name
-            return channel.inbox.binding.peer_name
+        if channel is not None and channel.binding.bound:
+            self._last_sources[which] = channel.binding.peer_name
+            return channel.binding.peer_name
         infos = self.get_publishers_info_by_topic(CHANNELS[ControllerKind(which)].command_topic)
         names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name) for i in infos
                                   if not _unknown_node(i.node_name, i.node_namespace)}))
@@ -59,7 +59,7 @@ class PeerWatch:
 
     def _graph_conflict(self) -> str | None:
         """A second graph in the domain, or None (once a controller is bound: intruders reported)."""
-        bindings = [channel.inbox.binding for channel in self._channels.values()]
+        bindings = [channel.binding for channel in self._channels.values()]
         if any(b.bound for b in bindings):
             for binding in bindings:
                 binding.check()

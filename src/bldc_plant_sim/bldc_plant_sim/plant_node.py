@@ -16,11 +16,10 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from bldc_plant_sim.core.faults import FaultKind
+from bldc_plant_sim.core.faults import FaultKind, RunEnd
 from bldc_plant_sim.core.lockstep import ControllerKind, LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.faults_reporting import (LOCKSTEP_DIAGNOSTIC_NAME, FaultReporter, RunEnd,
-                                             diagnostic_array)
+from bldc_plant_sim.faults_reporting import LOCKSTEP_DIAGNOSTIC_NAME, FaultReporter, diagnostic_array
 from bldc_plant_sim.lockstep_loop import LockstepLoop
 from bldc_plant_sim.parameter_merging import ParameterMerging
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params

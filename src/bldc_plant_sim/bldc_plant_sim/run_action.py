@@ -8,7 +8,7 @@ from __future__ import annotations
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 
-from bldc_plant_sim.faults_reporting import run_end
+from bldc_plant_sim.core.faults import run_end
 from drive_common import topics
 from dtc_msgs.action import Run
 

@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .faults import run_end
 from .lockstep import LockstepSchedule, ticks_of
 from .front_end_kernel import FV_PROT
 from .plant import FRONT_END_FIELDS, PlantCore, PlantStateSample, front_extras, state_sample, sv_slots
@@ -368,12 +369,9 @@ class CoSimulation:
 
     def _judge_end(self) -> None:
         """The trajectory's end state, as the plant node says it for a run."""
-        plant, tr = self.plant, self.trajectory
-        record = plant.faults
-        record.drain()                      # nobody reports them here; the counters keep them
-        before = self._counts_start
-        tr.fault_kinds = record.kinds_since(before)
-        tr.end_state = record.end_state(sum(before), bool(plant.protection) or plant.in_safe_state)
+        self.plant.faults.drain()           # nobody reports them here; the counters keep them
+        end = run_end(self.plant, self._counts_start)
+        self.trajectory.end_state, self.trajectory.fault_kinds = end.end_state, end.fault_kinds
 
 
 def run_headless(params: dict, dtc=None, pfc=None, duration: float = 0.01, **kwargs) -> Trajectory:
