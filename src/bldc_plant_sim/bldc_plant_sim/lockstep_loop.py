@@ -11,6 +11,7 @@ from __future__ import annotations
 import struct
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, Callable
 
 import rclpy
@@ -139,7 +140,8 @@ class LockstepLoop:
             publisher = self.create_publisher(spec.measurement_type, spec.measurement_topic,
                                               topics.LOCKSTEP_QOS)
             binding = PeerBinding(self, spec.command_topic, spec.measurement_topic,
-                                  report=self._diagnose_intruder, may_bind=lambda: self._conflict is None)
+                                  report=partial(self._diagnose, DiagnosticStatus.WARN),   # intruders
+                                  may_bind=lambda: self._conflict is None)
             channel = _Channel(kind, spec, binding, publisher,
                                LockstepWire(spec.measurement_type, spec.measurement_sample))
             channel.subscription = self.create_subscription(
@@ -155,9 +157,7 @@ class LockstepLoop:
 
     def _halted(self) -> str | None:
         """Why the run must end now (stop, shutdown, a second graph), or None."""
-        if self._stopping.is_set() or not rclpy.ok(context=self.context):
-            return 'plant shutting down'
-        return self._conflict
+        return 'plant shutting down' if self._interrupted() else self._conflict
 
     def _interrupted(self) -> bool:
         """The node is being stopped (Ctrl-C, SIGTERM, stop()): a clean end, logged at INFO."""
@@ -257,7 +257,7 @@ class LockstepLoop:
             # pending commands: the next run re-publishes a sample it did not finish.
             for channel in self._channels.values():
                 channel.awaiting = None
-            self._flush_state_block()     # sim time holds: a bag taken now has every sample
+            self._telemetry.flush()     # sim time holds: a bag taken now has every sample
             self._running = False
 
     def _drain(self) -> None:

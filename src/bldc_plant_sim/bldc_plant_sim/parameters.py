@@ -20,10 +20,8 @@ from drive_common.telemetry import TELEMETRY_PARAMETERS
 MOTORS_DIR = Path(__file__).resolve().parent.parent / 'motors'
 """Motor files in the source tree (the symlink install points back here)."""
 
-# 000 Appendix A: lambda_f = 0.1146 Wb is the line-to-line peak back-EMF
-# constant per electrical rad/s (= phase flat top per mechanical rad/s, as
-# p = 2); the phase flat top per electrical rad/s is lambda_f / 2. Pinned by
-# test_motor_files.py with T = 2 p K I = 1.28352 N m at 5.6 A.
+# 000 Appendix A: lambda_f = 0.1146 Wb is the line-to-line peak per electrical rad/s; the phase
+# flat top is lambda_f / 2 (test_motor_files.py: T = 2 p K I = 1.28352 N m at 5.6 A).
 OZTURK_K_PHASE = 0.1146 / 2.0
 
 MOTOR_FILE_EXTRAS = ('protection.peak_current',)
@@ -314,13 +312,10 @@ def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | 
     file_name = requested['motor.file']
     file_changed = start or file_name != before['motor.file']
     new_file = load_motor_file(file_name) if file_name else {}
-    if file_changed:
-        old_file = load_motor_file(before['motor.file']) if before['motor.file'] and not start else {}
-    else:
-        old_file = {}
-    governed = set(new_file) | set(old_file)
+    old_file = (load_motor_file(before['motor.file'])
+                if file_changed and before['motor.file'] and not start else {})
     values = dict(requested)
-    for name in governed:
+    for name in set(new_file) | set(old_file):
         if name in explicit or requested[name] != before[name]:
             continue                                    # set in this snapshot: overrides the file
         if file_changed:

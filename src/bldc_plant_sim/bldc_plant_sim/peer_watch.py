@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import time
 
-from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 
 from bldc_plant_sim.core.lockstep import ControllerKind
@@ -74,10 +73,6 @@ class PeerWatch:
         if reason:
             self._conflict, self._refused = reason, True
             raise GraphConflict(reason)      # once: run_node reports it and exits 2
-
-    def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
-        """Another publisher on a bound lockstep topic, once (WARN)."""
-        self._diagnose(DiagnosticStatus.WARN, message, values)
 
     def _wait_for_recorders(self, outputs, deadline: float, report: WaitReporter) -> None:
         """Before the first run, until every recorder in the graph matched the plant's publishers

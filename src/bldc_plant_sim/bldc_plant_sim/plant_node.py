@@ -100,7 +100,7 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         if self._busy.acquire(timeout=STOP_WAIT):
             self._busy.release()
         try:
-            self._flush_state_block()
+            self._telemetry.flush()
         except Exception:  # noqa: BLE001 - the context may already be shut down
             pass
 
@@ -141,10 +141,6 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
                         f'a /clock reader did not acknowledge the first /clock within '
                         f'{FIRST_CLOCK_ACK_WAIT:g} s: it may miss the first samples')
 
-    def _flush_state_block(self) -> None:
-        """Publish the partial block (sim time holds: end of a run, reset, stop)."""
-        self._telemetry.flush()
-
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
         """A 'plant: lockstep' status on /diagnostics at the current sim time."""
         self._diag_pub.publish(diagnostic_array(LOCKSTEP_DIAGNOSTIC_NAME, level, message, values,
@@ -157,7 +153,7 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         if not self._running:                # else the stepping thread reports it after its tick
             self.faults.flush()              # the safe-state exit, if the reset ended one
         # The reset's extra sample of this step goes out on the live topic only.
-        self._flush_state_block()
+        self._telemetry.flush()          # sim time holds: the partial block goes out
         with self._state_lock:
             self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))
         self._publish_clock()

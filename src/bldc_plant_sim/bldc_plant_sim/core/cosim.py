@@ -76,9 +76,6 @@ class FrontRecords:
         return [{**extras, **f, **front_extras(row), 'protection': base | int(row[FV_PROT])}
                 for row, f in zip(self.values[:len(steps)].tolist(), faults)]
 
-    def pfc(self, steps: list, build) -> list:
-        return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.pfc_due[:len(steps)].tolist()))]
-
     def column(self, name: str, steps: np.ndarray, extras: dict) -> np.ndarray | None:
         n = len(steps)
         if name == 'protection':
@@ -92,6 +89,11 @@ class FrontRecords:
 _FRONT_SLOTS = {name: slot for name, slot, _ in FRONT_END_FIELDS}
 
 
+def _built_if_due(steps: list, due: np.ndarray, build) -> list:
+    """build(step, row) of each due record, None for the others."""
+    return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, due[:len(steps)].tolist()))]
+
+
 class RecordBlock:
     """Records of compiled ticks as arrays; objects are built only when asked for.
 
@@ -102,9 +104,9 @@ class RecordBlock:
 
     def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate, columns=None,
                  front=None) -> None:
-        self.steps_, self.base_tick, self.sv, self.applied, self.extras = steps, base_tick, sv, applied, extras
-        self.due, self.status, self.gate, self.columns = due, status, gate, columns
-        self.front = front
+        self.steps_, self.base_tick, self.sv, self.applied = steps, base_tick, sv, applied
+        self.extras, self.due, self.status, self.gate = extras, due, status, gate
+        self.columns, self.front = columns, front
         self.n = len(steps)
 
     def __len__(self) -> int:
@@ -123,14 +125,14 @@ class RecordBlock:
             return [k * self.base_tick for k in steps]
         if name == 'states':
             extras = front.extras(steps, self.extras) if front is not None else [self.extras] * n
-            return [state_sample(k, v, a, x) for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
+            return [state_sample(k, v, a, x)
+                    for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
         if name == 'pfc_status':
-            return front.pfc(steps, front.pfc_status) if front is not None else [None] * n
-        build = self.status if name == 'dtc_status' else self.gate
-        seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
+            return _built_if_due(steps, front.pfc_due, front.pfc_status) if front is not None else [None] * n
+        seq = _built_if_due(steps, self.due, self.status if name == 'dtc_status' else self.gate)
         if name == 'dtc_status':
             return seq
-        duties = front.pfc(steps, front.duty) if front is not None else [None] * n
+        duties = _built_if_due(steps, front.pfc_due, front.duty) if front is not None else [None] * n
         return list(zip(seq, duties))
 
     def status_columns(self, which: str) -> dict | None:

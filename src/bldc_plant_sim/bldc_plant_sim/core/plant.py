@@ -95,6 +95,10 @@ FRONT_END_FIELDS = (('grid_voltage', FK.FV_GRID_V, float), ('grid_current', FK.F
                     ('energy_grid_input', FK.FV_E_GRID, float), ('energy_front_end_loss', FK.FV_E_LOSS, float))
 
 
+NO_FRONT_END = {name: getattr(PlantStateSample(0), name) for name, _, _ in FRONT_END_FIELDS}
+"""PlantState's front-end fields without a front end (their defaults: NaN, 0, False)."""
+
+
 def front_extras(fv: list) -> dict:
     """PlantState's front-end fields from a front_end_values row (FV_* order)."""
     return {name: kind(fv[slot]) for name, slot, kind in FRONT_END_FIELDS}
@@ -162,7 +166,6 @@ class PlantCore:
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
         self._buf = np.zeros(K.B_SIZE)     # every float array the kernels use (plant_kernel B_*)
         self.st = self._buf[K.B_ST:K.B_DC]
-        self._res = self._buf[K.B_RES:K.B_SIZE]
         self._prm = self._buf[K.B_PRM:K.B_SV]
         self._sv = self._buf[K.B_SV:K.B_RES]
         self._head = self.st[K.ST_I:K.ST_TH + 1]          # i_a, i_b, i_c, w, theta (drive_sample)
@@ -172,7 +175,6 @@ class PlantCore:
         self.omega = p['motor.initial_speed']
         if self.load.dynamometer:
             self.omega = self.load.speed
-        self.accel = 0.0
         self._count0 = self.sensors.encoder_count(self.theta_m)
         self._t_load = self.load.load_torque(self.omega)
         self._safe = 0
@@ -192,7 +194,6 @@ class PlantCore:
 
     omega = array_slot(K.ST_W, 'mechanical speed [rad/s]', 'st')
     theta_m = array_slot(K.ST_TH, 'mechanical angle [rad]', 'st')
-    accel = array_slot(K.ST_ACC, 'last segment acceleration [rad/s^2]', 'st')
     _t_load = array_slot(K.ST_TL, 'load torque [N m]', 'st')
     _elapsed = array_slot(K.ST_EL, 'time integrated in the current tick [s]', 'st')
 
@@ -460,9 +461,7 @@ class PlantCore:
             FK.front_end_values(fe.fp, fe.fx, self.time, self._fv)
             front = front_extras(self._fv.tolist())
         else:
-            front = dict(grid_voltage=NAN, grid_current=NAN, rectified_voltage=NAN, inductor_current=NAN,
-                         boost_duty=0.0, boost_switch_enabled=False, energy_grid_input=0.0,
-                         energy_front_end_loss=0.0)
+            front = NO_FRONT_END
         return dict(front, protection=self.protection, safe_state=self.in_safe_state,
                     **fault_extras(self.faults))
 
