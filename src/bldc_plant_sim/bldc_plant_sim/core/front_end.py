@@ -67,7 +67,6 @@ class FrontEndLedger:
     switch = array_slot(FK.FX_SWITCH, 'R_on i_L^2')
     diode = array_slot(FK.FX_DIODE, 'V_fd i_L')
     numerical = array_slot(FK.FX_NUM, 'energy of the snaps onto event surfaces (~1e-20 J)')
-    _SLOTS = slice(FK.FX_GRID, FK.FX_NUM + 1)
 
     def __init__(self, x: np.ndarray | None = None) -> None:
         self.x = np.zeros(FK.FX_SIZE) if x is None else x
@@ -128,23 +127,9 @@ class FrontEnd:
         self.fp[FK.FP_LOG] = 1.0 if value else 0.0
 
     @property
-    def energy(self) -> FrontEndLedger:
-        return self._energy
-
-    @energy.setter
-    def energy(self, ledger: FrontEndLedger) -> None:
-        """Take over another ledger's values (a rebuilt front end keeps its ledger)."""
-        self.fx[FrontEndLedger._SLOTS] = ledger.x[FrontEndLedger._SLOTS]
-        self._energy = FrontEndLedger(self.fx)
-
-    @property
     def event_counts(self) -> dict[str, int]:
         """Events counted since start, by kind (KIND_NAMES)."""
         return {name: int(n) for name, n in zip(KIND_NAMES, self.fx[FK.FX_COUNTS:].tolist())}
-
-    @event_counts.setter
-    def event_counts(self, counts: dict) -> None:
-        self.fx[FK.FX_COUNTS:] = [counts[name] for name in KIND_NAMES]
 
     @property
     def last_event(self) -> tuple[float, str]:

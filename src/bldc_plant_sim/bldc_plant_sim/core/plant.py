@@ -278,8 +278,8 @@ class PlantCore:
         fe.i_L = old.i_L
         fe.duty, fe.enable = old.duty, old.enable
         fe.over_current, fe.over_voltage = old.over_current, old.over_voltage
-        fe.energy = old.energy
-        fe.events, fe.event_counts = old.events, old.event_counts
+        fe.fx[FK.FX_GRID:] = old.fx[FK.FX_GRID:]     # the energy ledger and the event counts
+        fe.events = old.events
         return self._attach(fe)
 
     def _attach(self, fe: FrontEnd) -> FrontEnd:
