@@ -66,8 +66,7 @@ PLANT_SPECS = (
     _S('motor.inertia', 2.0e-4, 'rotor + coupling inertia J (assumed: not in 000)', 'kg m^2',
        1e-8, 100.0, runtime=False),
     _S('motor.friction', 3.33e-4, 'viscous friction B of the motor (assumed: not in 000; '
-       'ozturk_bldc.yaml gives the reason)',
-       'N m s/rad', 0.0, 10.0, runtime=False),
+       'ozturk_bldc.yaml gives the reason)', 'N m s/rad', 0.0, 10.0, runtime=False),
     _S('motor.backemf.shape', 'trapezoid', 'back-EMF shape', '',
        choices=('trapezoid', 'harmonic', 'sine', 'table'), runtime=False),
     _S('motor.backemf.constant', OZTURK_K_PHASE,

@@ -95,6 +95,7 @@ class FrontEnd:
     enable = array_slot(FK.FX_ENABLE, 'enable command', 'fx', bool)
     over_current = array_slot(FK.FX_OC, 'over-current protection active', 'fx', bool)
     over_voltage = array_slot(FK.FX_OV, 'over-voltage protection active', 'fx', bool)
+    log_switching_events = array_slot(FK.FP_LOG, 'log zero / start / overlap events too (many)', 'fp', bool)
 
     def __init__(self, *, time: float = 0.0, **settings) -> None:
         unknown = set(settings) - set(DEFAULTS)
@@ -116,15 +117,6 @@ class FrontEnd:
         self.events: list[tuple[float, str]] = []   # (time, what), bounded
         self.on_protection = None   # callable(kind, time, text) per trip ('over_current' / 'over_voltage')
         self.energy = FrontEndLedger(self.fx)
-
-    @property
-    def log_switching_events(self) -> bool:
-        """Log zero / start / overlap events too (80 kHz: many); protections are always logged."""
-        return self.fp[FK.FP_LOG] != 0.0
-
-    @log_switching_events.setter
-    def log_switching_events(self, value: bool) -> None:
-        self.fp[FK.FP_LOG] = 1.0 if value else 0.0
 
     @property
     def event_counts(self) -> dict[str, int]:
