@@ -92,7 +92,8 @@ def state_sample(step: int, sv, applied: tuple, extras: dict) -> PlantStateSampl
 FRONT_END_FIELDS = (('grid_voltage', FK.FV_GRID_V, float), ('grid_current', FK.FV_GRID_I, float),
                     ('rectified_voltage', FK.FV_RECT, float), ('inductor_current', FK.FV_IL, float),
                     ('boost_duty', FK.FV_DUTY, float), ('boost_switch_enabled', FK.FV_SWITCH, bool),
-                    ('energy_grid_input', FK.FV_E_GRID, float), ('energy_front_end_loss', FK.FV_E_LOSS, float))
+                    ('energy_grid_input', FK.FV_E_GRID, float),
+                    ('energy_front_end_loss', FK.FV_E_LOSS, float))
 
 
 NO_FRONT_END = {name: getattr(PlantStateSample(0), name) for name, _, _ in FRONT_END_FIELDS}
@@ -401,20 +402,12 @@ class PlantCore:
     @property
     def protection(self) -> int:
         """PlantState PROTECTION_* bits: motor trip, boost over-current / over-voltage, safe state."""
-        bits = self.protection_outside_front_end
-        if self.fe is not None:
-            bits |= self.fe.protection
-        return bits
+        return self.protection_outside_front_end | (self.fe.protection if self.fe is not None else 0)
 
     @property
     def protection_outside_front_end(self) -> int:
         """The PROTECTION_* bits of the motor trip and the safe state."""
         return (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
-
-    def _effective_legs(self) -> tuple:
-        if self._safe or self.trip.tripped:
-            return self.inverter.all_off()
-        return self._commanded
 
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
@@ -481,9 +474,9 @@ class PlantCore:
         """Integrate one base tick with the latched commands (plant_kernel.advance_tick)."""
         fe = self.fe
         fp, fx = (fe.fp, fe.fx) if fe is not None else (K.NO_FRONT_END, K.NO_FRONT_END)
+        target = self._off_code if self.in_safe_state else self._code(self._commanded)
         n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
-                                    self._code(self._legs), self._code(self._effective_legs()), self._off_code,
-                                    fp, fx)
+                                    self._code(self._legs), target, self._off_code, fp, fx)
         self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
 
     def finish_ticks(self, step: int, code: int | None = None, events=()) -> None:
