@@ -129,7 +129,6 @@ class FrontEnd:
         when, kind = self.fx[FK.FX_LAST_T:FK.FX_LAST_KIND + 1].tolist()
         return (when, KIND_NAMES[int(kind)] if kind >= 0 else '')
 
-    # ------------------------------------------------------------------ parameters
     @classmethod
     def from_params(cls, p: dict, time: float = 0.0) -> 'FrontEnd':
         """Build from a plant parameter snapshot (names in PARAMETER_NAMES)."""
@@ -167,7 +166,6 @@ class FrontEnd:
             float(self.max_step) if self.filter_enabled else math.inf, self.filter_enabled,
             float(self.over_current_limit), float(self.over_voltage_limit), bool(self.protection_latched))
 
-    # ------------------------------------------------------------------ commands
     def set_duty(self, duty: float, enable: bool) -> None:
         """Latch the duty command (held until the next call)."""
         self.duty = min(1.0, max(0.0, float(duty)))
@@ -205,7 +203,6 @@ class FrontEnd:
         en = self.energy
         return en.grid - (self.stored_energy() - stored_initial) - en.losses - en.delivered
 
-    # ------------------------------------------------------------------ integration
     def advance(self, t: float, dt: float, v_out: float) -> float:
         """Integrate [t, t + dt] with the positive rail held at v_out [V] (:func:`.front_end_kernel.advance`);
         the charge [C] delivered into it. Events inside are taken in order (:meth:`take_event`)."""

@@ -35,7 +35,6 @@ class Inverter:
     def set_drops(self, v_ce: float, v_d: float, r_on: float) -> None:
         self.v_ce, self.v_d, self.r_on = float(v_ce), float(v_d), float(r_on)
 
-    # ------------------------------------------------------------------ gates
     def legs(self, switch_on) -> tuple:
         """Leg codes from the six gate signals (interlock; midpoint leg fixed)."""
         out = []
@@ -102,9 +101,8 @@ def _leg_start(code, ix, ex, vp, vm, vce, vd, ron, fl):
 def resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail, band, floating):
     """Conduction state of the legs for currents i, EMFs e: cond, u (terminal voltage - e_x),
     rail written in place, v_n returned (mean of u over the conducting phases); open legs join,
-    most forward-biased first. band (3 x 4) and floating (3): the caller's zeroed scratch."""
-    # band: lo, hi, rail_lo, rail_hi of each open leg; floating: 1 while leg x is open at zero
-    # current (in leg order)
+    most forward-biased first. Zeroed scratch: band (lo, hi, rail_lo, rail_hi per open leg) and
+    floating (1 while a leg is open at zero current)."""
     for x in range(3):
         c, ux, r = _leg_start(legs[x], i[x], e[x], vp, vm, vce, vd, ron, band[x])
         cond[x], u[x], rail[x] = c, ux, r
