@@ -489,7 +489,6 @@ class PlantCore:
         for row in events:
             self.step = int(row[4]) if len(row) > 4 else last
             self._record_event(row[0], int(row[1]), int(row[2]), row[3])
-        self.step = last
         applied = self._switches_of.get(self._legs)
         if applied is None:
             applied = self._switches_of[self._legs] = self.inverter.switches(self._legs)
