@@ -57,10 +57,7 @@ class Inverter:
     @staticmethod
     def switches(legs) -> tuple:
         """Applied (SW1..SW6) of leg codes."""
-        out = []
-        for code in legs:
-            out += [code == UPPER, code == LOWER]
-        return tuple(out)
+        return tuple(on for code in legs for on in (code == UPPER, code == LOWER))
 
 
 @njit
