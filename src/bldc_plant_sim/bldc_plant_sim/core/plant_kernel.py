@@ -68,9 +68,8 @@ def emf_at_mid(st, prm, lut, T):
 
 @njit
 def corrected_link_voltages(T, nominal, st, dcx, prm, cond, u, vn, rail):
-    """Current-fed link: (V_P, V_M) predicted again from this segment's own average rail
-    currents (exact integrals at the first prediction): the previous segment's currents are a
-    first-order error right after a leg change."""
+    """Current-fed link: (V_P, V_M) predicted again from this segment's own average rail currents
+    (the previous segment's are a first-order error right after a leg change)."""
     R, tau = prm[PR_R], prm[PR_TAU]
     w_avg = tau * (1.0 - (prm[PR_AH] if nominal else math.exp(-T / tau))) / T
     ip = im = 0.0
