@@ -7,6 +7,7 @@ plant/reset_protection and stops cleanly (:meth:`PlantNode.stop`, Ctrl-C at any 
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 from typing import Any
 
@@ -99,10 +100,8 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._stopping.set()
         if self._busy.acquire(timeout=STOP_WAIT):
             self._busy.release()
-        try:
+        with contextlib.suppress(Exception):   # the context may already be shut down
             self._telemetry.flush()
-        except Exception:  # noqa: BLE001 - the context may already be shut down
-            pass
 
     def _publish_state_once(self) -> None:
         """Ground truth and /clock at t_k, for every state_ticks-th step, each step once."""
