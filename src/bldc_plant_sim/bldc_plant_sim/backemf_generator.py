@@ -1,17 +1,9 @@
 """Back-EMF generator test (000 §5.4): write the back-EMF table a controller loads.
 
-As the dissertation did offline, the motor is driven at constant speed by the
-dynamometer with every inverter switch open (open circuit), the two
-line-to-line back-EMFs e_ba = v_b - v_a and e_ca = v_c - v_a are recorded from
-the terminal voltages over one electrical cycle and divided by omega_e:
-k_ba, k_ca in V*s/rad. The speed is chosen so the cycle spans exactly
-``points`` samples of ``ticks_per_point`` base ticks (angles on the grid
-2 pi n / points) and so the line-to-line EMF stays below the DC link (the
-diodes stay reverse-biased). Derived columns (docs/architecture.md):
-phase constants without zero sequence by 000 eq. (5.13)
-k_a = -(k_ba + k_ca)/3, k_b = k_a + k_ba, k_c = k_a + k_ca; amplitude-invariant
-Clarke k_alpha, k_beta; Park k_d, k_q at theta_e.
-
+The dynamometer drives the open-circuit motor at constant speed; e_ba = v_b - v_a and
+e_ca = v_c - v_a over one electrical cycle, divided by omega_e, give k_ba, k_ca [V*s/rad]
+(one sample every ``ticks_per_point`` base ticks, on the grid 2 pi n / points, the diodes kept
+reverse-biased). Derived columns: docs/architecture.md (phase constants by 000 eq. (5.13)).
 Pure Python (no ROS): ``backemf_generator --motor ozturk_bldc -o table.csv``.
 """
 from __future__ import annotations
@@ -31,13 +23,9 @@ from .core.plant import PlantCore
 from .parameters import plant_params
 
 
-
 def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict:
-    """Run the open-circuit constant-speed test; returns {'columns', 'speed', 'ticks_per_point'}.
-
-    params: plant parameter snapshot (motor, DC link); speed: target mechanical
-    speed [rad/s] (the actual one is at most this, to land on the angle grid).
-    """
+    """Run the open-circuit test at a mechanical speed [rad/s] of at most speed (on the angle
+    grid); returns {'columns', 'speed', 'ticks_per_point'}."""
     base = dict(params)
     tick = base['base_tick']
     p = int(base['motor.pole_pairs'])
@@ -48,10 +36,10 @@ def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict
                  'motor.initial_angle': 0.0, 'protection.peak_current': 0.0})
     plant = PlantCore(base)
     limit = plant.dc.positive + 2.0 * plant.inverter.v_d
-    if w_e * plant.motor.backemf.line_to_line_peak() >= limit:
-        raise ValueError(f'generator test: line-to-line EMF {w_e * plant.motor.backemf.line_to_line_peak():.2f} V '
-                         f'at {w_e / p:.2f} rad/s would forward-bias the diodes (limit {limit:.2f} V); '
-                         'lower the speed')
+    peak = w_e * plant.motor.backemf.line_to_line_peak()
+    if peak >= limit:
+        raise ValueError(f'generator test: line-to-line EMF {peak:.2f} V at {w_e / p:.2f} rad/s would '
+                         f'forward-bias the diodes (limit {limit:.2f} V); lower the speed')
     plant.apply_gates(ALL_OFF)
     k_ba = np.empty(points)
     k_ca = np.empty(points)
@@ -65,7 +53,8 @@ def generator_test(params: dict, points: int = 252, speed: float = 30.0) -> dict
         k_ca[n] = (v[2] - v[0]) / w
         for _ in range(m):
             plant.advance()
-    return {'columns': backemf_file.columns_from_line_to_line(k_ba, k_ca), 'speed': w_e / p, 'ticks_per_point': m}
+    return {'columns': backemf_file.columns_from_line_to_line(k_ba, k_ca), 'speed': w_e / p,
+            'ticks_per_point': m}
 
 
 def main(argv=None) -> int:

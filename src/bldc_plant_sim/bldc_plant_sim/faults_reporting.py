@@ -1,26 +1,19 @@
 """ROS side of the plant's fault record: every fault logged and on /diagnostics when it happens.
 
-docs/architecture.md "Faults and diagnostics". The ROS-agnostic core counts
-faults in :class:`~bldc_plant_sim.core.faults.FaultRecord` and queues them; the
-plant node calls :meth:`FaultReporter.flush` after each tick (a no-op without
-a new fault) and :meth:`FaultReporter.report` for the faults it detects itself
-(a late, invalid or malformed command, a lost controller). Each fault gives, at
-its sim time, an ERROR log line, an ERROR DiagnosticStatus ``plant: faults``
-(sim_time, step, kind, node and the event's own values) and the PlantState
-fault fields. A safe-state exit is logged at INFO with an OK status. Repeats
-of one kind are shown at most once per REPEAT_PERIOD of sim time (the next
-report says how many were left out); every one is counted.
+docs/faults.md: the core queues faults in :class:`~bldc_plant_sim.core.faults.FaultRecord`;
+the node calls :meth:`FaultReporter.flush` after each tick and :meth:`FaultReporter.report` for
+faults it detects itself. Each gives an ERROR log line and a ``plant: faults`` status at its sim
+time (a safe-state exit: INFO / OK); repeats of a kind are shown at most once per REPEAT_PERIOD.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Callable
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 
-from bldc_plant_sim.core.faults import FaultEvent, FaultKind, FaultRecord
+from bldc_plant_sim.core.faults import FaultEvent, FaultKind
 from drive_common.conversions import time_msg
 
 REPEAT_PERIOD = 0.1      # s of sim time between two shown reports of one fault kind
@@ -37,40 +30,9 @@ def diagnostic_array(name: str, level: bytes, message: str, values: dict[str, st
     return DiagnosticArray(header=Header(stamp=time_msg(sim_time)), status=[status])
 
 
-@dataclass(frozen=True)
-class RunEnd:
-    """How a run ended (Run.Result end_state / fault_count / first_fault_time / first_fault)."""
-
-    end_state: str           # 'ended normally' or 'ended in fault state <kind> (first fault ...)'
-    fault_count: int         # faults recorded during the run
-    first_fault_time: float  # s, the plant's first fault (NaN if none)
-    first_fault: str         # its kind label ('' if none)
-    fault_kinds: tuple = ()  # kind labels of the faults recorded during the run
-
-    @property
-    def faulted(self) -> bool:
-        return self.end_state != 'ended normally'
-
-
-def run_end(core, counts_before: list[int]) -> RunEnd:
-    """The end state of a run that started with core.faults.counts == counts_before."""
-    record: FaultRecord = core.faults
-    active = bool(core.protection) or core.in_safe_state
-    first = record.first_kind
-    kinds = record.kinds_since(counts_before)
-    before = sum(counts_before)
-    return RunEnd(record.end_state(before, active), record.since(before),
-                  record.first_time, first.label if first else '', kinds)
-
-
 class FaultReporter:
-    """Logs and diagnoses the fault events of a plant core (see the module docstring).
-
-    node: the rclpy node (logger, /diagnostics publisher owner); core: its PlantCore
-    (read each time: the node may replace nothing but its fields change);
-    node_of(kind): the node a core-detected fault is attributed to (e.g. the gate
-    command publisher for a shoot-through), '' for the plant itself.
-    """
+    """Logs and diagnoses the fault events of the core core_of() returns (module docstring);
+    node_of(kind): the node a core-detected fault is attributed to ('' for the plant itself)."""
 
     def __init__(self, node, core_of: Callable[[], object], publish: Callable[[DiagnosticArray], None],
                  node_of: Callable[[FaultKind], str] | None = None) -> None:
@@ -84,16 +46,11 @@ class FaultReporter:
 
     def report(self, kind: FaultKind, message: str, node: str = '',
                values: dict[str, str] | None = None) -> bool:
-        """Record a fault the node detected (at the core's sim time) and report it now.
-
-        The helper for faults seen outside the core (command timeout, invalid or
-        malformed command, lost controller, an intruder on a lockstep topic).
-        Returns whether it was shown (False: a repeat within REPEAT_PERIOD, counted only).
-        """
+        """Record a fault the node detected, at the core's sim time, and report it now; whether it
+        was shown (False: a repeat within REPEAT_PERIOD, counted only)."""
         core = self._core_of()
         event = core.faults.record(kind, core.time, core.step, message, node, **(values or {}))
-        shown = self.flush(until=event)
-        return shown
+        return self.flush(until=event)
 
     def flush(self, until: FaultEvent | None = None) -> bool:
         """Log and diagnose the core's queued events; whether `until` (if given) was shown."""

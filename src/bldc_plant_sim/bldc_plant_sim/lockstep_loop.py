@@ -1,27 +1,25 @@
 """The plant's stepping thread: lockstep channels, pipelining, command waits and their faults.
 
-docs/architecture.md "Time and lockstep" and "Faults and diagnostics": for each
-base tick the plant publishes the measurements of the due controllers, waits for
-their commands (pipelined: the previous due sample's, while the controller
-computes), latches them and integrates one tick. A command missing past
-``command_timeout``, or one the plant cannot apply, puts the plant in the safe
-state until the controller answers a due sample again. The command subscriptions
-are received only by this thread (:class:`~drive_common.lockstep_io.DirectReceiver`).
+docs/architecture.md "Time and lockstep": per base tick the plant publishes the due
+controllers' measurements, waits for their commands (pipelined: the previous due sample's),
+latches them and integrates a tick. A command missing past ``command_timeout``, or one the plant
+cannot apply, means the safe state until the controller answers again (docs/faults.md).
+Commands are received only by this thread (:class:`~drive_common.lockstep_io.DirectReceiver`).
 """
 from __future__ import annotations
 
 import struct
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import partial
 from typing import Any, Callable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from bldc_plant_sim.core.faults import FaultKind
+from bldc_plant_sim.core.faults import FaultKind, run_end
 from bldc_plant_sim.core.lockstep import ControllerKind
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.faults_reporting import run_end
 from drive_common import topics
 from drive_common.conversions import sec_nanosec
 from drive_common.lockstep_io import DirectCallbackGroup, DirectReceiver
@@ -32,8 +30,7 @@ from dtc_msgs.action import Run
 from dtc_msgs.msg import DriveMeasurement, DutyCommand, GateCommand, PfcMeasurement, PlantState
 
 COMMAND_TIMEOUT = PlantState.PROTECTION_COMMAND_TIMEOUT
-FAULTED_GLANCE = 5e-4           # s of wall time a controller that fell silent is waited for per
-                                # due sample: one that answers again resumes; a dead one slows little
+FAULTED_GLANCE = 5e-4           # s a controller that fell silent is waited for per due sample
 WAIT_LOG_FIRST, WAIT_LOG_PERIOD = 1.0, 5.0   # s: first and later "waiting for ..." log lines
 
 
@@ -44,16 +41,13 @@ class StartupFailed(Exception):
 def _wrong_topology(msg, core: PlantCore) -> str | None:
     """Why a gate command cannot be applied, or None (switch_on is bool[6] by its type)."""
     if msg.topology != core.topology:
-        return (f'gate command for a {msg.topology}-switch inverter, the plant has '
-                f'{core.topology}')
+        return f'gate command for a {msg.topology}-switch inverter, the plant has {core.topology}'
     return None
 
 
 def _invalid_duty(msg, core: PlantCore) -> str | None:
     """Why a duty command cannot be applied (NaN, infinite or outside [0, 1]), or None."""
-    if not 0.0 <= msg.duty <= 1.0:      # False for NaN too
-        return f'duty command with duty = {msg.duty!r}, outside [0, 1]'
-    return None
+    return None if 0.0 <= msg.duty <= 1.0 else f'duty command with duty = {msg.duty!r}, outside [0, 1]'
 
 
 @dataclass(frozen=True)
@@ -93,10 +87,7 @@ CHANNELS = {
 
 
 class WaitReporter:
-    """Logs what the plant waits for: after WAIT_LOG_FIRST s, then every WAIT_LOG_PERIOD s.
-
-    limit: what bounds the wait, for the log line (``of startup_timeout = 120 s``).
-    """
+    """Logs what the plant waits for (limit: what bounds the wait, for the log line)."""
 
     def __init__(self, logger, limit: str) -> None:
         self._logger, self._limit = logger, limit
@@ -110,50 +101,32 @@ class WaitReporter:
             self._logger.info(f'waiting {now - self._start:.0f} s {self._limit} for {what}')
 
 
-class _Inbox:
-    """Latest command per step from one controller (filled by the stepping thread's receiver).
-
-    Only the bound controller's commands get here (``binding``, see
-    drive_common.peer_binding): any other publisher's are ignored on receipt.
-    """
-
-    def __init__(self, binding: PeerBinding) -> None:
-        self.commands: dict[int, Any] = {}
-        self.binding = binding
-
-    def put(self, msg) -> None:
-        self.commands[msg.step] = msg
-
-    def take(self, step: int):
-        msg = self.commands.pop(step, None)
-        if msg is not None or len(self.commands) > 64:
-            # Anything older than the awaited step is stale: never applied.
-            for stale in [s for s in self.commands if s < step]:
-                del self.commands[stale]
-        return msg
-
-
 @dataclass
 class _Channel:
     """One controller's side of the lockstep: its endpoints, commands and the one being computed."""
 
     kind: ControllerKind
     spec: ChannelSpec
-    inbox: _Inbox
+    binding: PeerBinding                        # the controller whose commands are taken
     publisher: Any                              # of the measurements (raw CDR bytes)
     wire: LockstepWire                          # measurement sample -> CDR bytes
     subscription: Any = None                    # of the commands (received by the stepping thread)
     awaiting: tuple[int, float] | None = None   # pipelined: (step, deadline) of the pending command
     last_sent: bytes = b''                      # the last measurement, serialized
+    commands: dict = field(default_factory=dict)   # latest command message per step
+
+    def take(self, step: int):
+        """The command message of step, or None; older ones are dropped as stale."""
+        msg = self.commands.pop(step, None)
+        if msg is not None or len(self.commands) > 64:
+            for stale in [s for s in self.commands if s < step]:
+                del self.commands[stale]
+        return msg
 
     def send(self, data: bytes) -> None:
-        """Publish a measurement (and keep it for resend)."""
+        """Publish a measurement (kept for a resend to a controller that matched late)."""
         self.last_sent = data
         self.publisher.publish(data)
-
-    def resend(self) -> None:
-        """Publish the last measurement again (start-up: a controller that matched late)."""
-        self.publisher.publish(self.last_sent)
 
 
 class LockstepLoop:
@@ -166,11 +139,10 @@ class LockstepLoop:
         for kind, spec in CHANNELS.items():
             publisher = self.create_publisher(spec.measurement_type, spec.measurement_topic,
                                               topics.LOCKSTEP_QOS)
-            # Each command topic is bound to the controller that answers first (peer_binding).
-            inbox = _Inbox(PeerBinding(self, spec.command_topic, spec.measurement_topic,
-                                       report=self._diagnose_intruder,
-                                       may_bind=lambda: self._conflict is None))
-            channel = _Channel(kind, spec, inbox, publisher,
+            binding = PeerBinding(self, spec.command_topic, spec.measurement_topic,
+                                  report=partial(self._diagnose, DiagnosticStatus.WARN),   # intruders
+                                  may_bind=lambda: self._conflict is None)
+            channel = _Channel(kind, spec, binding, publisher,
                                LockstepWire(spec.measurement_type, spec.measurement_sample))
             channel.subscription = self.create_subscription(
                 spec.command_type, spec.command_topic, self._receive(channel),
@@ -185,41 +157,33 @@ class LockstepLoop:
 
     def _halted(self) -> str | None:
         """Why the run must end now (stop, shutdown, a second graph), or None."""
-        if self._stopping.is_set() or not rclpy.ok(context=self.context):
-            return 'plant shutting down'
-        return self._conflict
+        return 'plant shutting down' if self._interrupted() else self._conflict
 
     def _interrupted(self) -> bool:
         """The node is being stopped (Ctrl-C, SIGTERM, stop()): a clean end, logged at INFO."""
         return self._stopping.is_set() or not rclpy.ok(context=self.context)
 
-    def _await(self, inbox: _Inbox, step: int, deadline: float | None):
+    def _await(self, channel: _Channel, step: int, deadline: float | None):
         """The command for step, waiting until deadline (None: FAULTED_GLANCE from now)."""
-        msg = inbox.take(step)
+        msg = channel.take(step)
         if msg is None and deadline is None:
             deadline = time.monotonic() + FAULTED_GLANCE
         while msg is None:
             remaining = deadline - time.monotonic()
             if remaining <= 0.0 or self._halted():
                 self._receiver.poll(0.0)
-                return inbox.take(step)
+                return channel.take(step)
             self._receiver.poll(min(remaining, 0.05))
-            msg = inbox.take(step)
+            msg = channel.take(step)
         return msg
 
     def _first_answer(self, channel: _Channel, k: int) -> Any:
-        """Wait up to startup_timeout for a controller's first answer (readiness).
-
-        A measurement published just before the controller's reader matched the
-        plant's writer can be lost, so an unanswered one is re-sent every
-        topics.FIRST_ANSWER_RESEND s (a controller answers a repeated measurement from
-        its cache, without a second core update).
-        """
+        """Wait up to startup_timeout for a controller's first answer, re-sending the measurement
+        every topics.FIRST_ANSWER_RESEND s (one sent before the reader matched is lost)."""
         timeout = self.parameters['startup_timeout']
         deadline = self._run_started + timeout      # the whole start-up shares one timeout
-        report = self._startup_report
         while True:
-            msg = self._await(channel.inbox, k, min(deadline, time.monotonic() + topics.FIRST_ANSWER_RESEND))
+            msg = self._await(channel, k, min(deadline, time.monotonic() + topics.FIRST_ANSWER_RESEND))
             if msg is not None:
                 return msg
             halted = self._halted()
@@ -228,8 +192,9 @@ class LockstepLoop:
             if time.monotonic() >= deadline:
                 raise StartupFailed(f'{channel.spec.controller} did not answer its first measurement '
                                      f'(step {k}) within startup_timeout = {timeout:g} s')
-            report.report(f'{channel.spec.controller} to answer its first measurement (step {k})')
-            channel.resend()
+            self._startup_report.report(f'{channel.spec.controller} to answer its first measurement '
+                                        f'(step {k})')
+            channel.send(channel.last_sent)
 
     def run_to(self, target_step: int, goal_handle=None) -> tuple[bool, str]:
         """Advance to target_step (held there); (success, message)."""
@@ -266,7 +231,7 @@ class LockstepLoop:
                 except StartupFailed as exc:
                     return False, self._startup_failed(str(exc))
                 if self.core.faults.pending:
-                    self.faults.flush()       # a trip or shoot-through in this tick: report it now
+                    self.faults.flush()
                 if goal_handle is not None and self.core.step % feedback_every == 0:
                     wall = time.monotonic() - started
                     goal_handle.publish_feedback(Run.Feedback(
@@ -278,22 +243,21 @@ class LockstepLoop:
             if self._faults:
                 return False, f'{reached} with faults: ' + '; '.join(self._faults[:3])
             end = run_end(self.core, faults_before)
-            if end.faulted:                   # a protection trip or a shoot-through
+            if end.faulted:
                 return False, f'{reached}, {end.end_state}'
             return True, reached
         finally:
             if not self._interrupted():      # (publishing fails once the context is shut down)
                 self.faults.flush()
                 for channel in self._channels.values():
-                    channel.inbox.binding.flush()    # an intruder that sent and left, by gid
+                    channel.binding.flush()    # an intruder that sent and left, by gid
             self.last_run_end = run_end(self.core, faults_before)
-            # Sim time never moved: the run did not start (its faults, if any, still count).
             self.last_run_started = not self._start_failed or self.core.step != first_step
             # A run that ends otherwise (stop, second graph, failed start-up) drops the
             # pending commands: the next run re-publishes a sample it did not finish.
             for channel in self._channels.values():
                 channel.awaiting = None
-            self._flush_state_block()     # sim time holds: a bag taken now has every sample
+            self._telemetry.flush()     # sim time holds: a bag taken now has every sample
             self._running = False
 
     def _drain(self) -> None:
@@ -302,28 +266,20 @@ class LockstepLoop:
             self._collect(channel)
 
     def _command(self, channel: _Channel, k: int, deadline: float):
-        """The due, valid command of one controller, or None (safe state).
-
-        A controller's first due sample in a run, until it has answered once,
-        waits for its readiness (:meth:`_first_answer`). Later, a controller
-        that stays silent past the deadline, or sends a command the plant
-        cannot apply (``invalid(msg)`` returns the reason), is faulted once:
-        safe state, diagnostic, until it sends a valid command for a due sample
-        again. A controller that answers, if wrongly, is waited for as before; one
-        that fell silent only FAULTED_GLANCE per due sample.
-        """
-        which, inbox = channel.kind, channel.inbox
+        """The due, valid command of one controller, or None (safe state): its first in a run
+        waits for readiness; a silent or invalid one is faulted once, until a valid command
+        (a silent one is then waited for only FAULTED_GLANCE per due sample)."""
+        which = channel.kind
         if which in self._startup_pending:
             msg = self._first_answer(channel, k)
             self._startup_pending.discard(which)
         else:
-            msg = self._await(inbox, k, None if which in self._silent else deadline)
+            msg = self._await(channel, k, None if which in self._silent else deadline)
             if msg is None and self._halted():
                 return None           # the run ends (Ctrl-C, shutdown): no command is missing
         reason = (f'no {which} command for step {k} within {self.parameters["command_timeout"]} s'
                   if msg is None else channel.spec.invalid(msg, self.core))
         if reason is not None:
-            # Report a new fault once; a controller that stays silent is not re-reported.
             if self._faulted[which] is None or (msg is not None and self._faulted[which] != reason):
                 self._fault(which, reason, FaultKind.INVALID_COMMAND if msg is not None
                             else FaultKind.COMMAND_TIMEOUT)
@@ -342,16 +298,13 @@ class LockstepLoop:
         return msg
 
     def _receive(self, channel: _Channel):
-        """The raw subscription callback of one command topic: decode, then into the inbox.
-
-        A message that cannot be decoded is dropped and reported as a malformed_command
-        fault: its step stays unanswered and the usual timeout puts the plant in the safe state.
-        """
-        spec, inbox = channel.spec, channel.inbox
+        """The raw callback of a command topic: decode into channel.commands; an undecodable one is
+        dropped as a malformed_command fault (its step then times out)."""
+        spec = channel.spec
         wire = LockstepWire(spec.command_type, spec.command_sample)
 
         def receive(data: bytes, publisher: bytes) -> None:
-            if not inbox.binding.accepts(publisher):
+            if not channel.binding.accepts(publisher):
                 return                       # not the bound controller: ignored (reported once)
             try:
                 command = wire.decode(data)[0]
@@ -360,7 +313,7 @@ class LockstepLoop:
                                    f'{spec.command_topic}: malformed message dropped: {exc}',
                                    self._sources(channel.kind), {'controller': channel.kind.value})
                 return
-            inbox.put(command)
+            channel.commands[command.step] = command
         return receive
 
     def _tick(self) -> None:
@@ -383,13 +336,8 @@ class LockstepLoop:
         self.core.advance()
 
     def _serve(self, channel: _Channel, k: int, deadline: float) -> None:
-        """Latch what a controller due at tick k commands for the ticks from k on.
-
-        Sequential: wait for command k and latch it (with computation_delay the
-        schedule applies the previous one and holds this one). Pipelined: the
-        previous due sample's command is received now, held and applied; command
-        k is left to be computed while the plant integrates (deadline kept).
-        """
+        """Latch what a controller due at tick k commands from k on: command k (sequential), or
+        (pipelined) the previous due sample's, command k left to compute meanwhile."""
         if self._pipelined and channel.kind not in self._startup_pending:
             self._collect(channel)
             self.schedule.apply_held(self.core, channel.kind)
@@ -420,8 +368,7 @@ class LockstepLoop:
         return reason
 
     def _fault(self, which: ControllerKind, reason: str, kind: FaultKind) -> None:
-        """Safe state, a fault report naming the commanding node(s) (faults_reporting.py);
-        also in the goal's result. Repeats are counted, shown at most once per REPEAT_PERIOD."""
+        """Safe state and a fault report naming the commanding node(s), also in the goal's result."""
         self.core.enter_safe_state(COMMAND_TIMEOUT)
         sources = self._sources(which)
         if kind == FaultKind.COMMAND_TIMEOUT and sources.startswith('no publisher'):

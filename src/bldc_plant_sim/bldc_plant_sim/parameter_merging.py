@@ -1,9 +1,8 @@
 """The plant node's parameters: motor-file merging and changes swapped in between ticks.
 
-docs/architecture.md "Executables, parameters and files": the declared parameters
-show the values in use (a motor file's included); a ``motor.file`` change brings
-the file's values with it, atomically; a change is checked against the core and
-applied at the next tick (:meth:`ParameterMerging._apply_pending`).
+The declared parameters show the values in use (a motor file's included); a ``motor.file``
+change brings the file's values with it, atomically; a change is checked against the core and
+applied at the next tick (docs/architecture.md "Executables, parameters and files").
 """
 from __future__ import annotations
 
@@ -31,19 +30,14 @@ class ParameterMerging:
                 raise ParameterError(result.reason)
 
     def _with_motor_file_values(self, params: list[Parameter]) -> list[Parameter]:
-        """Pre-set hook: a change that brings motor-file values sets them first, atomically.
-
-        ``ros2 param set`` sends one parameter at a time and rclpy applies a list
-        one by one, so the file's values (whose lists must agree in length)
-        are set together here before the requested change itself.
-        """
+        """Pre-set hook: the motor-file values a change brings are set first, together (rclpy
+        applies a list one by one, and the file's lists must agree in length)."""
         changes = {p.name: p.value for p in params if p.name in PLANT_SCHEMA}
         if not changes:
             return params
         current = self.parameters.values
         try:
-            requested = PLANT_SCHEMA.validate_changes(current, changes,
-                                                           running=self._running)
+            requested = PLANT_SCHEMA.validate_changes(current, changes, running=self._running)
             used = effective_params(requested, current)
             self._set_atomically({n: v for n, v in used.items()
                                   if v != requested[n] and n not in changes})

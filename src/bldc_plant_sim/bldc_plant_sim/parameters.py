@@ -1,16 +1,10 @@
-"""Parameter schema of the ``plant`` node (pure: no rclpy).
+"""Parameter schema of the ``plant`` node (pure: no rclpy), for the node, scenarios and cosim.
 
-One :class:`~drive_common.parameters.ParameterSchema` serves the ROS node,
-scenario files and the headless co-simulation. Defaults: the BLDC motor of 000
-Appendix A (``motors/ozturk_bldc.yaml``) on a six-switch inverter with the device
-drops of 001 Table IV, fed by an ideal 40*sqrt(2) V source. Motor, topology and
-periods change only while the simulation is held; the rest at any sample
-boundary. ``front_end.*`` (000 ch. III) needs ``dc_link.mode: current_fed``.
-
-Motor data files (``motors/*.yaml``) hold a ``parameters:`` mapping of these
-names, checked like any change; :func:`plant_params` merges one into the
-defaults before its overrides, and :func:`effective_params` turns a requested
-snapshot (``motor.file`` plus explicit values, which win) into the values used.
+Defaults: the BLDC motor of 000 Appendix A (``motors/ozturk_bldc.yaml``) on a six-switch
+inverter with the device drops of 001 Table IV, fed by an ideal 40*sqrt(2) V source. Held
+parameters (``runtime=False``) change only while the simulation is held. Motor files
+(``motors/*.yaml``) hold a ``parameters:`` mapping of these names: :func:`plant_params` merges
+one before its overrides, :func:`effective_params` applies ``motor.file`` to a snapshot.
 """
 from __future__ import annotations
 
@@ -26,10 +20,8 @@ from drive_common.telemetry import TELEMETRY_PARAMETERS
 MOTORS_DIR = Path(__file__).resolve().parent.parent / 'motors'
 """Motor files in the source tree (the symlink install points back here)."""
 
-# 000 Appendix A: lambda_f = 0.1146 Wb is the line-to-line peak back-EMF
-# constant per electrical rad/s (= phase flat top per mechanical rad/s, as
-# p = 2); the phase flat top per electrical rad/s is lambda_f / 2. Pinned by
-# test_motor_files.py with T = 2 p K I = 1.28352 N m at 5.6 A.
+# 000 Appendix A: lambda_f = 0.1146 Wb is the line-to-line peak per electrical rad/s; the phase
+# flat top is lambda_f / 2 (test_motor_files.py: T = 2 p K I = 1.28352 N m at 5.6 A).
 OZTURK_K_PHASE = 0.1146 / 2.0
 
 MOTOR_FILE_EXTRAS = ('protection.peak_current',)
@@ -74,8 +66,7 @@ PLANT_SPECS = (
     _S('motor.inertia', 2.0e-4, 'rotor + coupling inertia J (assumed: not in 000)', 'kg m^2',
        1e-8, 100.0, runtime=False),
     _S('motor.friction', 3.33e-4, 'viscous friction B of the motor (assumed: not in 000; '
-       'ozturk_bldc.yaml gives the reason)',
-       'N m s/rad', 0.0, 10.0, runtime=False),
+       'ozturk_bldc.yaml gives the reason)', 'N m s/rad', 0.0, 10.0, runtime=False),
     _S('motor.backemf.shape', 'trapezoid', 'back-EMF shape', '',
        choices=('trapezoid', 'harmonic', 'sine', 'table'), runtime=False),
     _S('motor.backemf.constant', OZTURK_K_PHASE,
@@ -256,12 +247,8 @@ def motor_file_path(name: str) -> Path:
 
 
 def load_motor_file(name: str) -> dict[str, Any]:
-    """The ``parameters:`` mapping of a motor file, each value checked by the schema.
-
-    A value the schema refuses (type, range, choices) raises ParameterError
-    naming the file, the key and the reason, as any other parameter change.
-    Read once per process and file version (:mod:`drive_common.file_cache`); a copy is returned.
-    """
+    """A copy of the ``parameters:`` mapping of a motor file, each value checked by the schema
+    (ParameterError names the file and key); read once per file version (drive_common.file_cache)."""
     path = motor_file_path(name)
     return copy.deepcopy(file_cache.from_file('motor_file', path, lambda: _read_motor_file(path)))
 
@@ -311,30 +298,9 @@ def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | 
                      previous_effective: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The parameter values the plant uses for a requested snapshot (``motor.file`` applied).
 
-    Semantics: the motor file gives the motor's values; parameters set
-    explicitly in the same snapshot override it. "Set in this snapshot" means
-    the value differs from ``previous`` (the snapshot requested before:
-    start-up overrides and scenario values differ from the defaults, a
-    runtime ``ros2 param set`` differs from the value held), or the name is in
-    ``explicit`` (start-up overrides equal to a default). Per name a file sets:
-
-    - set in this snapshot: the snapshot's value;
-    - else, when ``motor.file`` changed (or at start-up): the new file's value
-      (a name only the old file set returns to its schema default);
-    - else: the value used before (``previous_effective``, default ``previous``).
-
-    Other names take the snapshot's value. Pure (reads only the motor file).
-
-    snapshot: requested values (full node snapshot, or partial: missing
-        names take their defaults).
-    previous: the snapshot requested before; None at start-up (= defaults).
-    explicit: names to count as set in this snapshot whatever their value.
-    previous_effective: the values used before, when they differ from
-        ``previous`` (PlantCore keeps both; a node that writes the effective
-        values back into its parameters has previous_effective == previous).
-
-    Returns a full validated snapshot; raises ParameterError (a file value
-    or a cross-check involving one names the file).
+    previous: the snapshot requested before (None: start-up); explicit: names set whatever their
+    value; previous_effective: the values used before (default ``previous``). The rule:
+    docs/models.md "Motor files". A full validated snapshot; ParameterError names the file.
     """
     defaults = PLANT_SCHEMA.defaults()
     requested = PLANT_SCHEMA.validate_changes(defaults, snapshot, running=False)
@@ -345,13 +311,10 @@ def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | 
     file_name = requested['motor.file']
     file_changed = start or file_name != before['motor.file']
     new_file = load_motor_file(file_name) if file_name else {}
-    if file_changed:
-        old_file = load_motor_file(before['motor.file']) if before['motor.file'] and not start else {}
-    else:
-        old_file = {}
-    governed = set(new_file) | set(old_file)
+    old_file = (load_motor_file(before['motor.file'])
+                if file_changed and before['motor.file'] and not start else {})
     values = dict(requested)
-    for name in governed:
+    for name in set(new_file) | set(old_file):
         if name in explicit or requested[name] != before[name]:
             continue                                    # set in this snapshot: overrides the file
         if file_changed:
@@ -362,12 +325,8 @@ def effective_params(snapshot: Mapping[str, Any], previous: Mapping[str, Any] | 
 
 
 def plant_params(motor: str | None = None, **overrides: Any) -> dict[str, Any]:
-    """A validated parameter snapshot: defaults, then a motor file, then overrides.
-
-    Dotted names go in as ``plant_params('fstp_pm_blac', **{'load.torque': 0.3})``;
-    an unknown name raises ParameterError. The snapshot keeps ``motor.file``
-    empty: the file's values are already in it.
-    """
+    """A validated snapshot: defaults, a motor file, then overrides (dotted names as
+    ``**{'load.torque': 0.3}``); ``motor.file`` stays empty (its values are in the snapshot)."""
     unknown = sorted(set(overrides) - set(PLANT_SCHEMA.names()))
     if unknown:
         raise ParameterError('unknown parameter(s): ' + ', '.join(unknown))

@@ -1,17 +1,14 @@
-"""Peer waiting and binding glue of the plant node: who answers, who intrudes, who is missing.
+"""Peer waiting and binding of the plant node: who answers, who intrudes, who is missing.
 
-docs/architecture.md "Time and lockstep": sim time starts only when every
-controller due in the run is matched (logged every few seconds, up to
-``startup_timeout``). Before any controller is bound a second graph in the
-domain makes the node exit 2; each command topic is then bound to the
-controller that answers first (:mod:`drive_common.peer_binding`) and any other
-publisher is ignored and reported once (WARN on /diagnostics).
+docs/architecture.md "Time and lockstep": sim time starts once every controller due in the run
+is matched (up to ``startup_timeout``). Before any controller is bound a second graph in the
+domain makes the node exit 2; after, each command topic is bound to the controller that answers
+first (:mod:`drive_common.peer_binding`), any other publisher ignored and reported once.
 """
 from __future__ import annotations
 
 import time
 
-from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 
 from bldc_plant_sim.core.lockstep import ControllerKind
@@ -42,15 +39,13 @@ class PeerWatch:
                           callback_group=MutuallyExclusiveCallbackGroup())
 
     def _sources(self, which: ControllerKind) -> str:
-        """The node(s) publishing this controller's commands, for a diagnostic (a node that
-        has left the graph, e.g. a crashed controller, named as the last one seen)."""
-        channel = getattr(self, '_channels', {}).get(which)   # (none: nothing bound yet)
-        if channel is not None and channel.inbox.binding.bound:
-            self._last_sources[which] = channel.inbox.binding.peer_name
-            return channel.inbox.binding.peer_name
+        """The node(s) publishing this controller's commands, for a diagnostic (one that left
+        the graph named as the last one seen)."""
+        channel = getattr(self, '_channels', {}).get(which)
+        if channel is not None and channel.binding.bound:
+            self._last_sources[which] = channel.binding.peer_name
+            return channel.binding.peer_name
         infos = self.get_publishers_info_by_topic(CHANNELS[ControllerKind(which)].command_topic)
-        # An endpoint whose node is no longer known (it is leaving) carries placeholder
-        # names (_NODE_NAME_UNKNOWN_): never shown; the last real name seen is kept.
         names = ', '.join(sorted({(i.node_namespace.rstrip('/') + '/' + i.node_name) for i in infos
                                   if not _unknown_node(i.node_name, i.node_namespace)}))
         if names:
@@ -62,9 +57,8 @@ class PeerWatch:
         return f'no publisher; last seen: {last}, gone' if last else 'no publisher'
 
     def _graph_conflict(self) -> str | None:
-        """A second graph in the domain, or None; once a controller is bound, intruders are
-        ignored and reported instead (drive_common.peer_binding)."""
-        bindings = [channel.inbox.binding for channel in self._channels.values()]
+        """A second graph in the domain, or None (once a controller is bound: intruders reported)."""
+        bindings = [channel.binding for channel in self._channels.values()]
         if any(b.bound for b in bindings):
             for binding in bindings:
                 binding.check()
@@ -80,13 +74,9 @@ class PeerWatch:
             self._conflict, self._refused = reason, True
             raise GraphConflict(reason)      # once: run_node reports it and exits 2
 
-    def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
-        """Another publisher on a bound lockstep topic, once (WARN; drive_common.peer_binding)."""
-        self._diagnose(DiagnosticStatus.WARN, message, values)
-
     def _wait_for_recorders(self, outputs, deadline: float, report: WaitReporter) -> None:
-        """Before the first run, until every recorder already in the graph has matched the
-        plant's publishers from its own side (drive_common.recorder_matching)."""
+        """Before the first run, until every recorder in the graph matched the plant's publishers
+        from its own side (drive_common.recorder_matching)."""
         matched = RecordersMatched(self, [p.topic_name for p in outputs],
                                    callback_group=MutuallyExclusiveCallbackGroup())
 
@@ -123,11 +113,8 @@ class PeerWatch:
                         f'{self.parameters["startup_timeout"]:g} s: missing ' + ', '.join(missing))
             report.report('the controllers to start: missing ' + ', '.join(missing))
             self._receiver.poll(0.01)
-        # Every other subscriber already in the graph (a recorder, a monitor) must be
-        # matched too before sample 0 goes out, or it would miss the first samples; before
-        # the first run, discovery of readers started earlier is done once the graph settled.
-        # A reader that never matches (it asks for a QoS the plant does not offer, or its
-        # node left but is still listed) is left behind after READERS_MATCH_WAIT.
+        # Other subscribers in the graph (recorders) are matched too before sample 0 goes out
+        # (the first run waits for a settled graph); one that never matches is left behind.
         first_run = not self._graph_settled
         waits_began = time.monotonic()
         if first_run:
@@ -152,7 +139,7 @@ class PeerWatch:
                 'offer): the run starts without them')
         if first_run:
             self._wait_for_recorders(outputs + [self._clock_pub], readers_deadline, readers_report)
-        # Discovery and readers, not the controllers' start-up: startup_timeout does not count them.
+        # startup_timeout counts the controllers' start-up, not discovery and readers.
         self._run_started += time.monotonic() - waits_began
         for channel in self._scheduled_channels():
             self._sources(channel.kind)          # remembered, should a controller leave mid-run

@@ -1,16 +1,13 @@
 """The ``plant`` node: lockstep time master over the ROS-agnostic PlantCore.
 
-docs/architecture.md "Time and lockstep" and "Faults and diagnostics". A thin
-node over named parts: :mod:`.lockstep_loop` (the stepping thread, channels,
-pipelining, command waits and their faults), :mod:`.run_action` (plant/run and
-run_until), :mod:`.peer_watch` (peers awaited, bound, named; a second graph),
-:mod:`.parameter_merging` (parameters and motor files) and
-:mod:`.faults_reporting` (faults and diagnostics). The node itself publishes
-ground truth and /clock, serves plant/reset_protection and stops cleanly:
-:meth:`PlantNode.stop` ends a run and waits for it (Ctrl-C at any moment).
+A thin node over :mod:`.lockstep_loop` (stepping thread), :mod:`.run_action` (plant/run,
+run_until), :mod:`.peer_watch` (peers), :mod:`.parameter_merging` (parameters, motor files) and
+:mod:`.faults_reporting` (faults, diagnostics). It publishes ground truth and /clock, serves
+plant/reset_protection and stops cleanly (:meth:`PlantNode.stop`, Ctrl-C at any moment).
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 from typing import Any
 
@@ -20,11 +17,10 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from bldc_plant_sim.core.faults import FaultKind
+from bldc_plant_sim.core.faults import FaultKind, RunEnd
 from bldc_plant_sim.core.lockstep import ControllerKind, LockstepSchedule
 from bldc_plant_sim.core.plant import PlantCore
-from bldc_plant_sim.faults_reporting import (LOCKSTEP_DIAGNOSTIC_NAME, FaultReporter, RunEnd,
-                                             diagnostic_array)
+from bldc_plant_sim.faults_reporting import LOCKSTEP_DIAGNOSTIC_NAME, FaultReporter, diagnostic_array
 from bldc_plant_sim.lockstep_loop import LockstepLoop
 from bldc_plant_sim.parameter_merging import ParameterMerging
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params
@@ -90,8 +86,6 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._state_msg = ReusedMessage(PlantState)
         self._state_lock = threading.RLock()
         self._diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
-        # Every fault logged + on /diagnostics at its sim time (faults_reporting.py); also
-        # the helper for faults found on the receive side: self.faults.report(kind, ...).
         self.faults = FaultReporter(self, lambda: self.core, self._diag_pub.publish,
                                     lambda kind: self._sources(ControllerKind.GATE)
                                     if kind == FaultKind.SHOOT_THROUGH else '')
@@ -106,10 +100,8 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._stopping.set()
         if self._busy.acquire(timeout=STOP_WAIT):
             self._busy.release()
-        try:
-            self._flush_state_block()
-        except Exception:  # noqa: BLE001 - the context may already be shut down
-            pass
+        with contextlib.suppress(Exception):   # the context may already be shut down
+            self._telemetry.flush()
 
     def _publish_state_once(self) -> None:
         """Ground truth and /clock at t_k, for every state_ticks-th step, each step once."""
@@ -140,18 +132,13 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         if self._clock_due():
             self._clock_pub.publish(Clock(clock=time_msg(self.core.time)))
             if not self._clock_acked:
-                # Once: every /clock reader (a recorder) has matched this node from its own
-                # side before the run goes on; a reader that matches a publisher only after
-                # its first samples went out never gets them (the start check sees our side).
+                # Once: every /clock reader (a recorder) matched from its own side, or it
+                # would miss the first samples.
                 self._clock_acked = True
                 if not self._clock_pub.wait_for_all_acked(Duration(seconds=FIRST_CLOCK_ACK_WAIT)):
                     self.get_logger().warning(
                         f'a /clock reader did not acknowledge the first /clock within '
                         f'{FIRST_CLOCK_ACK_WAIT:g} s: it may miss the first samples')
-
-    def _flush_state_block(self) -> None:
-        """Publish the partial block (sim time holds: end of a run, reset, stop)."""
-        self._telemetry.flush()
 
     def _diagnose(self, level: bytes, message: str, values: dict[str, str]) -> None:
         """A 'plant: lockstep' status on /diagnostics at the current sim time."""
@@ -164,10 +151,8 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self.get_logger().info(f'plant/reset_protection at t = {self.core.time:.6f} s: {message}')
         if not self._running:                # else the stepping thread reports it after its tick
             self.faults.flush()              # the safe-state exit, if the reset ended one
-        # Sim time holds: the blocks are complete up to here; the reset's extra
-        # sample of the same step goes out on the live topic only (a block
-        # would repeat the step).
-        self._flush_state_block()
+        # The reset's extra sample of this step goes out on the live topic only.
+        self._telemetry.flush()          # sim time holds: the partial block goes out
         with self._state_lock:
             self._state_pub.publish(self._state_msg.fill(self.core.state(), self.core.time))
         self._publish_clock()

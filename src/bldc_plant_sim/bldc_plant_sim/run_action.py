@@ -1,15 +1,14 @@
 """The plant's ``plant/run`` action server and its ``run_until`` start-up run.
 
-docs/architecture.md "Time and lockstep": one run at a time holds the plant's
-time; a goal arriving while another run holds it is rejected, and a goal always
-ends (succeeded, cancelled, or aborted with the reason and the run's fault record).
+One run at a time holds the plant's time (a goal arriving meanwhile is rejected); a goal
+always ends: succeeded, cancelled, or aborted with the reason and the run's fault record.
 """
 from __future__ import annotations
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 
-from bldc_plant_sim.faults_reporting import run_end
+from bldc_plant_sim.core.faults import run_end
 from drive_common import topics
 from dtc_msgs.action import Run
 
@@ -27,8 +26,7 @@ class RunAction:
                                     callback_group=MutuallyExclusiveCallbackGroup())
         self._autorun_timer = None
         if self.parameters['run_until'] > 0.0:
-            # Give discovery a moment, so subscribers started before the plant
-            # (recorders, monitors) are in the graph when sample 0 goes out.
+            # A moment of discovery: subscribers started before the plant see sample 0.
             self._autorun_timer = self.create_timer(AUTORUN_DISCOVERY_DELAY, self._autorun,
                                                     callback_group=MutuallyExclusiveCallbackGroup())
 

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import pytest
 
+from bldc_plant_sim.core import plant_kernel as PK
 from bldc_plant_sim.core.plant import PlantCore
 from bldc_plant_sim.parameters import PLANT_SCHEMA, effective_params, load_motor_file, plant_params
 from drive_common.parameters import ParameterError
@@ -70,7 +71,7 @@ def test_explicit_motor_parameters_override_the_motor_file_and_are_reported():
     plant = PlantCore({'motor.file': 'fstp_pm_blac', 'motor.resistance': 2.0, 'motor.friction': 0.002})
     assert plant.motor.resistance == 2.0 and plant.params['motor.resistance'] == 2.0
     assert plant.motor.friction == 0.002 and plant.params['motor.friction'] == 0.002
-    assert plant._R == 2.0                                          # the integration uses it
+    assert plant._prm[PK.PR_R] == 2.0                               # the integration uses it
     # everything not set explicitly comes from the file
     assert plant.motor.pole_pairs == 1 and plant.params['motor.self_inductance'] == 3.19e-3
     assert plant.params['protection.peak_current'] == 10.0 and plant.trip.level == 10.0
@@ -91,8 +92,9 @@ def test_reconfigure_while_held_changes_the_resistance_used_by_the_core():
     assert plant.motor.resistance == 0.466
     requested = PLANT_SCHEMA.validate_changes(requested, {'motor.resistance': 2.0})
     plant.reconfigure(requested)
-    assert plant.motor.resistance == 2.0 and plant._R == 2.0 and plant.params['motor.resistance'] == 2.0
-    assert plant._tau == pytest.approx(3.19e-3 / 2.0)
+    assert plant.motor.resistance == 2.0 and plant._prm[PK.PR_R] == 2.0
+    assert plant.params['motor.resistance'] == 2.0
+    assert plant._prm[PK.PR_TAU] == pytest.approx(3.19e-3 / 2.0)
     # an unrelated change later keeps both the explicit value and the file's others
     plant.reconfigure(PLANT_SCHEMA.validate_changes(requested, {'load.torque': 0.1}))
     assert plant.motor.resistance == 2.0 and plant.motor.inductance == 3.19e-3

@@ -1,15 +1,9 @@
 """Back-EMF shapes k_x(theta_e) = d psi_rx / d theta_e [V*s/rad] and their lookup tables.
 
-Phase a's PM flux is maximal at theta_e = 0 (fundamental of k_a: -sin(theta_e));
-phases b and c are the same shape lagging by 2 pi/3 and 4 pi/3, scaled by their
-imbalance gain (001 Table VII); e_x = omega_e * k_x. Shapes: ``trapezoid`` (000
-ch. II), ``harmonic`` (1st, 3rd, 5th terms, :func:`trapezoid_harmonics`), ``sine``
-(001) and ``table`` (a back-EMF table file, phase constants rebuilt from the
-line-to-line columns, 000 eq. (5.13)).
-
-The rotor flux of the ideal trapezoid is 7 pi k_LL/36 = 0.6109 k_LL at theta_e = 0;
-000 eq. (E.9) is twice the amplitude (its peak-to-peak swing). Shapes and the
-derivation: docs/models.md "Back-EMF shapes"; test_backemf.py pins the numbers.
+Phase a's PM flux is maximal at theta_e = 0 (k_a fundamental: -sin(theta_e)); b and c lag by
+2 pi/3 and 4 pi/3, scaled by their imbalance gain (001 Table VII); e_x = omega_e * k_x. Shapes:
+``trapezoid`` (000 ch. II), ``harmonic``, ``sine`` (001), ``table`` (line-to-line columns,
+000 eq. (5.13)); docs/models.md "Back-EMF shapes".
 """
 from __future__ import annotations
 
@@ -37,10 +31,8 @@ def trapezoid_unit(theta) -> np.ndarray:
 
 
 def trapezoid_harmonics(orders) -> list[float]:
-    """Sine-series amplitudes of the unit trapezoid for the given odd orders, per unit of n = 1.
-
-    b_n = 4 sin(n pi/6) / (pi n^2 pi/6) for odd n (ramp width pi/6), zero for even n.
-    """
+    """Sine-series amplitudes of the unit trapezoid per unit of n = 1: b_n = 4 sin(n pi/6) /
+    (pi n^2 pi/6) for odd n (ramp width pi/6), zero for even n."""
     def b(n: int) -> float:
         if n % 2 == 0:
             return 0.0
@@ -51,12 +43,9 @@ def trapezoid_harmonics(orders) -> list[float]:
 
 @dataclass
 class BackEmfShape:
-    """Per-phase back-EMF constants of a motor (exact evaluation and fast lookup tables).
-
-    kind: one of SHAPES. constant: K [V*s/rad] (flat top, or fundamental peak).
-    orders / coefficients: harmonic series (per unit of K). table_file: CSV for 'table'.
-    phase_gain: (g_a, g_b, g_c) imbalance. points: lookup-table resolution.
-    """
+    """Per-phase back-EMF constants of a motor (exact evaluation and lookup tables): kind of
+    SHAPES, K [V*s/rad] (flat top or fundamental peak), harmonic series per unit of K, table
+    file, (g_a, g_b, g_c) imbalance, table points per cycle."""
 
     kind: str
     constant: float
@@ -71,7 +60,7 @@ class BackEmfShape:
             raise ValueError(f'back-EMF shape {self.kind!r} is not one of {SHAPES}')
         key = (self.kind, float(self.constant), tuple(self.orders), tuple(self.coefficients),
                tuple(self.phase_gain), int(self.points))
-        # Built once per process and shape (and table file version): the tables are shared, read-only.
+        # Built once per process and shape (and table file version): shared, read-only.
         if self.kind == 'table':
             tables = file_cache.from_file('backemf_shape', self.table_file, self._build_luts, *key)
         else:
@@ -86,7 +75,6 @@ class BackEmfShape:
                    p['motor.backemf.table_file'], tuple(p['motor.backemf.phase_gain']),
                    int(p['motor.backemf.lut_points']))
 
-    # ------------------------------------------------------------------ exact shapes
     def _unit_phase_a(self, theta) -> np.ndarray:
         """Phase-a constant before gain, at array theta [rad]."""
         th = np.asarray(theta, dtype=float)
@@ -116,7 +104,6 @@ class BackEmfShape:
             phases = tuple(self._unit_phase_a(th - s) for s in SHIFTS)
         return np.vstack([g * k for g, k in zip(self.phase_gain, phases)])
 
-    # ------------------------------------------------------------------ lookup tables
     def _build_luts(self) -> dict:
         """The table columns (shape 'table') and the lookup tables, by attribute name."""
         self._table = None
@@ -132,22 +119,19 @@ class BackEmfShape:
         fund = np.real(c1[:, None] * np.exp(1j * theta)[None, :])
         bits = (fund > 0.0).astype(int)
         hall = bits[0] | (bits[1] << 1) | (bits[2] << 2)
+        # with a wrap-around copy; tuples for the scalar lookup, arrays for the kernels
         lut_k = tuple(tuple(backemf_file.periodic_list(row)) for row in k)
         lut_psi = tuple(tuple(backemf_file.periodic_list(row)) for row in psi)
         return {
             '_table': self._table, 'grid': frozen(theta), 'k_grid': frozen(k), 'psi_grid': frozen(psi),
-            'fundamental': frozen(np.abs(c1)),
-            # Python sequences with a wrap-around copy: scalar fast path in the plant; the same
-            # as arrays for the compiled kernels (a core copies them: no conversion per core)
-            'lut_k': lut_k, 'lut_psi': lut_psi,
+            'fundamental': frozen(np.abs(c1)), 'lut_k': lut_k,
             'lut_k_array': frozen(np.array(lut_k, dtype=np.float64)),
             'lut_psi_array': frozen(np.array(lut_psi, dtype=np.float64)),
             'lut_hall': tuple(int(h) for h in hall) + (int(hall[0]),),
             'lut_scale': n / TWO_PI}
 
     def lookup(self, theta: float) -> tuple[float, float, float]:
-        """(k_a, k_b, k_c) at theta [rad], linearly interpolated in the table (scalar; the compiled
-        plant kernels do the same: plant_kernel.emf_at_mid / table_at)."""
+        """(k_a, k_b, k_c) at theta [rad], linearly interpolated in the table (as plant_kernel.table_at)."""
         x = (theta * self.lut_scale) % self.points
         i = int(x)
         f = x - i

@@ -1,18 +1,11 @@
 """Headless lockstep co-simulation: PlantCore + controller cores by direct calls (no ROS).
 
-Same schedule as the plant node (docs/architecture.md "Time and lockstep",
-:class:`.lockstep.LockstepSchedule`): at base tick k the plant samples; each
-controller due at k (k % N == 0) gets its sample and answers
-``update(sample) -> (command, status)``; the command is latched (one
-controller sample late with ``computation_delay``) and held until the next
-one; the plant advances one tick. Commands: :class:`drive_common.samples.GateSample`
-(DTC) and :class:`drive_common.samples.DutySample` (PFC).
-
-The result is a :class:`Trajectory`: per recorded tick the step, time, plant
-ground truth (PlantStateSample) and the statuses the controllers returned at
-that tick, comparable sample for sample with a recorded ROS run. A ``fused``
-runner (drive_bringup.fused) may run stretches of ticks in one compiled call;
-its records come as :class:`RecordBlock` arrays, objects built when read.
+Same schedule as the plant node (:class:`.lockstep.LockstepSchedule`): at tick k the plant
+samples, each due controller answers ``update(sample) -> (command, status)`` (a
+:class:`drive_common.samples.GateSample` or :class:`drive_common.samples.DutySample`), the
+command is latched and the plant advances a tick. The :class:`Trajectory` holds per recorded
+tick the ground truth and statuses, sample for sample as a recorded ROS run; a ``fused`` runner
+(drive_bringup.fused) adds compiled stretches as :class:`RecordBlock` arrays.
 """
 from __future__ import annotations
 
@@ -22,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .faults import run_end
 from .lockstep import LockstepSchedule, ticks_of
 from .front_end_kernel import FV_PROT
 from .plant import FRONT_END_FIELDS, PlantCore, PlantStateSample, front_extras, state_sample, sv_slots
@@ -57,11 +51,9 @@ class _Rows:
 
 
 class FrontRecords:
-    """The front end's part of a RecordBlock: values (n, FV_SIZE) front_end_kernel.front_end_values
-    rows, protection: the PROTECTION_* bits outside the front end (constant: a motor trip ends a
-    block), faults: [(first step, PlantState fault fields)] after each boost trip inside the
-    block, pfc_due per record, pfc_status(step, row) -> PfcStatusSample and duty(step, row) ->
-    DutySample of a due record."""
+    """The front end's part of a RecordBlock: front_end_values rows (n, FV_SIZE), the PROTECTION_*
+    bits outside the front end, [(first step, fault fields)] per boost trip, pfc_due per record,
+    pfc_status(step, row) and duty(step, row) of a due record."""
 
     def __init__(self, values, protection, faults, pfc_due, pfc_status, duty) -> None:
         self.values, self.protection, self.faults, self.pfc_due = values, protection, faults, pfc_due
@@ -84,9 +76,6 @@ class FrontRecords:
         return [{**extras, **f, **front_extras(row), 'protection': base | int(row[FV_PROT])}
                 for row, f in zip(self.values[:len(steps)].tolist(), faults)]
 
-    def pfc(self, steps: list, build) -> list:
-        return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.pfc_due[:len(steps)].tolist()))]
-
     def column(self, name: str, steps: np.ndarray, extras: dict) -> np.ndarray | None:
         n = len(steps)
         if name == 'protection':
@@ -100,22 +89,24 @@ class FrontRecords:
 _FRONT_SLOTS = {name: slot for name, slot, _ in FRONT_END_FIELDS}
 
 
+def _built_if_due(steps: list, due: np.ndarray, build) -> list:
+    """build(step, row) of each due record, None for the others."""
+    return [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, due[:len(steps)].tolist()))]
+
+
 class RecordBlock:
     """Records of compiled ticks as arrays; objects are built only when asked for.
 
-    steps: ticks; sv: (n, SV_SIZE) plant_kernel.state_values rows; applied: switch tuple of each
-    record; extras: PlantCore.state_extras() of the block (constant: a fault ends a block; with
-    front, its fields per record); due: DTC due per record; status(step, row) ->
-    DtcStatusSample of a due record; gate(step, row) -> the GateSample the DTC returned;
-    columns(steps, rows) -> the statuses of those due records as DtcStatusSample.columns gives
-    them ({} when the DTC returns none; None: build objects); front: FrontRecords or None.
+    sv: (n, SV_SIZE) state_values rows; applied: switches per record; extras: the block's
+    state_extras(); due: DTC due per record; status / gate(step, row): its DtcStatusSample /
+    GateSample; columns(steps, rows): due statuses as columns ({}: none; None: build objects).
     """
 
     def __init__(self, steps, base_tick, sv, applied, extras, due, status, gate, columns=None,
                  front=None) -> None:
-        self.steps_, self.base_tick, self.sv, self.applied, self.extras = steps, base_tick, sv, applied, extras
-        self.due, self.status, self.gate, self.columns = due, status, gate, columns
-        self.front = front
+        self.steps_, self.base_tick, self.sv, self.applied = steps, base_tick, sv, applied
+        self.extras, self.due, self.status, self.gate = extras, due, status, gate
+        self.columns, self.front = columns, front
         self.n = len(steps)
 
     def __len__(self) -> int:
@@ -134,19 +125,18 @@ class RecordBlock:
             return [k * self.base_tick for k in steps]
         if name == 'states':
             extras = front.extras(steps, self.extras) if front is not None else [self.extras] * n
-            return [state_sample(k, v, a, x) for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
+            return [state_sample(k, v, a, x)
+                    for k, v, a, x in zip(steps, self.sv[:n].tolist(), self.applied, extras)]
         if name == 'pfc_status':
-            return front.pfc(steps, front.pfc_status) if front is not None else [None] * n
-        build = self.status if name == 'dtc_status' else self.gate
-        seq = [build(k, r) if d else None for r, (k, d) in enumerate(zip(steps, self.due[:n].tolist()))]
+            return _built_if_due(steps, front.pfc_due, front.pfc_status) if front is not None else [None] * n
+        seq = _built_if_due(steps, self.due, self.status if name == 'dtc_status' else self.gate)
         if name == 'dtc_status':
             return seq
-        duties = front.pfc(steps, front.duty) if front is not None else [None] * n
+        duties = _built_if_due(steps, front.pfc_due, front.duty) if front is not None else [None] * n
         return list(zip(seq, duties))
 
     def status_columns(self, which: str) -> dict | None:
-        """The 'dtc' / 'pfc' statuses of the block's records as 'time' and field columns, built
-        without objects ({}: none; None: not held as columns)."""
+        """The 'dtc' / 'pfc' statuses as 'time' and field columns ({}: none; None: not held so)."""
         if which == 'pfc':
             return {} if self.front is None else None
         if self.columns is None:
@@ -179,9 +169,8 @@ class RecordBlock:
 class Trajectory:
     """Per-sample records of a headless run (parts: per-sample rows and compiled blocks).
 
-    steps, times, states (PlantStateSample at t_k), dtc_status / pfc_status (status returned
-    at t_k, None if not due), commands ((gate, duty) returned at t_k) are lists built on first
-    use; end_state (core/faults.py wording) and fault_kinds say how the run ended.
+    Lists built on first use: steps, times, states, dtc_status / pfc_status (None if not due),
+    commands ((gate, duty)); end_state and fault_kinds say how the run ended.
     """
 
     def __init__(self) -> None:
@@ -242,8 +231,7 @@ class Trajectory:
         return np.concatenate(cols) if cols else np.array([], dtype=float)
 
     def status_arrays(self, which: str) -> dict[str, np.ndarray]:
-        """The 'dtc' / 'pfc' statuses as arrays: 'time' of each record with one, then each numeric
-        field (tuples as columns); {} without any. Compiled blocks give theirs without objects."""
+        """The 'dtc' / 'pfc' statuses as 'time' and numeric field arrays ({} without any)."""
         pieces = []
         for part in (p for p in self._parts if len(p)):
             columns = part.status_columns(which)
@@ -266,8 +254,7 @@ class Trajectory:
 
 
 def _object_columns(times: list, seq: list) -> dict[str, np.ndarray]:
-    """Status objects (None: no status at that record) as 'time' and one float array per
-    numeric field; fields that are not numbers (a mode name) are left out."""
+    """Status objects (None: none at that record) as 'time' and numeric field arrays."""
     statuses = [s for s in seq if s is not None]
     if not statuses:
         return {}
@@ -284,16 +271,9 @@ def _object_columns(times: list, seq: list) -> dict[str, np.ndarray]:
 class CoSimulation:
     """Steps a PlantCore with controller cores under the lockstep semantics.
 
-    dtc / pfc: objects with ``update(sample) -> (command, status)`` (or None).
-    dtc_period / pfc_period: controller periods [s], integer multiples of the
-        plant's base tick (default: the plant's dtc_period / pfc_period).
-    computation_delay: apply each command one controller sample late.
-    record_every: record plant state every this many ticks (0 = never).
-    on_tick: optional callable(cosim) run before each tick (scripted events), or before every
-        on_tick_every-th tick (then the fused loop may run the ticks between).
-    fused: optional runner of compiled chunks, ``fused.chunk(cosim, steps) -> ticks done``
-        (0: not applicable now, the tick runs on the per-sample path; e.g.
-        drive_bringup.fused.FusedDtcLoop); same trajectory as the per-sample path.
+    dtc / pfc: ``update(sample) -> (command, status)`` or None; periods [s] default to the
+    plant's; record_every: ticks between records (0: never); on_tick(cosim): run before every
+    on_tick_every-th tick; fused: ``fused.chunk(cosim, steps) -> ticks done`` (0: per sample).
     """
 
     def __init__(self, plant: PlantCore, dtc=None, pfc=None, *, dtc_period: float | None = None,
@@ -315,7 +295,7 @@ class CoSimulation:
         self.on_tick_every = max(1, int(on_tick_every))
         self.fused = fused
         self.trajectory = Trajectory()
-        self._counts_start = list(plant.faults.counts)   # the trajectory's end state counts from here
+        self._counts_start = list(plant.faults.counts)
 
     def _record(self, dtc_status, pfc_status, commands) -> None:
         plant = self.plant
@@ -335,7 +315,6 @@ class CoSimulation:
         self._tick_body()
 
     def _tick_body(self) -> None:
-        """tick() after the on_tick hook."""
         plant = self.plant
         sched = self.schedule
         k = plant.step
@@ -376,8 +355,7 @@ class CoSimulation:
         return self.trajectory
 
     def _run_fused(self, steps: int) -> None:
-        """steps ticks in compiled chunks where the runner applies; on_tick before every
-        on_tick_every-th tick (each tick when on_tick_every is 1)."""
+        """steps ticks in compiled chunks where the runner applies (on_tick as in tick())."""
         done = 0
         hook, every = self.on_tick, self.on_tick_every
         while done < steps:
@@ -392,13 +370,10 @@ class CoSimulation:
             done += ran
 
     def _judge_end(self) -> None:
-        """The trajectory's end state, as the plant node says it for a run (same core record)."""
-        plant, tr = self.plant, self.trajectory
-        record = plant.faults
-        record.drain()                      # nobody reports them here; the counters keep them
-        before = self._counts_start
-        tr.fault_kinds = record.kinds_since(before)
-        tr.end_state = record.end_state(sum(before), bool(plant.protection) or plant.in_safe_state)
+        """The trajectory's end state, as the plant node says it for a run."""
+        self.plant.faults.drain()           # nobody reports them here; the counters keep them
+        end = run_end(self.plant, self._counts_start)
+        self.trajectory.end_state, self.trajectory.fault_kinds = end.end_state, end.fault_kinds
 
 
 def run_headless(params: dict, dtc=None, pfc=None, duration: float = 0.01, **kwargs) -> Trajectory:

@@ -11,15 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .link_kernel import (DC_CL, DC_CU, DC_ES, DC_IM, DC_IP, DC_IS, DC_SIZE, DC_SRC, DC_V, DC_VL,
-                          DC_VU, link_draw, link_stored_energy, link_voltages)
+from .link_kernel import (DC_CL, DC_CU, DC_ES, DC_SIZE, DC_SRC, DC_V, DC_VL, DC_VU, link_draw,
+                          link_stored_energy, link_voltages)
 
 MODES = ('ideal', 'split_capacitors', 'current_fed')
 
 
 def array_slot(index: int, doc: str, array: str = 'x', kind: type = float) -> property:
-    """A kind (float, int or bool) attribute stored as a float in self.<array>[index] (a
-    compiled kernel's state array; a bool as 0.0 / 1.0)."""
+    """A float, int or bool attribute stored as a float in self.<array>[index] (a kernel's array)."""
     def get(self):
         value = getattr(self, array)[index]
         return value != 0.0 if kind is bool else kind(value)
@@ -39,9 +38,6 @@ class DcLink:
     voltage = array_slot(DC_V, 'V_dc [V]')
     c_upper = array_slot(DC_CU, 'F')
     c_lower = array_slot(DC_CL, 'F')
-    _i_p = array_slot(DC_IP, 'A, average P current of the last segment')
-    _i_m = array_slot(DC_IM, 'A, average M current of the last segment')
-    _i_s = array_slot(DC_IS, 'A, source current of the last segment')
 
     def __init__(self, mode: str, voltage: float, c_upper: float, c_lower: float,
                  initial_midpoint: float = 0.5, source_current: float = 0.0) -> None:
@@ -57,7 +53,6 @@ class DcLink:
         if mode == 'ideal':
             self.v_lower = self.v_upper = 0.5 * self.voltage
         self.source_current = float(source_current)
-        self.stiff = mode == 'ideal'
 
     @classmethod
     def from_params(cls, p: dict) -> 'DcLink':
@@ -79,6 +74,5 @@ class DcLink:
         return link_voltages(self.x, self.mode_code, dt)
 
     def draw(self, q_p: float, q_m: float, dt: float, time: float = 0.0) -> None:
-        """The inverter drew charge q_p [C] from P and q_m from M over dt [s] (time: unused, kept
-        for callers that pass the segment start)."""
+        """The inverter drew charge q_p [C] from P and q_m from M over dt [s] (time: unused)."""
         link_draw(self.x, self.mode_code, q_p, q_m, dt)

@@ -1,14 +1,9 @@
 """The plant's fault record (pure Python): every fault counted, the first one latched.
 
-docs/architecture.md "Faults and diagnostics". A fault is anything that makes a
-run not a good one: a protection trip (detected inside the integration by the
-core), a shoot-through request, or a controller's command that is invalid,
-late or gone (detected by the node, recorded here too). The record keeps a
-counter per :class:`FaultKind` and the total (PlantState ``fault_count``,
-``fault_counts[kind]``), the first fault's kind, sim time and text (NaN /
-FAULT_NONE while there is none), and a bounded queue of new :class:`FaultEvent` s
-that the ROS node drains after each tick to log and diagnose them (the headless
-runner may ignore it). The no-fault path costs nothing per tick.
+docs/faults.md: a protection trip, a shoot-through request, or a controller's command that is
+invalid, late or gone. The record keeps a counter per :class:`FaultKind` and the total
+(PlantState ``fault_count``, ``fault_counts``), the first fault's kind, time and text, and a
+bounded queue of new :class:`FaultEvent` s that the ROS node drains after each tick.
 """
 from __future__ import annotations
 
@@ -102,29 +97,43 @@ class FaultRecord:
         events, self.pending = self.pending, []
         return events
 
-    def since(self, total_before: int) -> int:
-        """Faults recorded since the total was total_before."""
-        return self.total - total_before
-
     def kinds_since(self, counts_before) -> tuple[str, ...]:
         """Labels of the kinds counted since the counters were counts_before."""
         return tuple(FaultKind(k).label for k, (n, n0) in enumerate(zip(self.counts, counts_before))
                      if n > n0)
 
-    def first_description(self) -> str:
-        """'<kind> (first fault at t = X s: cause)', or '' without a fault."""
-        if self.first_kind == FaultKind.NONE:
-            return ''
-        return f'{self.first_kind.label} (first fault at t = {self.first_time:.6f} s: {self.first_text})'
-
     def end_state(self, total_before: int = 0, active: bool = False) -> str:
-        """How a run ended: 'ended normally' or 'ended in fault state <kind> (first fault ...)'.
-
-        A run ended in a fault state when a fault was recorded since total_before
-        (the total at its start) or a protection / safe state is still active.
-        """
+        """'ended normally', or 'ended in fault state <kind> (first fault ...)' after a fault since
+        the total was total_before or with a protection / safe state active."""
         if self.total == total_before and not active:
             return 'ended normally'
         if self.first_kind == FaultKind.NONE:
             return 'ended in fault state (safe state or protection active)'
-        return 'ended in fault state ' + self.first_description()
+        return (f'ended in fault state {self.first_kind.label} (first fault at t = '
+                f'{self.first_time:.6f} s: {self.first_text})')
+
+
+@dataclass(frozen=True)
+class RunEnd:
+    """How a run ended (Run.Result end_state, fault_count, first_fault_time [s], first_fault,
+    fault_kinds: labels of the kinds recorded during the run)."""
+
+    end_state: str
+    fault_count: int
+    first_fault_time: float
+    first_fault: str
+    fault_kinds: tuple = ()
+
+    @property
+    def faulted(self) -> bool:
+        return self.end_state != 'ended normally'
+
+
+def run_end(core, counts_before: list[int]) -> RunEnd:
+    """The end of a run of a PlantCore that started with core.faults.counts == counts_before."""
+    record: FaultRecord = core.faults
+    before = sum(counts_before)
+    first = record.first_kind
+    return RunEnd(record.end_state(before, bool(core.protection) or core.in_safe_state),
+                  record.total - before, record.first_time, first.label if first else '',
+                  record.kinds_since(counts_before))

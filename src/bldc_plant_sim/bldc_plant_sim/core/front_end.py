@@ -1,17 +1,10 @@
 """Switching-level boost PFC front end of 000 ch. III (Fig. 3.1), no rclpy.
 
-60 Hz grid -> optional EMI filter (C1, L1 + L2, C2) -> diode bridge -> boost inductor L ->
-boost switch, or boost diode into the split capacitor string (:class:`~.dc_link.DcLink`,
-``current_fed``); the switch held off is a plain diode-bridge rectifier. States i_f, v_c,
-i_L; modes ``COND``, ``OVERLAP``, ``BLOCK``. Pieces between events (PWM edges, zero
-crossings, located DCM / overlap / over-current events) are integrated with the implicit
-midpoint rule in closed form (the energy balance closes to round-off); PWM carrier locked to
-sim time; protections cycle by cycle or latched (000 3.3). The arithmetic is
-:mod:`.front_end_kernel` (state in float64 arrays); this class keeps the API, the event log
-and the trip callback.
-
-Circuit, equations, events, PWM, protections and the PlantCore wiring:
-docs/models.md "Boost PFC front end".
+Grid -> optional EMI filter (C1, L1 + L2, C2) -> diode bridge -> boost inductor L -> boost
+switch, or boost diode into the split capacitor string (:class:`~.dc_link.DcLink`,
+``current_fed``). The arithmetic is :mod:`.front_end_kernel` (state in float64 arrays); this
+class keeps the API, the event log and the trip callback. Circuit, equations, events, PWM and
+protections (000 3.3): docs/models.md "Boost PFC front end".
 """
 from __future__ import annotations
 
@@ -21,48 +14,46 @@ import numpy as np
 
 from drive_common.compiled import interpreted
 
+from ..parameters import PLANT_SCHEMA
 from . import front_end_kernel as FK
 from .dc_link import array_slot
 from .front_end_kernel import BLOCK, KIND_NAMES
 
 TWO_PI = 2.0 * math.pi
 SQRT2 = math.sqrt(2.0)
-
-MODE_NAMES = ('block', 'conduct', 'overlap')
 CARRIERS = ('triangle', 'sawtooth')
 
 _EVENT_LOG_MAX = 10_000
 _EVENT_ROWS = 4096           # event rows one advance can log
-# text of each logged event kind (KIND_NAMES order); protections add their value
+# text of each logged switching event kind (KIND_NAMES order)
 _EVENT_TEXT = ('inductor current zero (bridge blocks)', 'bridge forward biased: conduction starts',
                'bridge commutation starts (both diagonals conduct)', 'bridge commutation ends')
 _front_end_values = FK.front_end_values     # compiled: one dispatch for all the values
 _losses, _grid_voltage = interpreted(FK.losses), interpreted(FK.grid_voltage)
 
-
-# Plant-schema names -> FrontEnd keyword (see FrontEnd.from_params and the report).
 PARAMETER_NAMES = {
-    'front_end.line_voltage': 'line_voltage',
-    'front_end.line_frequency': 'line_frequency',
-    'front_end.line_phase': 'line_phase',
-    'front_end.line_resistance': 'line_resistance',
-    'front_end.line_inductance': 'line_inductance',
-    'front_end.filter.enabled': 'filter_enabled',
+    'front_end.line_voltage': 'line_voltage', 'front_end.line_frequency': 'line_frequency',
+    'front_end.line_phase': 'line_phase', 'front_end.line_resistance': 'line_resistance',
+    'front_end.line_inductance': 'line_inductance', 'front_end.filter.enabled': 'filter_enabled',
     'front_end.filter.inductance': 'filter_inductance',
     'front_end.filter.capacitance': 'filter_capacitance',
-    'front_end.filter.resistance': 'filter_resistance',
-    'front_end.boost.inductance': 'inductance',
+    'front_end.filter.resistance': 'filter_resistance', 'front_end.boost.inductance': 'inductance',
     'front_end.boost.resistance': 'inductor_resistance',
     'front_end.bridge.diode_drop': 'bridge_diode_drop',
     'front_end.boost.switch_resistance': 'switch_resistance',
-    'front_end.boost.diode_drop': 'diode_drop',
-    'front_end.pwm_frequency': 'pwm_frequency',
-    'front_end.pwm_carrier': 'pwm_carrier',
-    'front_end.over_current_limit': 'over_current_limit',
+    'front_end.boost.diode_drop': 'diode_drop', 'front_end.pwm_frequency': 'pwm_frequency',
+    'front_end.pwm_carrier': 'pwm_carrier', 'front_end.over_current_limit': 'over_current_limit',
     'front_end.over_voltage_limit': 'over_voltage_limit',
-    'front_end.protection_latched': 'protection_latched',
-    'front_end.max_step': 'max_step',
+    'front_end.protection_latched': 'protection_latched', 'front_end.max_step': 'max_step',
 }
+"""Plant-schema name -> FrontEnd keyword."""
+DEFAULTS = {key: PLANT_SCHEMA[name].default for name, key in PARAMETER_NAMES.items()}
+"""FrontEnd keyword -> its default (the plant schema's)."""
+
+
+def _fv_property(slot: int, doc: str, kind: type = float) -> property:
+    """A read-only FrontEnd value: front_end_kernel.front_end_values slot (FV_*) now."""
+    return property(lambda self: kind(self._value(slot)), doc=doc)
 
 
 class FrontEndLedger:
@@ -76,7 +67,6 @@ class FrontEndLedger:
     switch = array_slot(FK.FX_SWITCH, 'R_on i_L^2')
     diode = array_slot(FK.FX_DIODE, 'V_fd i_L')
     numerical = array_slot(FK.FX_NUM, 'energy of the snaps onto event surfaces (~1e-20 J)')
-    _SLOTS = slice(FK.FX_GRID, FK.FX_NUM + 1)
 
     def __init__(self, x: np.ndarray | None = None) -> None:
         self.x = np.zeros(FK.FX_SIZE) if x is None else x
@@ -89,8 +79,8 @@ class FrontEndLedger:
 class FrontEnd:
     """Grid + EMI filter + diode bridge + boost stage, integrated by :meth:`advance`.
 
-    Parameters in ``fp`` and state in ``fx`` (float64, :mod:`.front_end_kernel` slots), which
-    the plant's kernels advance in place.
+    Keywords: those of PARAMETER_NAMES (SI units; missing ones take DEFAULTS); time [s]: start.
+    Parameters in ``fp``, state in ``fx`` (:mod:`.front_end_kernel` slots), advanced in place.
     """
 
     time = array_slot(FK.FX_TIME, 's, time the state is at', 'fx')
@@ -105,71 +95,33 @@ class FrontEnd:
     enable = array_slot(FK.FX_ENABLE, 'enable command', 'fx', bool)
     over_current = array_slot(FK.FX_OC, 'over-current protection active', 'fx', bool)
     over_voltage = array_slot(FK.FX_OV, 'over-voltage protection active', 'fx', bool)
+    log_switching_events = array_slot(FK.FP_LOG, 'log zero / start / overlap events too (many)', 'fp', bool)
 
-    def __init__(self, *, line_voltage: float = 25.4, line_frequency: float = 60.0,
-                 line_phase: float = 0.0, line_resistance: float = 0.0,
-                 line_inductance: float = 0.0, filter_enabled: bool = True,
-                 filter_inductance: float = 10e-6, filter_capacitance: float = 1e-6,
-                 filter_resistance: float = 0.05, inductance: float = 1e-3,
-                 inductor_resistance: float = 0.1, bridge_diode_drop: float = 0.8,
-                 switch_resistance: float = 0.07, diode_drop: float = 1.0,
-                 pwm_frequency: float = 80e3, pwm_carrier: str = 'triangle',
-                 over_current_limit: float = 8.0, over_voltage_limit: float = 140.0,
-                 protection_latched: bool = False, max_step: float = 1e-6,
-                 time: float = 0.0) -> None:
+    def __init__(self, *, time: float = 0.0, **settings) -> None:
+        unknown = set(settings) - set(DEFAULTS)
+        if unknown:
+            raise TypeError(f'FrontEnd: unknown keyword(s) {", ".join(sorted(unknown))}')
         self.fp = np.zeros(FK.FP_SIZE)
         self.fx = np.zeros(FK.FX_SIZE)
         self._ev = np.zeros((_EVENT_ROWS, 4))
         self._fv = np.zeros(FK.FV_SIZE)
-        self.filter_enabled = bool(filter_enabled)
-        self.configure(line_voltage=line_voltage, line_frequency=line_frequency,
-                       line_phase=line_phase, line_resistance=line_resistance,
-                       line_inductance=line_inductance, filter_inductance=filter_inductance,
-                       filter_capacitance=filter_capacitance, filter_resistance=filter_resistance,
-                       inductance=inductance, inductor_resistance=inductor_resistance,
-                       bridge_diode_drop=bridge_diode_drop, switch_resistance=switch_resistance,
-                       diode_drop=diode_drop, pwm_frequency=pwm_frequency, pwm_carrier=pwm_carrier,
-                       over_current_limit=over_current_limit,
-                       over_voltage_limit=over_voltage_limit,
-                       protection_latched=protection_latched, max_step=max_step)
-        # State.
+        settings = {**DEFAULTS, **settings}
+        self.filter_enabled = bool(settings.pop('filter_enabled'))
+        self.configure(**settings)
         self.time = float(time)
         self.v_c = self.grid_voltage(self.time) if self.filter_enabled else 0.0
         self.s = 1
         self.mode = BLOCK
         self._oc_period = -1
         self.fx[FK.FX_LAST_T], self.fx[FK.FX_LAST_KIND] = math.nan, -1
-        self.events: list[tuple[float, str]] = []   # (time, what): protections always,
+        self.events: list[tuple[float, str]] = []   # (time, what), bounded
         self.on_protection = None   # callable(kind, time, text) per trip ('over_current' / 'over_voltage')
         self.energy = FrontEndLedger(self.fx)
-
-    @property
-    def log_switching_events(self) -> bool:
-        """Log zero / start / overlap events too (80 kHz: many); protections are always logged."""
-        return self.fp[FK.FP_LOG] != 0.0
-
-    @log_switching_events.setter
-    def log_switching_events(self, value: bool) -> None:
-        self.fp[FK.FP_LOG] = 1.0 if value else 0.0
-
-    @property
-    def energy(self) -> FrontEndLedger:
-        return self._energy
-
-    @energy.setter
-    def energy(self, ledger: FrontEndLedger) -> None:
-        """Take over another ledger's values (a rebuilt front end keeps its ledger)."""
-        self.fx[FrontEndLedger._SLOTS] = ledger.x[FrontEndLedger._SLOTS]
-        self._energy = FrontEndLedger(self.fx)
 
     @property
     def event_counts(self) -> dict[str, int]:
         """Events counted since start, by kind (KIND_NAMES)."""
         return {name: int(n) for name, n in zip(KIND_NAMES, self.fx[FK.FX_COUNTS:].tolist())}
-
-    @event_counts.setter
-    def event_counts(self, counts: dict) -> None:
-        self.fx[FK.FX_COUNTS:] = [counts[name] for name in KIND_NAMES]
 
     @property
     def last_event(self) -> tuple[float, str]:
@@ -177,7 +129,6 @@ class FrontEnd:
         when, kind = self.fx[FK.FX_LAST_T:FK.FX_LAST_KIND + 1].tolist()
         return (when, KIND_NAMES[int(kind)] if kind >= 0 else '')
 
-    # ------------------------------------------------------------------ parameters
     @classmethod
     def from_params(cls, p: dict, time: float = 0.0) -> 'FrontEnd':
         """Build from a plant parameter snapshot (names in PARAMETER_NAMES)."""
@@ -185,49 +136,36 @@ class FrontEnd:
         return cls(time=time, **kw)
 
     def reconfigure(self, p: dict) -> None:
-        """Runtime update from a plant snapshot; the state is kept.
-
-        ``front_end.filter.enabled`` cannot change in place (rebuild the front
-        end; the lead's PlantCore moves the stored-energy baseline then).
-        """
+        """Runtime update from a plant snapshot, state kept (a new filter.enabled needs a rebuild)."""
         kw = {k: p[n] for n, k in PARAMETER_NAMES.items() if n in p and k != 'filter_enabled'}
         self.configure(**kw)
 
     def configure(self, **kw) -> None:
+        """Set keywords of PARAMETER_NAMES (not filter_enabled) and rebuild ``fp``."""
         for k, v in kw.items():
             setattr(self, k, v)
         if self.pwm_carrier not in CARRIERS:
             raise ValueError(f'pwm_carrier {self.pwm_carrier!r} is not one of {CARRIERS}')
         self.v_peak = SQRT2 * float(self.line_voltage)
-        self.omega = TWO_PI * float(self.line_frequency)
-        self.R_s = float(self.line_resistance)
-        self.R_L = float(self.inductor_resistance)
+        R_s = float(self.line_resistance)
+        R_L = float(self.inductor_resistance)
         if self.filter_enabled:     # supply impedance in series with L1 + L2
-            self.L = float(self.inductance)
-            self.L_f = 2.0 * float(self.filter_inductance) + float(self.line_inductance)
-            self.R_f = 2.0 * float(self.filter_resistance) + self.R_s
-            self._R_plain = self.R_L
+            L = float(self.inductance)
+            L_f = 2.0 * float(self.filter_inductance) + float(self.line_inductance)
+            R_f = 2.0 * float(self.filter_resistance) + R_s
+            R_plain = R_L
         else:                       # supply impedance moved to the DC side of the bridge
-            self.L = float(self.inductance) + float(self.line_inductance)
-            self.L_f = 0.0
-            self.R_f = 0.0
-            self._R_plain = self.R_L + self.R_s
-        self.C_f = float(self.filter_capacitance)           # C2 (bridge side)
-        self.C_1 = float(self.filter_capacitance)           # C1 (grid side)
-        self.V_b = 2.0 * float(self.bridge_diode_drop)      # two bridge diodes in the path
-        self.R_on = float(self.switch_resistance)
-        self.V_d = float(self.diode_drop)
-        self.f_pwm = float(self.pwm_frequency)
-        self._triangle = self.pwm_carrier == 'triangle'
-        self.h_max = float(self.max_step) if self.filter_enabled else math.inf
-        fp = self.fp
-        fp[FK.FP_VPEAK:FK.FP_LOG] = (
-            self.v_peak, self.omega, float(self.line_phase), self.R_s, self.R_L, self.L, self.L_f, self.R_f,
-            self._R_plain, self.C_f, self.C_1, self.V_b, self.R_on, self.V_d, self.f_pwm, self._triangle,
-            self.h_max, self.filter_enabled, float(self.over_current_limit), float(self.over_voltage_limit),
-            bool(self.protection_latched))
+            L = float(self.inductance) + float(self.line_inductance)
+            L_f = R_f = 0.0
+            R_plain = R_L + R_s
+        C_f = float(self.filter_capacitance)          # C2 (bridge side) = C1 (grid side)
+        self.fp[FK.FP_VPEAK:FK.FP_LOG] = (
+            self.v_peak, TWO_PI * float(self.line_frequency), float(self.line_phase), R_s, R_L, L, L_f,
+            R_f, R_plain, C_f, C_f, 2.0 * float(self.bridge_diode_drop), float(self.switch_resistance),
+            float(self.diode_drop), float(self.pwm_frequency), self.pwm_carrier == 'triangle',
+            float(self.max_step) if self.filter_enabled else math.inf, self.filter_enabled,
+            float(self.over_current_limit), float(self.over_voltage_limit), bool(self.protection_latched))
 
-    # ------------------------------------------------------------------ commands
     def set_duty(self, duty: float, enable: bool) -> None:
         """Latch the duty command (held until the next call)."""
         self.duty = min(1.0, max(0.0, float(duty)))
@@ -242,38 +180,15 @@ class FrontEnd:
         _front_end_values(self.fp, self.fx, self.time, self._fv)
         return float(self._fv[slot])
 
-    @property
-    def protection(self) -> int:
-        """PlantState PROTECTION_BOOST_* bits currently active."""
-        return int(self._value(FK.FV_PROT))
+    protection = _fv_property(FK.FV_PROT, 'PlantState PROTECTION_BOOST_* bits active', int)
+    switch_enabled = _fv_property(FK.FV_SWITCH, 'boost switching enabled after protections', bool)
+    applied_duty = _fv_property(FK.FV_DUTY, 'PlantState.boost_duty (0 while held off)')
+    rectified_voltage = _fv_property(FK.FV_RECT, 'V, |bridge input|, as the PFC senses it')
+    grid_current = _fv_property(FK.FV_GRID_I, 'A, line current (filter: i_f + C1 dv_g/dt)')
+    inductor_current = property(lambda self: self.i_L, doc='A, boost inductor current')
 
-    @property
-    def switch_enabled(self) -> bool:
-        """Boost switching enabled after protections (PlantState.boost_switch_enabled)."""
-        return self._value(FK.FV_SWITCH) != 0.0
-
-    @property
-    def applied_duty(self) -> float:
-        """PlantState.boost_duty: the duty applied (0 while held off)."""
-        return self._value(FK.FV_DUTY)
-
-    # ------------------------------------------------------------------ outputs
     def grid_voltage(self, t: float) -> float:
         return _grid_voltage(self.fp, t)
-
-    @property
-    def rectified_voltage(self) -> float:
-        """V, |bridge input| = the rectified line voltage the PFC senses (PfcMeasurement)."""
-        return self._value(FK.FV_RECT)
-
-    @property
-    def grid_current(self) -> float:
-        """A, line current at self.time (filter: i_f + C1 dv_g/dt; else the bridge input current)."""
-        return self._value(FK.FV_GRID_I)
-
-    @property
-    def inductor_current(self) -> float:
-        return self.i_L
 
     def stored_energy(self) -> float:
         """J: boost inductor, filter inductors, C2 and C1 (C1 at the grid voltage now)."""
@@ -288,41 +203,33 @@ class FrontEnd:
         en = self.energy
         return en.grid - (self.stored_energy() - stored_initial) - en.losses - en.delivered
 
-    # ------------------------------------------------------------------ integration
     def advance(self, t: float, dt: float, v_out: float) -> float:
-        """Integrate [t, t + dt] with the DC-link (positive rail) voltage held at v_out [V]
-        (:func:`.front_end_kernel.advance`; pass the link voltage predicted at the segment middle).
-
-        Returns the charge [C] delivered into the positive rail (boost-diode current integral);
-        events located inside are taken by :meth:`take_event` in order.
-        """
+        """Integrate [t, t + dt] with the positive rail held at v_out [V] (:func:`.front_end_kernel.advance`);
+        the charge [C] delivered into it. Events inside are taken in order (:meth:`take_event`)."""
         q, n_ev = FK.advance(self.fp, self.fx, self._ev, 0, t, dt, v_out)
         for when, kind, _, value in self._ev[:min(n_ev, _EVENT_ROWS)].tolist():
             self.take_event(when, int(kind), value)
         return q
 
     def take_event(self, when: float, kind: int, value: float) -> None:
-        """A logged event row (kind EV_FRONT_END + KIND_*; value: i_L of an over-current trip,
-        v_o of an over-voltage): a trip goes to the log and on_protection, a switching event
-        (logged with log_switching_events) to the log."""
+        """A logged event row (kind EV_FRONT_END + KIND_*; value: i_L or v_o of a trip) into the
+        log; a trip also to on_protection (the plant's fault record)."""
         kind -= FK.EV_FRONT_END
         if kind == FK.KIND_OVER_CURRENT:
-            self._protection(when, 'over_current', f'boost over-current: i_L = {value:.3f} A '
-                             f'above {self.over_current_limit:g} A: switch opened')
+            trip, text = 'over_current', (f'boost over-current: i_L = {value:.3f} A '
+                                          f'above {self.over_current_limit:g} A: switch opened')
         elif kind == FK.KIND_OVER_VOLTAGE:
-            self._protection(when, 'over_voltage', f'boost over-voltage: v_o = {value:.3f} V above '
-                             f'{self.over_voltage_limit:g} V: switch opened')
+            trip, text = 'over_voltage', (f'boost over-voltage: v_o = {value:.3f} V above '
+                                          f'{self.over_voltage_limit:g} V: switch opened')
         else:
-            self._log(when, _EVENT_TEXT[kind])
+            trip, text = None, _EVENT_TEXT[kind]
+        log_event(self.events, when, text)
+        if trip is not None and self.on_protection is not None:
+            self.on_protection(trip, when, text)
 
-    def _protection(self, when: float, kind: str, text: str) -> None:
-        """A protection trip: logged, and passed to on_protection (the plant's fault record)."""
-        self._log(when, text)
-        if self.on_protection is not None:
-            self.on_protection(kind, when, text)
 
-    def _log(self, when: float, text: str) -> None:
-        ev = self.events
-        if len(ev) > _EVENT_LOG_MAX:
-            del ev[:_EVENT_LOG_MAX // 2]
-        ev.append((when, text))
+def log_event(events: list, when: float, text: str) -> None:
+    """Append (when, text) to an event log bounded at about _EVENT_LOG_MAX entries."""
+    if len(events) > _EVENT_LOG_MAX:
+        del events[:_EVENT_LOG_MAX // 2]
+    events.append((when, text))

@@ -1,13 +1,9 @@
 """Compiled front-end kernels of :class:`~.front_end.FrontEnd` (000 ch. III, docs/models.md
-"Boost PFC front end"): one piece of the circuit, its events and its ledger, on float64 arrays.
-
-``fp`` holds the circuit constants (``FP_*``, rebuilt by FrontEnd.configure) and ``fx`` the state,
-the energy ledger and the event counts (``FX_*``). :func:`advance` integrates [t, t + dt] with
-the link voltage held; the plant's kernels call it inside their segments, the FrontEnd class
-once per call. Events are logged as rows (when, EV_FRONT_END + KIND_*, 0, value) in the plant's
-event-log format: protections always, switching events when FP_LOG is set. Written as plain
-Python (``drive_common.compiled.njit``): compiled and ``NUMBA_DISABLE_JIT=1`` runs agree bit
-for bit.
+"Boost PFC front end") on float64 arrays: ``fp`` the circuit constants (``FP_*``), ``fx`` the
+state, ledger and event counts (``FX_*``). :func:`advance` integrates [t, t + dt] with the link
+voltage held; events are logged as rows (when, EV_FRONT_END + KIND_*, 0, value) in the plant's
+format (switching events only with FP_LOG). Compiled and ``NUMBA_DISABLE_JIT=1`` runs agree
+bit for bit.
 """
 from __future__ import annotations
 
@@ -40,10 +36,8 @@ EV_FRONT_END = 16        # event-log kind of a front-end event: EV_FRONT_END + K
 
 @njit
 def carrier(t: float, f_pwm: float, duty: float, triangle: bool):
-    """PWM carrier locked to sim time: (switch on, time of the next carrier edge after t, period index).
-
-    Triangle: on for [0, d T/2] and [T - d T/2, T]; sawtooth: on for [0, d T) (module doc).
-    """
+    """PWM carrier locked to sim time: (switch on, next carrier edge after t, period index);
+    triangle: on for [0, d T/2] and [T - d T/2, T], sawtooth: on for [0, d T)."""
     x = t * f_pwm
     tol = max(1e-9, 8.0 * abs(x) * 2.3e-16)
     k = math.floor(x + tol)
@@ -68,11 +62,8 @@ def carrier(t: float, f_pwm: float, duty: float, triangle: bool):
 
 @njit
 def substep_coefficients(h: float, L_f2: float, R_f: float, C_f2: float, L2: float, R: float):
-    """Implicit-midpoint coefficients of a filter sub-step of length h [s]: (al, g1, be, ga, g3, k_c, k_b).
-
-    al = 2 L_f / h, be = 2 C_2 / h, ga = 2 L / h; g1, g3 the branch conductances; k_c, k_b the
-    inverse node sums of the COND and BLOCK eliminations (module doc "Integration").
-    """
+    """Implicit-midpoint coefficients of a filter sub-step of h [s]: al = 2 L_f / h, g1, be = 2 C_2 / h,
+    ga = 2 L / h, g3 (branch conductances), k_c, k_b (inverse node sums of COND / BLOCK)."""
     al = L_f2 / h
     g1 = 1.0 / (al + R_f)
     be = C_f2 / h
@@ -85,9 +76,8 @@ def substep_coefficients(h: float, L_f2: float, R_f: float, C_f2: float, L2: flo
 def filter_substep(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, vg: float,
                    al: float, g1: float, be: float, ga: float, g3: float, k_c: float, k_b: float,
                    i_f0: float, v_c0: float, i_L0: float):
-    """One implicit-midpoint sub-step in a conduction mode: mid values (a, b, c) of (i_f, v_c, i_L),
-    end values (v_c1, i_L1) and whether an event (module doc: zero, overlap, over-current, start,
-    overlap end) lies inside it."""
+    """One implicit-midpoint sub-step in a mode: mid values (a, b, c) of (i_f, v_c, i_L), end
+    values (v_c1, i_L1) and whether an event lies inside it."""
     A1 = vg + al * i_f0
     if mode == COND:      # L_f di_f/dt = v_g - v_c - R_f i_f, C2 dv_c/dt = i_f - s i_L, L di_L/dt = ...
         A3 = ga * i_L0 - V_b - u
@@ -118,12 +108,9 @@ def filter_substep(mode: int, s: int, gate: bool, lim: float, V_b: float, u: flo
 def filter_substeps(mode: int, s: int, gate: bool, lim: float, V_b: float, u: float, R: float,
                     R_f: float, L_f2: float, C_f2: float, L2: float, vp: float, w: float, ph: float,
                     h_max: float, t: float, span: float, i_f0: float, v_c0: float, i_L0: float):
-    """Sub-steps of at most h_max over span [s] from t in one mode, stopping before an event.
-
-    Returns (t, i_f, v_c, i_L, h, event, q, e_grid, e_line, e_ind, e_sq): the time and state
-    reached, the last sub-step length, whether it holds an event (not taken), the link charge
-    and the ledger integrals (v_g i_f, i_f^2, i_L, i_L^2; midpoint rule: closes exactly).
-    """
+    """Sub-steps of at most h_max over span [s] from t in one mode, stopping before an event:
+    (t, i_f, v_c, i_L reached, last sub-step h, event inside it, link charge, ledger integrals
+    of v_g i_f, i_f^2, i_L, i_L^2)."""
     q = e_grid = e_line = e_ind = e_sq = 0.0
     t_end = t + span
     eps = 1e-9 * span
@@ -158,8 +145,7 @@ def filter_substeps(mode: int, s: int, gate: bool, lim: float, V_b: float, u: fl
 def midpoint_values(t: float, h: float, mode: int, s: int, R: float, u: float, vp: float, w: float,
                     ph: float, L_f: float, R_f: float, C_f: float, L: float, V_b: float, i_f: float,
                     v_c: float, i_L: float):
-    """Implicit-midpoint mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece of length h [s]
-    from state (i_f, v_c, i_L) in one mode (module doc's mode equations, eliminated in closed form)."""
+    """Implicit-midpoint mid values (i_f, v_c, i_L) and v_g(t + h/2) of a piece of h [s] in one mode."""
     vg = vp * math.sin(w * (t + 0.5 * h) + ph)
     al = 2.0 * L_f / h
     g1 = 1.0 / (al + R_f)
@@ -187,8 +173,8 @@ EV_START_POS, EV_START_NEG, EV_PLAIN_START = 6, 7, 8
 def event_quantity(kind: int, x: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
                    vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
                    V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
-    """Event quantity after a piece of length x [s] from t (> 0 before the event): i_L (zero),
-    s v_c (overlap), lim - i_L, i_L -+ i_f (overlap end), the bridge drive (start; plain: no filter)."""
+    """Event quantity after a piece of x [s] from t (> 0 before the event): i_L, s v_c, lim - i_L,
+    i_L -+ i_f or the bridge drive."""
     if kind == EV_PLAIN_START:
         return V_b + u - abs(vp * math.sin(w * (t + x) + ph))
     a, b, c, _ = midpoint_values(t, x, mode, s, R, u, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
@@ -212,8 +198,7 @@ def event_quantity(kind: int, x: float, t: float, mode: int, s: int, R: float, u
 def locate_event(kind: int, h: float, t: float, mode: int, s: int, R: float, u: float, lim: float,
                  vp: float, w: float, ph: float, L_f: float, R_f: float, C_f: float, L: float,
                  V_b: float, i_f0: float, v_c0: float, i_L0: float) -> float:
-    """Smallest x in (0, h] with event_quantity(kind, x) <= 0, given > 0 at 0+ and <= 0 at h
-    (bracketed Illinois iteration, module doc "Integration")."""
+    """Smallest x in (0, h] with event_quantity(kind, x) <= 0 (bracketed Illinois iteration)."""
     args = (t, mode, s, R, u, lim, vp, w, ph, L_f, R_f, C_f, L, V_b, i_f0, v_c0, i_L0)
     lo, hi = 0.0, h
     f_lo = event_quantity(kind, h * 1e-9, *args)
@@ -239,8 +224,6 @@ def locate_event(kind: int, h: float, t: float, mode: int, s: int, R: float, u: 
         if hi - lo <= 1e-12 * h or f_hi == 0.0:
             break
     return hi
-
-
 
 
 @njit
@@ -318,8 +301,7 @@ def mid(fp, fx, t, h, mode, s, R, u):
 # ---- no filter: one state i_L, bridge input = grid voltage
 @njit
 def plain_blocked(fp, fx, ev, n_ev, t, h, vg_mid, u_off):
-    """With i_L = 0: (whether the bridge stays blocked until a located start or the piece end,
-    where fx's time is then set; n_ev); False when it is forward biased at t."""
+    """With i_L = 0: (bridge blocked until a located start or the piece end (fx's time set), n_ev)."""
     V_b = fp[FP_VB]
     if abs(grid_voltage(fp, t)) - V_b - u_off > 0.0:
         return False, n_ev
@@ -333,9 +315,8 @@ def plain_blocked(fp, fx, ev, n_ev, t, h, vg_mid, u_off):
 
 @njit
 def plain_event(fp, t, h, gate, i0, i1, R, u_off):
-    """(piece length, event) of a conducting piece: i_L reaching zero, h = 2 L i0 / (R i0 - 2 D),
-    or the over-current limit, h = 2 L (i0 - lim) / (R (i0 + lim) - 2 D), D the bridge drive at
-    the piece's (moving) middle, three fixed-point passes; (h, 0) without an event."""
+    """(piece length, event) of a conducting piece: i_L zero at h = 2 L i0 / (R i0 - 2 D) or the
+    limit at h = 2 L (i0 - lim) / (R (i0 + lim) - 2 D), D the mid-piece bridge drive (3 passes)."""
     L, V_b, lim = fp[FP_L], fp[FP_VB], fp[FP_OC]
     if i1 < 0.0:
         hz = h
@@ -356,10 +337,9 @@ def plain_event(fp, t, h, gate, i0, i1, R, u_off):
 
 @njit
 def piece_plain(fp, fx, ev, n_ev, t, h, gate, v_out):
-    """One piece of at most h [s] from t without the filter (000 Fig. 3.1 with the bridge input at
-    the grid); advances fx's time; (link charge, n_ev). Midpoint rule on
-    L di_L/dt = |v_g| - 2 V_f - R i_L - u: mid-piece current c = (g i0 + |v_g| - V_b - u) / (g + R),
-    g = 2 L / h (docs/models.md "Boost PFC front end")."""
+    """One piece of at most h [s] from t without the filter (000 Fig. 3.1): midpoint rule on
+    L di_L/dt = |v_g| - 2 V_f - R i_L - u, c = (g i0 + |v_g| - V_b - u) / (g + R), g = 2 L / h;
+    (link charge, n_ev)."""
     vg = grid_voltage(fp, t + 0.5 * h)
     u_off = 0.0 if gate else v_out + fp[FP_VD]
     R = fp[FP_RPLAIN] + (fp[FP_RON] if gate else 0.0)
@@ -400,9 +380,8 @@ def piece_plain(fp, fx, ev, n_ev, t, h, gate, v_out):
 # ---- EMI filter: states i_f, v_c, i_L
 @njit
 def start_mode(fp, fx, u):
-    """The conduction mode consistent with the state at a piece start (module doc's modes): a
-    reverse-biased conducting diagonal starts an overlap (v_c snapped to 0, its energy booked as
-    numerical), a forward-biased bridge with i_L = 0 starts conduction."""
+    """The conduction mode consistent with the state at a piece start (a reverse-biased diagonal
+    starts an overlap, v_c snapped to 0; a forward-biased bridge with i_L = 0 conduction)."""
     i_L, v_c, mode, s = fx[FX_IL], fx[FX_VC], int(fx[FX_MODE]), fx[FX_S]
     if i_L > 0.0:
         if mode == OVERLAP:
@@ -439,10 +418,8 @@ def book_substeps(fp, fx, e_grid, e_line, qc, sq, q, gate, v_out):
 
 @njit
 def piece_filter(fp, fx, ev, n_ev, t, span, gate, v_out):
-    """Sub-steps of at most h_max over span [s] from t with a fixed gate (:func:`filter_substeps`:
-    the COND / OVERLAP / BLOCK equations of docs/models.md, 000 Fig. 3.1 with the EMI filter),
-    stopping at an event, which :func:`first_filter_event` locates and :func:`take_filter_event`
-    takes; (link charge, n_ev)."""
+    """Sub-steps over span [s] from t with a fixed gate (000 Fig. 3.1 with the EMI filter), up to
+    an event located and taken there; (link charge, n_ev)."""
     u = 0.0 if gate else v_out + fp[FP_VD]
     R = fp[FP_RL] + (fp[FP_RON] if gate else 0.0)
     start_mode(fp, fx, u)
@@ -471,8 +448,7 @@ def earlier(fp, fx, kind, t, h, mode, s, R, u, best, event):
 
 @njit
 def first_filter_event(fp, fx, t, h, mode, s, R, u, gate):
-    """The sub-step of length h from t holds an event: (time to the first one, its EV_* kind; 0:
-    none located), candidates in the order zero / overlap / over-current, overlap ends, starts."""
+    """(time to the first event in the sub-step of h from t, its EV_* kind; 0: none located)."""
     i_f0, v_c0, i_L0 = fx[FX_IF], fx[FX_VC], fx[FX_IL]
     lim = fp[FP_OC]
     a, b, c, vg = mid(fp, fx, t, h, mode, s, R, u)
@@ -504,8 +480,7 @@ def first_filter_event(fp, fx, t, h, mode, s, R, u, gate):
 
 @njit
 def take_filter_event(fp, fx, ev, n_ev, t, h, event, mode, s, R, u, gate, v_out):
-    """Integrate the piece of length h from t up to the located event and act on it (snap,
-    mode change, trip); (link charge, n_ev)."""
+    """Integrate the piece of h from t up to the located event and act on it; (link charge, n_ev)."""
     i_f0, v_c0, i_L0 = fx[FX_IF], fx[FX_VC], fx[FX_IL]
     a, b, c, vg = mid(fp, fx, t, h, mode, s, R, u)
     i_f1, v_c1, i_L1 = 2.0 * a - i_f0, 2.0 * b - v_c0, 2.0 * c - i_L0
@@ -536,9 +511,8 @@ def take_filter_event(fp, fx, ev, n_ev, t, h, event, mode, s, R, u, gate, v_out)
 # ---- one advance: pieces between PWM edges, zero crossings and located events
 @njit
 def piece_gate(fp, fx, ev, n_ev, tn, v_out):
-    """At a piece start tn: protections cleared cycle by cycle (not latched: next PWM period, back
-    at or below the limit), the inrush over-current trip, and the gate; (gate, next carrier edge,
-    n_ev) (000 3.3, module doc "PWM")."""
+    """At a piece start tn: cycle-by-cycle protection release, inrush over-current trip, and the
+    gate (000 3.3); (gate, next carrier edge, n_ev)."""
     on, t_edge, k = carrier(tn, fp[FP_FPWM], fx[FX_DUTY], fp[FP_TRIANGLE] != 0.0)
     oc, ov = fx[FX_OC] != 0.0, fx[FX_OV] != 0.0
     if fp[FP_LATCHED] == 0.0 and (oc or ov):
@@ -556,10 +530,9 @@ def piece_gate(fp, fx, ev, n_ev, tn, v_out):
 
 @njit
 def advance(fp, fx, ev, n_ev, t, dt, v_out):
-    """Integrate [t, t + dt] with the DC-link (positive rail) voltage held at v_out [V] (pass the
-    link voltage predicted at the segment middle); (charge [C] into the positive rail, n_ev).
-    The over-voltage check, then pieces up to each PWM edge (and grid zero crossing without the
-    filter); C1's energy exactly at the end."""
+    """Integrate [t, t + dt] with the positive rail held at v_out [V] (mid-segment prediction):
+    over-voltage check, pieces up to each PWM edge (and grid zero crossing without the filter);
+    (charge [C] into the positive rail, n_ev)."""
     fx[FX_TIME] = t
     filt = fp[FP_FILTER] != 0.0
     vg0 = grid_voltage(fp, t) if filt else 0.0
@@ -634,8 +607,7 @@ def rectified_voltage(fp, fx):
 
 @njit
 def front_end_values(fp, fx, plant_time, out):
-    """PlantState's front-end fields at the plant's time into out (FV_*; protection: the front
-    end's bits only)."""
+    """PlantState's front-end fields at the plant's time into out (FV_*; only the front end's bits)."""
     on = fx[FX_ENABLE] != 0.0 and not (fx[FX_OC] != 0.0 or fx[FX_OV] != 0.0)
     out[FV_GRID_V] = grid_voltage(fp, plant_time)
     out[FV_GRID_I] = grid_current(fp, fx)

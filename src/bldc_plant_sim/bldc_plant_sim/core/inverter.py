@@ -1,17 +1,12 @@
 """Six- or four-switch voltage-source inverter with free-wheeling diodes (000 ch. II/IV, 001).
 
-Each leg is driven by its own two gates (SW1/SW2 = a, SW3/SW4 = b, SW5/SW6 = c).
-Leg codes: UPPER, LOWER, OFF (both off) and MIDPOINT (the four-switch inverter's
-phase tied to the split-capacitor midpoint; its gates are ignored). Both switches
-of a leg on: the interlock turns both off and the plant records a shoot-through
-fault (:meth:`Inverter.shoot_through_legs`). Devices drop V_CE or V_d + R_on |i|
-(001 Tables III/IV); at zero current a leg is a true open phase while its floating
-terminal voltage stays inside its blocking band. Bands and the segment model:
-docs/models.md "Inverter".
+Gates SW1/SW2 = leg a, SW3/SW4 = b, SW5/SW6 = c. Leg codes: UPPER, LOWER, OFF and MIDPOINT
+(the four-switch inverter's phase tied to the capacitor midpoint). Both switches of a leg on:
+the interlock turns both off (a shoot-through fault). Devices drop V_CE or V_d + R_on |i|
+(001 Tables III/IV); at zero current a leg is open while inside its blocking band
+(docs/models.md "Inverter").
 """
 from __future__ import annotations
-
-import numpy as np
 
 from drive_common.compiled import njit
 
@@ -40,7 +35,6 @@ class Inverter:
     def set_drops(self, v_ce: float, v_d: float, r_on: float) -> None:
         self.v_ce, self.v_d, self.r_on = float(v_ce), float(v_d), float(r_on)
 
-    # ------------------------------------------------------------------ gates
     def legs(self, switch_on) -> tuple:
         """Leg codes from the six gate signals (interlock; midpoint leg fixed)."""
         out = []
@@ -63,26 +57,7 @@ class Inverter:
     @staticmethod
     def switches(legs) -> tuple:
         """Applied (SW1..SW6) of leg codes."""
-        out = []
-        for code in legs:
-            out += [code == UPPER, code == LOWER]
-        return tuple(out)
-
-    # ------------------------------------------------------------------ conduction
-    def resolve(self, legs, i, e, vp: float, vm: float):
-        """Conduction state for phase currents i and EMFs e (constant over a segment).
-
-        Returns (cond, u, vn, rail): cond[x] whether phase x conducts; u[x] its
-        terminal voltage minus e_x [V]; vn the star-point voltage above the
-        negative rail [V]; rail[x] the DC node the phase connects to
-        (:func:`resolve_legs`, compiled).
-        """
-        cond, u, rail = np.zeros(3, np.int64), np.zeros(3), np.zeros(3, np.int64)
-        band, floating = np.zeros((3, 4)), np.zeros(3, np.int64)
-        vn = resolve_legs(np.asarray(legs, np.int64), np.asarray(i, np.float64),
-                          np.asarray(e, np.float64), vp, vm, self.v_ce, self.v_d, self.r_on,
-                          cond, u, rail, band, floating)
-        return [bool(c) for c in cond], u.tolist(), vn, rail.tolist()
+        return tuple(on for code in legs for on in (code == UPPER, code == LOWER))
 
 
 @njit
@@ -121,14 +96,10 @@ def _leg_start(code, ix, ex, vp, vm, vce, vd, ron, fl):
 
 @njit
 def resolve_legs(legs, i, e, vp, vm, vce, vd, ron, cond, u, rail, band, floating):
-    """Conduction state (cond, u, rail written in place; returns v_n) of Inverter.resolve;
-    band (3 x 4, zeros) and floating (3, zeros) are the caller's scratch.
-
-    Conducting phases obey (L - M) di_x/dt = u_x - v_n - R i_x with v_n = mean of u over the
-    conducting phases (sum of currents is zero); open legs join, most forward-biased first.
-    """
-    # band: lo, hi, rail_lo, rail_hi of each open leg; floating: 1 while leg x is open at zero
-    # current (in leg order)
+    """Conduction state of the legs for currents i, EMFs e: cond, u (terminal voltage - e_x),
+    rail written in place, v_n returned (mean of u over the conducting phases); open legs join,
+    most forward-biased first. Zeroed scratch: band (lo, hi, rail_lo, rail_hi per open leg) and
+    floating (1 while a leg is open at zero current)."""
     for x in range(3):
         c, ux, r = _leg_start(legs[x], i[x], e[x], vp, vm, vce, vd, ron, band[x])
         cond[x], u[x], rail[x] = c, ux, r

@@ -1,9 +1,5 @@
-"""Compiled DC-link and shaft updates of one integration segment (:mod:`.dc_link`, :mod:`.load`).
-
-State lives in float64 arrays owned by :class:`~.dc_link.DcLink` (``DC_*`` slots); the
-equations are those documented in :mod:`.dc_link` (split-capacitor string, mid-segment
-voltage prediction) and :mod:`.load` (implicit trapezoidal shaft update).
-"""
+"""Compiled DC-link and shaft updates of one integration segment: the equations of :mod:`.dc_link`
+(``DC_*`` slots of DcLink.x) and :mod:`.load` (``LD_*`` slots of LoadMachine.x)."""
 from __future__ import annotations
 
 from drive_common.compiled import libm_pow, njit
@@ -54,10 +50,8 @@ def link_draw(x, mode, q_p, q_m, dt):
 
 @njit
 def shaft_step(load, inertia, friction, w0, te, dt):
-    """J dw/dt = T_e - T_L - B w over dt, trapezoidal (load docstring; load: LD_* settings).
-
-    Returns (w1, w_avg, t_load, friction_energy, load_energy).
-    """
+    """J dw/dt = T_e - T_L - B w over dt, trapezoidal (load: LD_* settings):
+    (w1, w_avg, t_load, friction_energy, load_energy)."""
     mode = int(load[LD_MODE])
     if mode == DYNAMOMETER:
         w1 = load[LD_SPEED]

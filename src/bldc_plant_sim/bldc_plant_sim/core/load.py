@@ -1,37 +1,25 @@
 """Load machine on the motor shaft and the mechanical update (changeable at runtime).
 
-Modes: ``torque`` (constant T_L against positive rotation), ``viscous``
-(T_L = b w_m) and ``dynamometer`` (holds w_m at its speed setting; the torque
-it applies is whatever that takes). Mechanics J dw/dt = T_e - T_L - B w are
-advanced over a segment with the average electromagnetic torque of the
-segment and the implicit trapezoidal rule for the speed-proportional terms,
-so kinetic-energy change + friction + load work = T_e,avg * w_avg * dt exactly.
+Modes: ``torque`` (constant T_L), ``viscous`` (T_L = b w_m), ``dynamometer`` (holds w_m).
+J dw/dt = T_e - T_L - B w over a segment: average T_e, implicit trapezoidal rule for the speed
+terms, so kinetic-energy change + friction + load work = T_e,avg * w_avg * dt exactly.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .link_kernel import LD_SIZE, LD_MODE, LD_SPEED, LD_TORQUE, LD_VISCOUS, shaft_step
+from .dc_link import array_slot
+from .link_kernel import LD_SIZE, LD_MODE, LD_SPEED, LD_TORQUE, LD_VISCOUS
 
 MODES = ('torque', 'viscous', 'dynamometer')
-
-
-def _slot(index: int) -> property:
-    """A float setting stored in LoadMachine.x[index] (read by the compiled shaft update)."""
-    def get(self):
-        return float(self.x[index])
-
-    def set_(self, value):
-        self.x[index] = value
-    return property(get, set_)
 
 
 class LoadMachine:
     """Settings in ``x`` (link_kernel LD_* slots), so a change between ticks reaches the kernels."""
 
-    torque = _slot(LD_TORQUE)      # N m
-    viscous = _slot(LD_VISCOUS)    # N m s/rad
-    speed = _slot(LD_SPEED)        # rad/s
+    torque = array_slot(LD_TORQUE, 'N m')
+    viscous = array_slot(LD_VISCOUS, 'N m s/rad')
+    speed = array_slot(LD_SPEED, 'rad/s')
 
     def __init__(self, mode: str = 'torque', torque: float = 0.0, viscous: float = 0.0,
                  speed: float = 0.0) -> None:
@@ -56,10 +44,3 @@ class LoadMachine:
         if self.mode == 'viscous':
             return self.viscous * w
         return 0.0
-
-    def step(self, inertia: float, friction: float, w0: float, te: float, dt: float):
-        """Advance the shaft over dt with average T_e = te (:func:`.link_kernel.shaft_step`).
-
-        Returns (w1, w_avg, t_load, friction_energy, load_energy).
-        """
-        return shaft_step(self.x, inertia, friction, w0, te, dt)

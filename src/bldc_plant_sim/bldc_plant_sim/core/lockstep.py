@@ -1,13 +1,9 @@
 """Lockstep schedule shared by the plant node and the headless co-simulation.
 
-docs/architecture.md "Time and lockstep": the plant counts integer base
-ticks; a controller with period N * base_tick is due at tick k when k % N == 0. Its command is latched at
-the sample it answers (or, with ``computation_delay``, one controller
-sample later, as a DSP that writes its PWM registers at the next interrupt)
-and held until the next command. With that delay the plant node may pipeline
-(:meth:`LockstepSchedule.hold` / :meth:`LockstepSchedule.apply_held`): the
-command of a due sample is received while the plant integrates the ticks
-after it, and applied from the controller's next due sample, as latched.
+docs/architecture.md "Time and lockstep": a controller with period N base ticks is due at tick
+k when k % N == 0; its command is latched at the sample it answers (with ``computation_delay``
+one controller sample later, as a DSP) and held until the next. With that delay the node may
+pipeline (:meth:`LockstepSchedule.hold` / :meth:`LockstepSchedule.apply_held`).
 """
 from __future__ import annotations
 
@@ -18,12 +14,8 @@ from drive_common.samples import ALL_OFF
 
 
 class ControllerKind(StrEnum):
-    """A lockstep controller: what it commands, its period and how its command is applied.
-
-    The one place that knows the kinds on the ROS-agnostic side (the plant node's
-    bldc_plant_sim.lockstep_loop.CHANNELS adds topics and message types). A StrEnum:
-    ``ControllerKind('gate')`` and ``ControllerKind.GATE == 'gate'`` hold.
-    """
+    """A lockstep controller: what it commands, its period and how its command is applied
+    (lockstep_loop.CHANNELS adds the topics). A StrEnum: ``ControllerKind.GATE == 'gate'``."""
 
     GATE = 'gate'    # dtc_controller: switch_on (bool[6])
     DUTY = 'duty'    # pfc_controller: (duty, enable)
@@ -58,12 +50,8 @@ def ticks_of(period: float, base_tick: float, what: str) -> int:
 
 @dataclass
 class LockstepSchedule:
-    """Which controllers are due at tick k, and how their commands are latched.
-
-    dtc_ticks / pfc_ticks: controller periods in base ticks (0 = not used).
-    state_ticks: ground truth published every this many ticks.
-    computation_delay: apply each command one controller sample late.
-    """
+    """Which controllers are due at tick k (periods in base ticks, 0 = not used), and how their
+    commands are latched; ground truth every state_ticks ticks."""
 
     dtc_ticks: int
     pfc_ticks: int
@@ -77,8 +65,8 @@ class LockstepSchedule:
     def from_params(cls, params: dict, base_tick: float) -> 'LockstepSchedule':
         dtc = ticks_of(params['dtc_period'], base_tick, 'dtc_period')
         pfc = ticks_of(params['pfc_period'], base_tick, 'pfc_period') if params['pfc_enabled'] else 0
-        state = ticks_of(params['state_period'], base_tick, 'state_period') if params['state_period'] > 0 else (dtc or pfc or 1)
-        state = max(1, state)
+        state = max(1, ticks_of(params['state_period'], base_tick, 'state_period')
+                    if params['state_period'] > 0 else (dtc or pfc or 1))
         # /clock goes out with a state sample: a whole number of state periods.
         clock = (max(1, round(params['clock_period'] / base_tick / state)) * state
                  if params['clock_period'] > 0 else 0)
@@ -111,10 +99,8 @@ class LockstepSchedule:
             command, self._held[kind] = self._held[kind], command
         kind.apply(plant, command)
 
-    # Pipelined lockstep (computation_delay): the command of due sample k arrives
-    # while the plant integrates the ticks after k. At the next due sample the
-    # plant holds it first and then applies what is held; latch() does the same
-    # two steps in the other order, so both give the same applied sequence.
+    # Pipelined (computation_delay): hold the late command, then apply what is held; latch()
+    # does the same two steps in the other order, so both apply the same sequence.
     def hold(self, which: ControllerKind, command: tuple) -> None:
         """Keep the command of the previous due sample, received late (it acts from now on)."""
         self._held[ControllerKind(which)] = command

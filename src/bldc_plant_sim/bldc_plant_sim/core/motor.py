@@ -1,10 +1,7 @@
 """Y-connected three-phase PM motor: electrical constants and mechanics (000 eq. (2.1)-(2.3)).
 
-Per phase x: v_xn = R i_x + (L - M) di_x/dt + e_x, e_x = omega_e k_x(theta_e),
-T_e = p sum_x k_x i_x, J dw_m/dt = T_e - T_L - B w_m (architecture conventions).
-The star point is isolated, so the conducting phase currents sum to zero and
-the magnetic energy is (L - M)/2 sum i_x^2. Flux linkage of phase x:
-psi_x = (L - M) i_x + psi_rx(theta_e).
+v_xn = R i_x + (L - M) di_x/dt + e_x, e_x = omega_e k_x(theta_e), T_e = p sum_x k_x i_x,
+J dw_m/dt = T_e - T_L - B w_m; isolated star point; psi_x = (L - M) i_x + psi_rx(theta_e).
 """
 from __future__ import annotations
 

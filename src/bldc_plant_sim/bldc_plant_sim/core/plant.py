@@ -1,15 +1,10 @@
 """PlantCore: motor + inverter + DC link + load + sensors + protection, stepped per base tick.
 
-Between events the circuit is linear with constant sources (back-EMFs at the
-segment's mid angle, device drops and DC-link voltages at their start values),
-so every conducting phase follows an exact exponential. Diode current zeros,
-the peak-current trip and the end of a dead time are located analytically on it
-and the step is split there. Energies use the exact integrals of i and i^2, so
-the balance closes to the mid-segment EMF prediction's error (second order).
-Derivation: docs/models.md "Integration of a base tick".
-
-The arithmetic runs in compiled kernels (:mod:`.plant_kernel`, one call per base tick
-without the front end); this class keeps the API, the event log and the fault record.
+Between events every conducting phase follows an exact exponential (back-EMFs at the segment's
+mid angle); current zeros, the peak-current trip and the end of a dead time split the step, and
+energies use exact integrals of i and i^2 (docs/models.md "Integration of a base tick"). The
+arithmetic runs in :mod:`.plant_kernel` (one call per base tick); this class keeps the API, the
+event log and the fault record.
 """
 from __future__ import annotations
 
@@ -27,7 +22,7 @@ from . import plant_kernel as K
 from .dc_link import DcLink, array_slot
 from .link_kernel import DC_VL, DC_VU
 from .faults import FaultKind, FaultRecord
-from .front_end import FrontEnd
+from .front_end import FrontEnd, log_event
 from .inverter import Inverter
 from .load import LoadMachine
 from .motor import Motor
@@ -36,7 +31,6 @@ from .sensors import Sensors
 
 TWO_PI = 2.0 * math.pi
 NAN = math.nan
-_MAX_EVENTS_PER_STEP = K.MAX_EVENTS_PER_STEP
 
 
 @dataclass(slots=True)
@@ -81,8 +75,7 @@ class PlantStateSample:
 
 
 def state_sample(step: int, sv, applied: tuple, extras: dict) -> PlantStateSample:
-    """A PlantStateSample from plant_kernel.state_values' values (SV_* order), the applied
-    switches and PlantCore.state_extras()."""
+    """A PlantStateSample from plant_kernel.state_values (SV_* order), applied switches and extras."""
     (e0, e1, e2, f0, f1, f2, v0, v1, v2, vn, te, rotor, stored, vp, vu, vl, e_src, copper, device,
      friction, mech, theta_m, omega, t_load, i0, i1, i2) = sv
     return PlantStateSample(
@@ -99,7 +92,12 @@ def state_sample(step: int, sv, applied: tuple, extras: dict) -> PlantStateSampl
 FRONT_END_FIELDS = (('grid_voltage', FK.FV_GRID_V, float), ('grid_current', FK.FV_GRID_I, float),
                     ('rectified_voltage', FK.FV_RECT, float), ('inductor_current', FK.FV_IL, float),
                     ('boost_duty', FK.FV_DUTY, float), ('boost_switch_enabled', FK.FV_SWITCH, bool),
-                    ('energy_grid_input', FK.FV_E_GRID, float), ('energy_front_end_loss', FK.FV_E_LOSS, float))
+                    ('energy_grid_input', FK.FV_E_GRID, float),
+                    ('energy_front_end_loss', FK.FV_E_LOSS, float))
+
+
+NO_FRONT_END = {name: getattr(PlantStateSample(0), name) for name, _, _ in FRONT_END_FIELDS}
+"""PlantState's front-end fields without a front end (their defaults: NaN, 0, False)."""
 
 
 def front_extras(fv: list) -> dict:
@@ -118,9 +116,7 @@ def fault_extras(faults: FaultRecord) -> dict:
 
 
 def sv_slots() -> dict:
-    """{PlantState field: SV_* slot or (first slot, width)} read off state_sample itself (the fields
-    it fills from the state values: all differ from the defaults, which are 0 or NaN, with values
-    0, 1, 2, ...)."""
+    """{PlantState field: SV_* slot or (first slot, width)}, read off state_sample fed 0, 1, 2, ..."""
     probe = state_sample(0, [float(n) for n in range(K.SV_SIZE)], (), {})
     default = PlantStateSample(0)
     out = {}
@@ -132,8 +128,7 @@ def sv_slots() -> dict:
 
 
 class EnergyLedger:
-    """Cumulative losses and work since start [J] (the source energy is kept by the DC link),
-    held in the core's state array (plant_kernel ST_* slots)."""
+    """Cumulative losses and work since start [J] in the core's state array (ST_* slots)."""
 
     copper = array_slot(K.ST_CU, 'R int i^2 [J]', 'st')
     device = array_slot(K.ST_DEV, 'device drops [J]', 'st')
@@ -148,10 +143,8 @@ class EnergyLedger:
 class PlantCore:
     """The plant of docs/architecture.md "The plant" without ROS (API: "Core APIs").
 
-    params: a parameter snapshot of PLANT_SCHEMA (missing names take
-    their defaults). With ``motor.file`` the file gives the motor's values and
-    explicit parameters override it (:func:`~bldc_plant_sim.parameters.effective_params`);
-    ``params`` holds the values actually used.
+    params: a PLANT_SCHEMA snapshot (missing names: defaults; ``motor.file`` applied by
+    :func:`~bldc_plant_sim.parameters.effective_params`); ``self.params``: the values used.
     """
 
     def __init__(self, params: dict | None = None) -> None:
@@ -166,16 +159,14 @@ class PlantCore:
         self.inverter = Inverter.from_params(p)
         self.topology = self.inverter.topology
         self.dc = DcLink.from_params(p)
-        self.faults = FaultRecord()   # every fault counted, the first latched (core/faults.py)
+        self.faults = FaultRecord()
         self.fe = self._attach(FrontEnd.from_params(p)) if p['front_end.enabled'] else None
         self.shoot_through_policy = p['inverter.shoot_through']
         self.load = LoadMachine.from_params(p)
         self.sensors = Sensors(p, self.motor.pole_pairs)
         self.trip = PeakCurrentTrip(p['protection.peak_current'])
-        # State (plant_kernel ST_* slots: currents, shaft, energy ledger, elapsed time in the tick).
         self._buf = np.zeros(K.B_SIZE)     # every float array the kernels use (plant_kernel B_*)
         self.st = self._buf[K.B_ST:K.B_DC]
-        self._res = self._buf[K.B_RES:K.B_SIZE]
         self._prm = self._buf[K.B_PRM:K.B_SV]
         self._sv = self._buf[K.B_SV:K.B_RES]
         self._head = self.st[K.ST_I:K.ST_TH + 1]          # i_a, i_b, i_c, w, theta (drive_sample)
@@ -185,7 +176,6 @@ class PlantCore:
         self.omega = p['motor.initial_speed']
         if self.load.dynamometer:
             self.omega = self.load.speed
-        self.accel = 0.0
         self._count0 = self.sensors.encoder_count(self.theta_m)
         self._t_load = self.load.load_torque(self.omega)
         self._safe = 0
@@ -203,17 +193,11 @@ class PlantCore:
         """Phase currents [A]."""
         return self.st[K.ST_I:K.ST_I + 3].tolist()
 
-    @i.setter
-    def i(self, value) -> None:
-        self.st[K.ST_I:K.ST_I + 3] = value
-
     omega = array_slot(K.ST_W, 'mechanical speed [rad/s]', 'st')
     theta_m = array_slot(K.ST_TH, 'mechanical angle [rad]', 'st')
-    accel = array_slot(K.ST_ACC, 'last segment acceleration [rad/s^2]', 'st')
     _t_load = array_slot(K.ST_TL, 'load torque [N m]', 'st')
     _elapsed = array_slot(K.ST_EL, 'time integrated in the current tick [s]', 'st')
 
-    # ------------------------------------------------------------------ parameters
     @staticmethod
     def validate(params: dict, previous: dict | None = None,
                  previous_effective: dict | None = None) -> dict:
@@ -225,27 +209,20 @@ class PlantCore:
         return snap
 
     def check_params(self, params: dict) -> dict:
-        """The values this plant would use for a new requested snapshot (validate() relative to
-        the snapshot it runs on), refusing what it cannot take (a new base tick after t = 0)."""
-        if hasattr(self, 'params'):
-            snap = self.validate(params, self._requested, self.params)
-        else:
-            snap = self.validate(params)
-        if getattr(self, 'step', 0) > 0 and snap['base_tick'] != self.base_tick:
+        """The values this plant would use for a new requested snapshot, refusing what it cannot
+        take after t = 0 (a new base tick, front end on / off)."""
+        snap = self.validate(params, self._requested, self.params)
+        if self.step > 0 and snap['base_tick'] != self.base_tick:
             raise ParameterError(f"base_tick: cannot change from {self.base_tick} s after the "
                                  'simulation started')
-        if getattr(self, 'step', 0) > 0 and snap['front_end.enabled'] != self.params['front_end.enabled']:
+        if self.step > 0 and snap['front_end.enabled'] != self.params['front_end.enabled']:
             raise ParameterError('front_end.enabled: cannot change after the simulation started '
                                  '(the energy ledger would lose its input)')
         return snap
 
     def reconfigure(self, params: dict) -> None:
-        """Apply a new snapshot at a sample boundary; the state (currents, rotor, time) is kept.
-
-        Runtime parameters update in place; changed held parameters (allowed by
-        the node only while the simulation is held) rebuild the affected part.
-        The stored-energy baseline moves with a rebuilt part so the balance stays closed.
-        """
+        """Apply a new snapshot at a sample boundary, state kept: runtime parameters in place,
+        changed held ones rebuild their part (the stored-energy baseline moves with it)."""
         p = self.check_params(params)
         requested = PLANT_SCHEMA.validate_changes(PLANT_SCHEMA.defaults(), params,
                                                        running=False)
@@ -302,17 +279,15 @@ class PlantCore:
         fe.i_L = old.i_L
         fe.duty, fe.enable = old.duty, old.enable
         fe.over_current, fe.over_voltage = old.over_current, old.over_voltage
-        fe.energy = old.energy
-        fe.events, fe.event_counts = old.events, old.event_counts
+        fe.fx[FK.FX_GRID:] = old.fx[FK.FX_GRID:]     # the energy ledger and the event counts
+        fe.events = old.events
         return self._attach(fe)
 
     def _attach(self, fe: FrontEnd) -> FrontEnd:
         """Route the front end's protection trips into the fault record."""
-        fe.on_protection = self._boost_protection
+        fe.on_protection = lambda kind, when, text: self.faults.record(BOOST_FAULTS[kind], when,
+                                                                       self.step, text)
         return fe
-
-    def _boost_protection(self, kind: str, when: float, text: str) -> None:
-        self.faults.record(BOOST_FAULTS[kind], when, self.step, text)
 
     def _derive_constants(self, max_step: float) -> None:
         """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
@@ -320,32 +295,28 @@ class PlantCore:
         self._switches_of: dict = {}    # leg codes -> applied gate tuple
         self._codes: dict = {}          # leg codes -> plant_kernel.leg_code (memo)
         self._legs_of_code: dict = {}   # and back
-        inv = self.inverter
-        self._can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
-        self._substeps = max(1, math.ceil(self.base_tick / max_step - 1e-9))
-        self._h = self.base_tick / self._substeps
-        m = self.motor
-        self._R = m.resistance
-        self._tau = m.time_constant
-        self._a_h = math.exp(-self._h / self._tau)
+        inv, m = self.inverter, self.motor
+        can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
+        substeps = max(1, math.ceil(self.base_tick / max_step - 1e-9))
+        h = self.base_tick / substeps
+        tau = m.time_constant
         shape = m.backemf
         self._adopt()
         prm = self._prm
         prm[[K.PR_P, K.PR_SCALE, K.PR_POINTS, K.PR_R, K.PR_TAU, K.PR_AH, K.PR_H]] = (
-            m.pole_pairs, shape.lut_scale, shape.points, self._R, self._tau, self._a_h, self._h)
+            m.pole_pairs, shape.lut_scale, shape.points, m.resistance, tau, math.exp(-h / tau), h)
         prm[[K.PR_VCE, K.PR_VD, K.PR_RON, K.PR_J, K.PR_B]] = (inv.v_ce, inv.v_d, inv.r_on,
                                                              m.inertia, m.friction)
         prm[[K.PR_CAN_OPEN, K.PR_DC, K.PR_DEAD, K.PR_N, K.PR_TICK]] = (
-            self._can_open, self.dc.mode_code, inv.dead_time, self._substeps, self.base_tick)
+            can_open, self.dc.mode_code, inv.dead_time, substeps, self.base_tick)
         prm[K.PR_LM] = m.inductance
         self._lut = shape.lut_k_array.copy()
         self._lut_psi = shape.lut_psi_array.copy()
         self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
-        self._ev = np.zeros(((self._substeps + 2) * (_MAX_EVENTS_PER_STEP + 2), 4))
+        self._ev = np.zeros(((substeps + 2) * (K.MAX_EVENTS_PER_STEP + 2), 4))
 
     def _adopt(self) -> None:
-        """Move the DC link's and the load's state arrays into the core's buffer (views), so one
-        compiled call per tick reaches them all."""
+        """Move the DC link's and the load's state arrays into the core's buffer (views)."""
         for part, lo, hi in ((self.dc, K.B_DC, K.B_LOAD), (self.load, K.B_LOAD, K.B_PRM)):
             view = self._buf[lo:hi]
             if part.x is not view:
@@ -363,15 +334,9 @@ class PlantCore:
         """Base tick index at sim time [s] (rounded to the nearest tick)."""
         return int(round(time / self.base_tick))
 
-    # ------------------------------------------------------------------ commands
     def apply_gates(self, switch_on: tuple) -> None:
-        """Latch SW1..SW6 until the next call (forced off by safe state or trip).
-
-        Both switches of a leg on (shoot-through) is a fault: recorded with the
-        legs, and with ``inverter.shoot_through`` = safe_state (default) the plant
-        enters the safe state until reset_protection(); with ``interlock`` the
-        leg is turned off (the gate driver's interlock) and the run goes on.
-        """
+        """Latch SW1..SW6 until the next call (forced off by safe state or trip); a shoot-through
+        is a fault, then safe state or interlock per ``inverter.shoot_through`` (docs/faults.md)."""
         memo = self._legs_of.get(switch_on)
         if memo is None:
             memo = self._legs_of[tuple(switch_on)] = (self.inverter.legs(switch_on),
@@ -393,10 +358,7 @@ class PlantCore:
         """Latch the boost duty command until the next call (duty 0 / off in the safe state)."""
         self._duty = (min(1.0, max(0.0, float(duty))), bool(enable))
         if self.fe is not None:
-            if self._safe:
-                self.fe.set_duty(0.0, False)
-            else:
-                self.fe.set_duty(*self._duty)
+            self.fe.set_duty(*((0.0, False) if self._safe else self._duty))
 
     def enter_safe_state(self, reason: int) -> None:
         """All switches off (boost off) until leave_safe_state(reason)."""
@@ -408,16 +370,17 @@ class PlantCore:
         """Clear one reason; the inverter and the boost take the latched commands again."""
         was_safe = self.in_safe_state
         self._safe &= ~int(reason)
-        if self.fe is not None and not self._safe:
-            self.fe.set_duty(*self._duty)
-        self._note_safe_state_exit(was_safe)
+        self._resume(was_safe)
 
     @property
     def in_safe_state(self) -> bool:
         """PlantState.safe_state: a safe-state reason or the latched motor trip."""
         return bool(self._safe or self.trip.tripped)
 
-    def _note_safe_state_exit(self, was_safe: bool) -> None:
+    def _resume(self, was_safe: bool) -> None:
+        """Without a safe-state reason the boost takes the latched duty; a safe state left is noted."""
+        if self.fe is not None and not self._safe:
+            self.fe.set_duty(*self._duty)
         if was_safe and not self.in_safe_state:
             self.faults.note(self.time, self.step, 'safe state left: switches follow the commands again')
 
@@ -433,30 +396,19 @@ class PlantCore:
         if fe is not None and fe.protection:
             fe.reset_protection()
             text += '; boost protections reset'
-        if fe is not None and not self._safe:
-            fe.set_duty(*self._duty)
-        self._note_safe_state_exit(was_safe)
+        self._resume(was_safe)
         return ok, text
 
     @property
     def protection(self) -> int:
         """PlantState PROTECTION_* bits: motor trip, boost over-current / over-voltage, safe state."""
-        bits = self.protection_outside_front_end
-        if self.fe is not None:
-            bits |= self.fe.protection
-        return bits
+        return self.protection_outside_front_end | (self.fe.protection if self.fe is not None else 0)
 
     @property
     def protection_outside_front_end(self) -> int:
         """The PROTECTION_* bits of the motor trip and the safe state."""
         return (MOTOR_OVER_CURRENT if self.trip.tripped else 0) | self._safe
 
-    def _effective_legs(self) -> tuple:
-        if self._safe or self.trip.tripped:
-            return self.inverter.all_off()
-        return self._commanded
-
-    # ------------------------------------------------------------------ samples
     def drive_sample(self) -> DriveSample:
         """Sensed drive quantities at t_k."""
         m = self.motor
@@ -502,9 +454,7 @@ class PlantCore:
             FK.front_end_values(fe.fp, fe.fx, self.time, self._fv)
             front = front_extras(self._fv.tolist())
         else:
-            front = dict(grid_voltage=NAN, grid_current=NAN, rectified_voltage=NAN, inductor_current=NAN,
-                         boost_duty=0.0, boost_switch_enabled=False, energy_grid_input=0.0,
-                         energy_front_end_loss=0.0)
+            front = NO_FRONT_END
         return dict(front, protection=self.protection, safe_state=self.in_safe_state,
                     **fault_extras(self.faults))
 
@@ -515,25 +465,23 @@ class PlantCore:
         return (self.energy_input() - (self.stored_energy() - en.stored_initial)
                 - en.copper - en.device - en.friction - en.mechanical - fe_loss)
 
-    # ------------------------------------------------------------------ integration
     def _trip_level(self) -> float:
         """The peak-current level to locate (0 = none: disabled or already tripped)."""
         trip = self.trip
         return trip.level if (trip.enabled and not trip.tripped) else 0.0
 
     def advance(self) -> None:
-        """Integrate one base tick with the latched commands (one compiled call:
-        plant_kernel.advance_tick, the front end advanced inside each segment)."""
+        """Integrate one base tick with the latched commands (plant_kernel.advance_tick)."""
         fe = self.fe
         fp, fx = (fe.fp, fe.fx) if fe is not None else (K.NO_FRONT_END, K.NO_FRONT_END)
+        target = self._off_code if self.in_safe_state else self._code(self._commanded)
         n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
-                                    self._code(self._legs), self._code(self._effective_legs()), self._off_code,
-                                    fp, fx)
+                                    self._code(self._legs), target, self._off_code, fp, fx)
         self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
 
     def finish_ticks(self, step: int, code: int | None = None, events=()) -> None:
-        """After compiled ticks up to tick step: the applied legs (leg code code), the located
-        events (when, kind, phase, current[, tick]) acted on and logged in order, the clock."""
+        """After compiled ticks up to tick step: applied legs (leg code), located events (when, kind,
+        phase, current[, tick]) acted on in order, the clock."""
         if code is not None:
             legs = self._legs_of_code.get(code)
             self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
@@ -541,7 +489,6 @@ class PlantCore:
         for row in events:
             self.step = int(row[4]) if len(row) > 4 else last
             self._record_event(row[0], int(row[1]), int(row[2]), row[3])
-        self.step = last
         applied = self._switches_of.get(self._legs)
         if applied is None:
             applied = self._switches_of[self._legs] = self.inverter.switches(self._legs)
@@ -558,22 +505,20 @@ class PlantCore:
         return self._code(legs)
 
     def _record_event(self, when: float, kind: int, q: int, current: float) -> None:
-        """Act on and log an event (plant_kernel EV_*, or a front-end event) located at sim time when [s]."""
+        """Act on and log an event (plant_kernel EV_*, or a front-end event) at sim time when [s]."""
         if kind >= FK.EV_FRONT_END:
             self.fe.take_event(when, kind, current)
             return
-        if len(self.events) > 10000:
-            del self.events[:5000]
         if kind == K.EV_LIMIT:
-            self.events.append((when, 'event limit: rest of step not split'))
+            log_event(self.events, when, 'event limit: rest of step not split')
         elif kind == K.EV_TRIP:
             self.trip.trip(when, current)
             self._legs = self.inverter.all_off()
-            self.events.append((when, f'trip phase {"abc"[q]}'))
+            log_event(self.events, when, f'trip phase {"abc"[q]}')
             self.faults.record(FaultKind.MOTOR_OVER_CURRENT, when, self.step,
                                f'motor peak-current trip: phase {"abc"[q]} current '
                                f'{current:.3f} A reached {self.trip.level:g} A: all switches off, safe state '
                                'until plant/reset_protection',
                                phase='abc'[q], current=f'{current:.6f}')
         else:
-            self.events.append((when, f'current zero phase {"abc"[q]}'))
+            log_event(self.events, when, f'current zero phase {"abc"[q]}')

@@ -1,17 +1,11 @@
-"""Compiled per-sample work of :class:`~.plant.PlantCore` (docs/architecture.md "The plant").
+"""Compiled per-sample work of :class:`~.plant.PlantCore` (docs/models.md "Integration of a base tick").
 
-State is held in one float64 buffer the core owns (``B_*`` parts): ``st`` (``ST_*`` slots:
-phase currents, shaft, energy ledger), the DC link's and the load's ``x``
-(:mod:`.link_kernel`), the parameters ``prm`` (``PR_*`` slots, rebuilt by the core on every
-parameter change), the state values (``SV_*``) and one segment's results (``RS_*``); ``lut``
-is the back-EMF table (3 x (points + 1), wrap-around column). Entry points called from Python
-take the buffer and legs as one int (:func:`leg_code`): numba's dispatch costs about 0.2 us
-per array argument. The equations are those of the
-:mod:`.plant` docstring: exact exponential currents over a segment with the back-EMF
-held at the predicted mid-segment angle, events (current zero, trip level) located on
-that exponential, exact integrals of i and i^2 for the energy ledger.
-Each function keeps the operation order of the original interpreted code, so the
-compiled and the ``NUMBA_DISABLE_JIT=1`` runs agree bit for bit.
+One float64 buffer the core owns (``B_*`` parts): ``st`` (``ST_*``: currents, shaft, ledger), the
+DC link's and the load's ``x`` (:mod:`.link_kernel`), the parameters ``prm`` (``PR_*``), the state
+values (``SV_*``) and one segment's results and scratch (``RS_*``, ``W_*``); ``lut``: the back-EMF
+table (3 x (points + 1)). Entry points take the buffer and legs as one int (:func:`leg_code`):
+numba's dispatch costs about 0.2 us per array argument. Compiled and ``NUMBA_DISABLE_JIT=1``
+runs agree bit for bit.
 """
 from __future__ import annotations
 
@@ -46,9 +40,8 @@ B_LOAD = B_DC + DC_SIZE
 B_PRM = B_LOAD + LD_SIZE
 B_SV = B_PRM + PR_SIZE
 B_RES = B_SV + SV_SIZE
-# res slots (one segment's results for the interpreted caller), then the kernels' scratch
-# arrays (W_*: EMF constants, EMFs, leg voltages, conduction and rail flags, steady-state
-# and end currents, charges, the open legs' bands and flags), so a tick allocates nothing
+# res slots (one segment's results), then the kernels' scratch arrays (W_*), so a tick
+# allocates nothing
 RS_TE, RS_VP, RS_QP, RS_QM, RS_KIND, RS_Q, RS_DRAW = range(7)
 RS_SIZE = 7
 W_K, W_E, W_U, W_COND, W_RAIL, W_ISS, W_I1, W_QINT, W_FLOAT = range(RS_SIZE, RS_SIZE + 27, 3)
@@ -75,9 +68,8 @@ def emf_at_mid(st, prm, lut, T):
 
 @njit
 def corrected_link_voltages(T, nominal, st, dcx, prm, cond, u, vn, rail):
-    """Current-fed link: (V_P, V_M) predicted again from this segment's own average rail
-    currents (exact integrals at the first prediction): the previous segment's currents are a
-    first-order error right after a leg change."""
+    """Current-fed link: (V_P, V_M) predicted again from this segment's own average rail currents
+    (the previous segment's are a first-order error right after a leg change)."""
     R, tau = prm[PR_R], prm[PR_TAU]
     w_avg = tau * (1.0 - (prm[PR_AH] if nominal else math.exp(-T / tau))) / T
     ip = im = 0.0
@@ -100,8 +92,8 @@ def corrected_link_voltages(T, nominal, st, dcx, prm, cond, u, vn, rail):
 
 @njit
 def locate_event(T, st, prm, legs, cond, iss, i1, level):
-    """(t_event, kind, phase): the first current zero of a phase that can extinguish, or the
-    trip level reached, on the segment's exponentials (EV_NONE: none before T)."""
+    """(t_event, kind, phase) of the first current zero or trip level on the segment's
+    exponentials (EV_NONE: none before T)."""
     tau = prm[PR_TAU]
     can_open = prm[PR_CAN_OPEN] != 0.0
     t_event, kind, phase = T, EV_NONE, -1
@@ -146,8 +138,8 @@ def keep_star_point(i1, cond, n_cond):
 
 @njit
 def segment_integrals(T, a, st, prm, cond, iss, u, e, rail, vp, vm, q_int):
-    """Exact integrals over the segment: charge per phase (q_int), R int i^2 [J], device loss
-    sum (v_ideal - u - e) int i [J], and the charges drawn from P and M [C]."""
+    """Exact segment integrals: charge per phase (q_int), R int i^2 and device loss [J], charges
+    drawn from P and M [C]."""
     tau = prm[PR_TAU]
     g1 = tau * (1.0 - a)
     g2 = 0.5 * tau * (1.0 - a * a)
@@ -172,8 +164,8 @@ def segment_integrals(T, a, st, prm, cond, iss, u, e, rail, vp, vm, q_int):
 @njit
 def conducting_segment(T, nominal, locate, legs, st, dcx, prm, level, cond, u, vn, rail, vp, vm, e, k,
                        res):
-    """Two or more phases conduct: the exact exponentials over T (split at the first event),
-    the energy ledger and the stiff link's source energy; returns the time integrated."""
+    """Two or more phases conduct: exact exponentials over T (split at the first event) and the
+    ledger; returns the time integrated."""
     R, tau = prm[PR_R], prm[PR_TAU]
     a = prm[PR_AH] if nominal else math.exp(-T / tau)
     n_cond = cond[0] + cond[1] + cond[2]
@@ -236,9 +228,8 @@ def scratch_bands(res):
 
 @njit
 def segment_electric(T, nominal, locate, legs, st, dcx, prm, lut, level, res):
-    """The circuit part of one segment of at most T [s]: returns the time integrated; res holds
-    the average torque, V_P, the charges drawn from P / M, the event and whether the soft link
-    is to be drawn from (RS_* slots)."""
+    """The circuit part of one segment of at most T [s]: returns the time integrated; results in
+    res's RS_* slots."""
     ka, kb, kc, we = emf_at_mid(st, prm, lut, T)
     k, e = res[W_K:W_K + 3], res[W_E:W_E + 3]
     k[0], k[1], k[2] = ka, kb, kc
@@ -280,8 +271,7 @@ def segment_mechanics(T, te, st, prm, load):
 
 @njit
 def finish_segment(T, st, dcx, load, prm, res):
-    """After segment_electric (and the front end setting the link's source current): the soft
-    link's charge balance and the shaft over the segment."""
+    """After segment_electric (and the front end): the soft link's charge balance and the shaft."""
     if res[RS_DRAW] != 0.0:
         link_draw(dcx, int(prm[PR_DC]), res[RS_QP], res[RS_QM], T)
     if T > 0.0:
@@ -294,11 +284,9 @@ NO_FRONT_END = np.zeros(0)     # fp / fx of a plant without the front end
 
 @njit
 def integrate(dt, time, legs, all_off, st, dcx, load, prm, lut, level, res, ev, n_ev, fp, fx):
-    """dt [s] of segments split at located events, the soft link drawn (more than
-    MAX_EVENTS_PER_STEP events finish the step unsplit, logged as EV_LIMIT); with a front end
-    (fp, fx not empty) it is advanced over each segment between the circuit and the link
-    (:func:`.front_end_kernel.advance`, its events logged in ev too). A trip opens all legs
-    (legs <- all_off) and disables the level. Returns (n_ev, level)."""
+    """dt [s] of segments split at located events (past MAX_EVENTS_PER_STEP: unsplit, EV_LIMIT);
+    a front end (fp, fx not empty) is advanced in each segment; a trip opens all legs and
+    disables the level. Returns (n_ev, level)."""
     remaining = dt
     events = 0
     h = prm[PR_H]
@@ -358,10 +346,8 @@ def legs_of_code(code):
 
 @njit
 def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code, fp, fx):
-    """One base tick (PlantCore.advance) on the core's buffer (B_* parts) and the front end's
-    arrays (NO_FRONT_END without): the applied legs move to the target through the dead time.
-    Returns (number of events logged in ev (when, kind, phase, current), leg code applied at
-    the end)."""
+    """One base tick (PlantCore.advance), the legs moving to the target through the dead time:
+    (events logged in ev (when, kind, phase, current), leg code applied at the end)."""
     legs = legs_of_code(legs_code)
     n_ev = advance_legs(buf, lut, ev, time, level, legs, legs_of_code(target_code), legs_of_code(off_code),
                         fp, fx)
@@ -370,8 +356,7 @@ def advance_tick(buf, lut, ev, time, level, legs_code, target_code, off_code, fp
 
 @njit
 def advance_legs(buf, lut, ev, time, level, legs, target, all_off, fp, fx):
-    """advance_tick on leg arrays (legs updated in place; a caller looping over ticks keeps
-    them): returns the number of events logged in ev."""
+    """advance_tick on leg arrays (legs updated in place): the number of events logged in ev."""
     return _advance(legs, target, all_off, time, buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_LOAD:B_PRM],
                     buf[B_PRM:B_SV], lut, level, buf[B_RES:B_SIZE], ev, fp, fx)
 
@@ -404,8 +389,7 @@ def _advance(legs, target, all_off, time, st, dcx, load, prm, lut, level, res, e
 
 @njit
 def table_at(lut, prm, theta, out, at):
-    """The three columns of a periodic table at theta [rad], linearly interpolated, into out[at:]
-    (BackEmfShape lookup / pm_flux)."""
+    """The three columns of a periodic table at theta [rad], interpolated, into out[at:]."""
     x = (theta * prm[PR_SCALE]) % prm[PR_POINTS]
     j = int(x)
     f = x - j
@@ -424,9 +408,7 @@ def stored_energy(st, dcx, prm):
 
 @njit
 def state_values(buf, lut, lut_psi, legs_code):
-    """PlantState's numeric fields at t_k into buf's SV_* part: EMFs, flux linkages, terminal
-    voltages with the applied legs (resolve_legs), star point, torque, rotor angle, stored
-    energy, link, ledger."""
+    """PlantState's numeric fields at t_k into buf's SV_* part (terminal voltages with the legs)."""
     legs = legs_of_code(legs_code)
     st, dcx, prm, out = buf[B_ST:B_DC], buf[B_DC:B_LOAD], buf[B_PRM:B_SV], buf[B_SV:B_RES]
     p = prm[PR_P]

@@ -1,9 +1,7 @@
 """Motor peak-current protection (000 App. A: I_pk = 24 A).
 
-The trip is checked continuously inside the integration: the plant locates
-the instant |i_x| reaches the level (exact for the piecewise-exponential
-currents), opens all switches there and latches until :meth:`reset`, which
-is refused while a phase current is still above the level.
+The plant locates the instant |i_x| reaches the level inside the integration, opens all
+switches there and latches until :meth:`PeakCurrentTrip.reset` (refused while still above it).
 """
 from __future__ import annotations
 

@@ -1,14 +1,10 @@
 """Sensors sampled at t_k: phase currents, DC and midpoint voltages, encoder, halls, speed.
 
-measured = (1 + gain_error) * true + offset + noise, with noise drawn from a
-numpy Generator seeded by ``sensors.seed`` (blocks of standard normals, drawn
-in a fixed order per sample: currents, DC voltage, midpoint voltage, speed),
-so a run is reproducible sample for sample. The quadrature encoder counts
-4 * pulses per mechanical turn (index aligned with theta_m = 0); its angle is
-the electrical angle of the count, plus ``encoder_offset``. Halls read the
-back-EMF shape's hall table (H_x = 1 while the fundamental of k_x is positive).
-The arithmetic is the compiled :func:`sense` on a settings array (``SC_*`` slots), shared
-by the per-sample path and the fused headless loop.
+measured = (1 + gain_error) * true + offset + noise; noise from a numpy Generator seeded by
+``sensors.seed``, drawn in a fixed order per sample (currents, DC, midpoint, speed). The encoder
+counts 4 * pulses per turn (index at theta_m = 0); its angle is the count's electrical angle plus
+``encoder_offset``. Halls: H_x = 1 while the fundamental of k_x is positive. The arithmetic is
+the compiled :func:`sense` on a settings array (``SC_*`` slots).
 """
 from __future__ import annotations
 
@@ -77,20 +73,15 @@ class Sensors:
 
     def configure(self, p: dict) -> None:
         """Runtime-changeable error settings."""
-        self.current_count = int(p['sensors.current_count'])
-        self.i_offset = tuple(p['sensors.current_offset'])
-        self.i_gain = tuple(1.0 + g for g in p['sensors.current_gain_error'])
-        self.i_noise = p['sensors.current_noise']
-        self.v_offset = p['sensors.voltage_offset']
-        self.v_gain = 1.0 + p['sensors.voltage_gain_error']
-        self.v_noise = p['sensors.voltage_noise']
-        self.w_noise = p['sensors.speed_noise']
-        self.encoder_offset = p['sensors.encoder_offset']
-        self.cfg[:] = (*self.i_gain, *self.i_offset, self.current_count == 3, self.v_gain, self.v_offset,
-                       self.counts_per_rev, self.pole_pairs, self.encoder_offset, self.i_noise,
-                       self.v_noise, self.w_noise)
-        self.draws = ((3 if self.current_count == 3 else 2) * (self.i_noise > 0.0)
-                      + 2 * (self.v_noise > 0.0) + (self.w_noise > 0.0))   # normals per sample
+        three = int(p['sensors.current_count']) == 3
+        i_noise, v_noise = p['sensors.current_noise'], p['sensors.voltage_noise']
+        w_noise = p['sensors.speed_noise']
+        self.cfg[:] = (*(1.0 + g for g in p['sensors.current_gain_error']), *p['sensors.current_offset'],
+                       three, 1.0 + p['sensors.voltage_gain_error'], p['sensors.voltage_offset'],
+                       self.counts_per_rev, self.pole_pairs, p['sensors.encoder_offset'], i_noise, v_noise,
+                       w_noise)
+        self.draws = ((3 if three else 2) * (i_noise > 0.0)
+                      + 2 * (v_noise > 0.0) + (w_noise > 0.0))   # normals per sample
 
     def _randn(self) -> float:
         if self._pos >= len(self._buf):
