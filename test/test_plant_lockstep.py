@@ -176,7 +176,9 @@ def test_controller_killed_mid_goal_gives_safe_state_and_plant_keeps_serving(sta
                                                                              ros_session):
     # The load machine holds 20 rad/s: line back-EMF 4.6 V peak < V_dc, so with every
     # switch off the diodes stop conducting once the currents have died out.
-    responder, _ = _start_graph(start_node, {'command_timeout': 4.0, 'startup_timeout': 2.0,
+    # startup_timeout bounds the controller-less second goal below; 10 s leaves a loaded machine
+    # time to match the responder for the first one.
+    responder, _ = _start_graph(start_node, {'command_timeout': 4.0, 'startup_timeout': 10.0,
                                              'load.mode': 'dynamometer', 'load.speed': 20.0})
     client = PlantClient(ros_session)
     handle = client.start(0.2)
