@@ -1,16 +1,9 @@
 """A bag's per-sample topics, taken from its block topics where it has them.
 
-A block topic (``/plant/state_block``, ``/dtc/status_block``,
-``/pfc/status_block``) carries every sample of the per-sample topics of its
-parts (:data:`drive_common.telemetry_blocks.BLOCK_PARTS`). Readers take a
-per-sample topic from its block whenever the bag holds the block topic, and
-never mix it with a recorded per-sample topic of the same name: one source per
-topic, every sample. Bags without blocks read as before.
-
-:func:`per_sample_messages` yields the other topics' messages and the expanded
-per-sample messages (bit-exact) merged in log-time order; a sample's log time
-is the block's plus its stamp offset (docs/architecture.md "Telemetry: blocks
-and live topics").
+A block topic carries every sample of the per-sample topics of its parts
+(:data:`drive_common.telemetry_blocks.BLOCK_PARTS`); a reader takes such a topic from the block
+whenever the bag holds it, never mixed with recorded messages of that name. A sample's log time
+is the block's plus its stamp offset (docs/architecture.md "Telemetry: blocks and live topics").
 """
 from __future__ import annotations
 
@@ -82,11 +75,8 @@ def part_classes(block_topic: str) -> list[type]:
 def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
     """The bag's messages of `topics` (None: every topic, blocks replaced by their per-sample topics).
 
-    A wanted topic that a block carries is expanded from the block (the
-    recorded messages of that name are skipped); other topics are read as
-    recorded, block topics themselves included when asked for by name.
-    Merged in log-time order (ties: recorded first, then the samples of a
-    block in publish order: measurement, command, status).
+    A wanted topic a block carries is expanded from it, others read as recorded; in log-time
+    order (ties: recorded first, then a block's samples in PUBLISH_ORDER).
     """
     from rclpy.serialization import deserialize_message, serialize_message
     from drive_common.telemetry_blocks import expand, sample_stamps_ns

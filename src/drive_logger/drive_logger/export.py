@@ -1,15 +1,9 @@
 """Export a bag for viewers and tables: ``ros2 run drive_logger export BAG --to mcap|parquet|csv OUT``.
 
-- ``--to mcap``: a viewer bag in rosbag2 layout where every sample of the block
-  topics is its own per-sample message, bit-exact, at the sample's sim time, in
-  canonical order (:mod:`drive_logger.sample_topics`); ``/clock``,
-  ``/parameter_events`` and ``/diagnostics`` are copied.
-- ``--to parquet`` / ``--to csv``: one table per block topic, one row per sample
-  (:mod:`drive_logger.tables`), for pandas and MATLAB.
-
-Options ``--topics``, ``--start`` / ``--end`` (s of sim time), ``--every N``,
-``--quiet``. Streams block by block: memory stays bounded whatever the bag's
-length (benchmarks/bench_export.py). Exit 0 done, 2 bad input. docs/bags.md.
+``--to mcap``: a viewer bag where every sample of the block topics is its own message
+(:mod:`drive_logger.sample_topics`), ``/clock``, ``/parameter_events`` and ``/diagnostics``
+copied; ``--to parquet|csv``: one table per block topic (:mod:`drive_logger.tables`). Streams
+block by block in bounded memory. Exit 0 done, 2 bad input (docs/bags.md).
 """
 from __future__ import annotations
 

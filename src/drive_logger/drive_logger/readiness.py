@@ -1,17 +1,8 @@
 """How a scenario runner knows the recorder is ready: its subscriptions are on the graph.
 
-The recorder creates every subscription of its ``topics`` parameter before it
-logs ``recorder ready``; :func:`wait_for_recorder` polls the ROS graph from
-the runner's own node until the recorder (node name ``recorder`` unless
-remapped) has a subscription on each topic. Start the plant only after it
-returns, and stop the recorder with SIGINT/SIGTERM after the run.
-
-A subscription on the graph is not yet a matched one: a publisher that its
-subscription matches only after the first samples went out never delivers
-them (volatile durability). Before a run, ask the recorder's
-``recorder/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers)
-until it has matched every publisher of the topics you need, as
-``run_scenario`` does.
+:func:`wait_for_recorder` polls the graph until the recorder has a subscription on each topic.
+A subscription is not yet matched with a publisher: before a run, also ask the recorder's
+``recorder/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers), as ``run_scenario`` does.
 """
 from __future__ import annotations
 
