@@ -1,17 +1,10 @@
 """Bags of one headless run, written without the ROS graph: per-sample topics, block topics, or both.
 
-For readers' tests: the same samples a recorded graph would
-carry, from :func:`drive_bringup.headless.run_headless` (the same cores the
-nodes wrap), serialized as the nodes fill them
-(:class:`drive_common.conversions.ReusedMessage`, stamp = the sample's sim
-time) and written with :class:`drive_logger.bag_writer.BagWriter` on sim log
-times. The per-sample bag holds ``/plant/state``, ``/dtc/status``,
-``/drive/measurement``, ``/drive/gate_command`` (and the PFC topics) every
-sample, like a recording of the graph before blocks; the block bag holds
-``/plant/state_block``, ``/dtc/status_block`` (``/pfc/status_block``) packed
-by :class:`drive_common.telemetry_blocks.BlockPacker`, optionally with the
-decimated live topics as the nodes publish them
-(:class:`drive_common.telemetry.Decimator`).
+For readers' tests: the samples of :func:`drive_bringup.headless.run_headless` (the cores the
+nodes wrap), filled and stamped as the nodes fill them and written with
+:class:`drive_logger.bag_writer.BagWriter` at sim log times, either every per-sample message
+(a recording before blocks) or the blocks as :class:`drive_common.telemetry_blocks.BlockPacker`
+packs them, optionally with the decimated live topics.
 """
 from __future__ import annotations
 

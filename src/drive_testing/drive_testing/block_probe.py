@@ -1,10 +1,5 @@
-"""A test subscriber that turns a telemetry block topic back into per-sample messages.
-
-Tests that check every sample read the full-rate blocks (the per-sample live
-topics are decimated, docs/architecture.md "Telemetry: blocks and live
-topics"); :func:`drive_common.telemetry_blocks.expand` restores the
-messages the node would have published per sample, bit-exact.
-"""
+"""A test subscriber that turns a telemetry block topic back into per-sample messages, bit-exact
+(:func:`drive_common.telemetry_blocks.expand`): tests that check every sample read the blocks."""
 from __future__ import annotations
 
 import array

@@ -1,16 +1,9 @@
-"""The raw rclpy publish -> reply ceiling of the lockstep protocol.
+"""The raw rclpy publish -> reply ceiling of the lockstep protocol (docs/benchmarks.md).
 
-``raw_responder`` answers each DriveMeasurement with a GateCommand of the
-same step and nothing else; :func:`measure_round_trips` publishes
-measurements one at a time and waits for each reply the way the plant node
-does (a wait set, no executor per message, bytes via
-:mod:`drive_common.lockstep_wire`). The plant's lockstep rate divided by this
-figure is the overhead ratio the benchmarks report.
-
-The naive ceiling is plain rclpy: ``naive_responder`` replies from a
-subscription callback spun by a SingleThreadedExecutor, and
-:func:`measure_naive_round_trips` spins its own executor until the reply's
-callback has run (docs/benchmarks.md).
+``raw_responder`` answers each DriveMeasurement with a GateCommand of the same step, nothing
+else; :func:`measure_round_trips` waits for each reply as the plant does (a wait set, bytes via
+:mod:`drive_common.lockstep_wire`). The naive ceiling is plain rclpy: ``naive_responder`` and
+:func:`measure_naive_round_trips` reply and wait through SingleThreadedExecutor callbacks.
 """
 from __future__ import annotations
 
