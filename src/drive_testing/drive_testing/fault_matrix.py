@@ -138,15 +138,6 @@ class Injection:
         pub.wait_for_all_acked(Duration(seconds=10.0))   # delivered, not dropped with the publisher
         self.node.destroy_publisher(pub)
 
-    def set_parameter(self, node_name: str, name: str, value) -> tuple[bool, str]:
-        """(successful, reason) of a set_parameters call on /node_name."""
-        client = AsyncParameterClient(self.node, node_name)
-        client.wait_for_services(timeout_sec=30.0)
-        future = client.set_parameters([Parameter(name, value=value)])
-        wait_until(future.done, 30.0, what=f'set {name} on {node_name}')
-        result = future.result().results[0]
-        return result.successful, result.reason
-
 
 @dataclass
 class Case:
@@ -222,10 +213,16 @@ def _random(rng: random.Random) -> bytes:
 
 
 def _parameter(node: str, name: str, value):
+    """A set_parameters call on node while the run is held; noted as refused (with a reason) or taken."""
     def inject(ctx: Injection) -> None:
         ctx.wait_paused()
-        ok, reason = ctx.set_parameter(node, name, value)
-        ctx.notes.append(('refused' if not ok and reason else 'taken', f'{name}={value!r}: {reason}'))
+        client = AsyncParameterClient(ctx.node, node)
+        client.wait_for_services(timeout_sec=30.0)
+        future = client.set_parameters([Parameter(name, value=value)])
+        wait_until(future.done, 30.0, what=f'set {name} on {node}')
+        result = future.result().results[0]
+        ctx.notes.append(('refused' if not result.successful and result.reason else 'taken',
+                          f'{name}={value!r}: {result.reason}'))
     return inject
 
 
@@ -312,20 +309,16 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     scenario = _scenario_file(case, directory)
     out = directory / f'out_{where}_{scenario.stem}'
     command = [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
-               '--overwrite']
-    if not case.headless:
-        command += ['--pause-at', str(INJECT_AT)]
+               '--overwrite'] + (['--headless'] if case.headless else ['--pause-at', str(INJECT_AT)])
     if case.headless:
-        command.append('--headless')
         code, text = _run(command, None)
-        outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
+        outcome.detail = _last_line(text)
         outcome.result = _names_fault(code, text, case)
         outcome.crashed = _crash(code, text, case)
         return outcome
     with reserve_domain() as domain_id:
         code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
-    logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
-        if (out / 'logs').is_dir() else ''
+    logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log'))
     outcome.log = bool(LOG_LINE.search(logs))
     outcome.diagnostics = any(_level(s) >= 1 for s in ctx.diagnostics)
     refused = _refused_itself(ctx)
@@ -334,17 +327,19 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
         outcome.detail = refused
     outcome.crashed = next((f'injection failed: {why}' for kind, why in ctx.notes
                             if kind == 'injection failed'), '') or _crash(code, text + logs, case)
-    if case.expect == 'refused':
-        outcome.result = any(kind == 'refused' for kind, _ in ctx.notes)
-    else:
-        outcome.result = _names_fault(code, text, case)
+    outcome.result = (any(kind == 'refused' for kind, _ in ctx.notes) if case.expect == 'refused'
+                      else _names_fault(code, text, case))
     if case.expect in ('outsider', 'refused') and reference is not None and (out / 'bag').is_dir():
         try:
             outcome.changed = recorded_samples(out / 'bag') != reference
         except BagReadError as exc:     # a run that failed: its unfinished bag is the detail
             outcome.crashed = outcome.crashed or f'bag unreadable: {exc}'
-    outcome.detail = outcome.detail or (text.strip().splitlines()[-1] if text.strip() else '')
+    outcome.detail = outcome.detail or _last_line(text)
     return outcome
+
+
+def _last_line(text: str) -> str:
+    return text.strip().splitlines()[-1] if text.strip() else ''
 
 
 def _refused_itself(ctx: Injection) -> str:
