@@ -52,7 +52,6 @@ def _positive(*names: str):
     return check
 
 
-
 LIVE_VIEW_SCHEMA = schema([
     ParameterSpec('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
     ParameterSpec('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),

@@ -52,7 +52,6 @@ class _Topic:
         self.record = None
 
 
-
 RECORDER_SCHEMA = schema([
     ParameterSpec('topics', list(graph_topics.DEFAULT_TOPICS), 'topics to record: name or name:pkg/msg/Type'),
     ParameterSpec('all_topics', False, 'also record every topic that appears later'),

@@ -32,7 +32,6 @@ class BlockSamples:
         self.first.extend(record[0] for record in records)
 
 
-
 def _bits(value):
     """A value in comparable form: floats by their IEEE-754 bytes (NaN payloads, signed zeros)."""
     if hasattr(value, 'get_fields_and_field_types'):

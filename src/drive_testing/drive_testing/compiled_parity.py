@@ -30,7 +30,6 @@ def requires_jit():
                               reason='NUMBA_DISABLE_JIT is set: nothing compiled to compare')
 
 
-
 def interpreted_and_compiled(target: str, args: list, tmp: Path):
     """(interpreted, compiled) dicts of arrays of ``module:function(*args)`` (args: JSON values)."""
     from drive_common.compiled import jit_disabled
