@@ -163,18 +163,16 @@ class BagReader:
         if not self.path.exists():
             raise BagReadError(f'bag {str(self.path)!r} does not exist')
         if self.path.is_dir():
-            meta = self.path / 'metadata.yaml'
-            if meta.is_file():
+            meta, names = self.path / 'metadata.yaml', None
+            if not meta.is_file():
+                self.problems.append(f'{str(self.path)!r} has no metadata.yaml (bag not finalized)')
+            else:
                 try:
                     self.metadata = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
                     names = self.metadata['relative_file_paths']
                 except (yaml.YAMLError, KeyError, TypeError) as exc:
                     self.problems.append(f'metadata.yaml of {str(self.path)!r} is corrupt ({exc})')
                     self.metadata = None
-                    names = None
-            else:
-                self.problems.append(f'{str(self.path)!r} has no metadata.yaml (bag not finalized)')
-                names = None
             if names is None:
                 names = sorted(p.name for p in self.path.glob('*.mcap'))
                 if not names:
@@ -182,19 +180,14 @@ class BagReader:
             self.files = [self.path / Path(n).name for n in names]
         else:
             self.files = [self.path]
-        self._damaged = set()
-        for file in self.files:
-            problem = check_mcap_file(file)
-            if problem:
-                self.problems.append(problem)
-                self._damaged.add(file)
+        problems = {file: check_mcap_file(file) for file in self.files}
+        self._damaged = {file for file, problem in problems.items() if problem}
+        self.problems += [problem for problem in problems.values() if problem]
         if self.problems and not salvage:
             raise BagReadError('; '.join(self.problems) + SALVAGE_HINT)
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
-        self.namespace = None
-        if namespace is not None:
-            self.namespace = self._choose_namespace(namespace)
+        self.namespace = None if namespace is None else self._choose_namespace(namespace)
 
     def drive_namespaces(self) -> list[str]:
         """Namespaces ('' for none) under which the bag holds a drive's topics."""

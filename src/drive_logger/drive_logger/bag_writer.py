@@ -52,18 +52,6 @@ class TopicRecord:
     channel_id: int = -1
     message_count: int = 0
 
-    def metadata_entry(self) -> dict[str, Any]:
-        return {
-            'topic_metadata': {
-                'name': self.name,
-                'type': self.definition.name,
-                'serialization_format': 'cdr',
-                'offered_qos_profiles': self.qos_profiles,
-                'type_description_hash': self.definition.type_hash,
-            },
-            'message_count': self.message_count,
-        }
-
 
 def check_output_directory(path: str | os.PathLike) -> Path:
     """Raise BagWriteError unless path does not exist and its parent can be written."""
@@ -170,7 +158,16 @@ class BagWriter:
             'duration': {'nanoseconds': duration},
             'starting_time': {'nanoseconds_since_epoch': start},
             'message_count': self.message_count,
-            'topics_with_message_count': [t.metadata_entry() for t in self.topics.values()],
+            'topics_with_message_count': [{
+                'topic_metadata': {
+                    'name': t.name,
+                    'type': t.definition.name,
+                    'serialization_format': 'cdr',
+                    'offered_qos_profiles': t.qos_profiles,
+                    'type_description_hash': t.definition.type_hash,
+                },
+                'message_count': t.message_count,
+            } for t in self.topics.values()],
             # MCAP chunk compression is internal to the storage: rosbag2 reports none here.
             'compression_format': '',
             'compression_mode': '',
