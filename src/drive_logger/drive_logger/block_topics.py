@@ -33,10 +33,8 @@ PUBLISH_ORDER = (2, 0, 1)
 
 
 def block_sources(reader: BagReader) -> dict[str, tuple[str, int]]:
-    """{per-sample topic: (block topic, part index)} for every block topic the bag holds messages of.
-
-    A block topic recorded with another type than its block message is a BagReadError.
-    """
+    """{per-sample topic: (block topic, part index)} for every block topic the bag holds messages of
+    (BagReadError for a block topic recorded with another type)."""
     out = {}
     for block_topic, (block_type, parts) in BLOCK_TOPICS.items():
         info = reader.topics.get(block_topic)

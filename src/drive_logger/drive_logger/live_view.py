@@ -299,11 +299,8 @@ class LiveViewNode(Node):
         return values
 
     def set_ros_parameters(self, changes: dict[str, object]) -> dict[str, object]:
-        """Set through each node's set_parameters service; return the values now in force.
-
-        A value the node refuses keeps the old one; the reason goes to the
-        app as a status message and to this node's log.
-        """
+        """Set through each node's set_parameters service; return the values now in force (a refusal's
+        reason goes to the app as a status message and to the log)."""
         current = self.get_ros_parameters(list(changes))
         for node, names in core.by_node(changes).items():
             client = self._client(node)

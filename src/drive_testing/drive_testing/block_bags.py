@@ -189,12 +189,8 @@ def scenario_bags(name: str, duration: float, root: Path, block_size: int = 16):
 
 
 def recorded_samples(bag: Path) -> dict[str, list[bytes]]:
-    """{per-sample topic: every sample's serialized message} a recorded bag's block topics carry.
-
-    Block boundaries (a partial block flushed while the plant held) and CDR
-    padding (canonical CDR, :func:`drive_common.cdr_padding.canonicalize`) do
-    not matter: two bags of the same samples compare equal.
-    """
+    """{per-sample topic: every sample's canonical CDR} a recorded bag's block topics carry: two bags
+    of the same samples compare equal whatever their block boundaries and padding."""
     from drive_common.cdr_padding import canonicalize
     from drive_logger.bag_reader import BagReader
     from drive_logger.block_topics import block_sources, per_sample_messages
