@@ -359,18 +359,13 @@ def _level(status) -> int:
 
 
 def _names_fault(code: int, text: str, case: Case) -> bool:
-    """Whether the run's exit code and verdict line say what the case did."""
+    """Whether the run's exit code and the last line in which run_scenario says how it ended
+    (a failed run, a fault state, the end state) say what the case did."""
     if case.expect == 'outsider':
         return code == 0
-    return code in case.exit_codes and code != 0 and case.kind in verdict(text)
-
-
-def verdict(text: str) -> str:
-    """The line in which run_scenario says how the run ended ('' if none): a failed run,
-    a fault state, or the end state."""
     ends = [line for line in text.splitlines()
             if line.startswith(('run failed:', 'run_scenario:', '[run_scenario]'))]
-    return ends[-1] if ends else ''
+    return code in case.exit_codes and code != 0 and case.kind in (ends[-1] if ends else '')
 
 
 def _crash(code: int | None, text: str, case: Case) -> str:
