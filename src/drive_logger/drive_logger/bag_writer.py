@@ -272,9 +272,7 @@ class SimTimeLog:
     :func:`message_definitions.is_sim_stamp`) is logged at it; any other waits for
     :meth:`end_of_wakeup` and is logged at the latest sample stamp taken by then
     (docs/architecture.md "Bags").
-
     """
-
 
     def __init__(self, writer: BagWriter) -> None:
         self.writer = writer
