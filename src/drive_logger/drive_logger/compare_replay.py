@@ -80,7 +80,7 @@ def _equal(a, b) -> bool:
 
 
 def compare_fields(recorded: dict, replayed: dict) -> bool:
-    """Exact equality of plain field values (:func:`_equal`)."""
+    """Exact equality of plain field values; NaN equals NaN."""
     return recorded.keys() == replayed.keys() and all(_equal(a, replayed[k]) for k, a in recorded.items())
 
 

@@ -146,13 +146,10 @@ class RecorderNode(Node):
         # (the plant's /clock is reliable, so nothing of it is lost either).
         best_effort = any(info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
                           for info in self.get_publishers_info_by_topic(name))
-        if self.qos_depth > 0:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self.qos_depth)
-        else:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1)
-        qos.reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
-        qos.durability = DurabilityPolicy.VOLATILE
-        return qos
+        reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+        history = HistoryPolicy.KEEP_LAST if self.qos_depth > 0 else HistoryPolicy.KEEP_ALL
+        return QoSProfile(history=history, depth=self.qos_depth or 1, reliability=reliability,
+                          durability=DurabilityPolicy.VOLATILE)
 
     def _subscribe(self, name: str, type_name: str, definition) -> None:
         topic = _Topic(name, type_name, definition)
