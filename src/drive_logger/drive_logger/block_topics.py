@@ -10,7 +10,11 @@ from __future__ import annotations
 import heapq
 from typing import Iterable, Iterator
 
+from rclpy.serialization import deserialize_message, serialize_message
+
 from drive_common import topics as names
+from drive_common.telemetry_blocks import BLOCK_PARTS, expand, sample_stamps_ns, step_gaps
+from drive_logger import ros_types
 from drive_logger.bag_reader import BagMessage, BagReader, BagReadError
 from drive_logger.message_definitions import normalize_type_name
 
@@ -60,13 +64,11 @@ def split_namespace(topic: str) -> tuple[str, str] | None:
 
 def block_class(block_topic: str) -> type:
     """The generated block message class of a block topic."""
-    from drive_logger import ros_types
     return ros_types.message_class(BLOCK_TOPICS[block_topic][0])
 
 
 def part_classes(block_topic: str) -> list[type]:
     """Per-sample message classes of a block topic's parts (BLOCK_PARTS order)."""
-    from drive_common.telemetry_blocks import BLOCK_PARTS
     return [msg_type for _, msg_type in BLOCK_PARTS[block_class(block_topic)]]
 
 
@@ -76,9 +78,6 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
     A wanted topic a block carries is expanded from it, others read as recorded; in log-time
     order (ties: recorded first, then a block's samples in PUBLISH_ORDER).
     """
-    from rclpy.serialization import deserialize_message, serialize_message
-    from drive_common.telemetry_blocks import expand, sample_stamps_ns
-
     sources = block_sources(reader)
     every = topics is None
     wanted = set(reader.topics) | set(sources) if every else set(topics)
@@ -116,7 +115,6 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
 
 def read_blocks(reader: BagReader, block_topics: Iterable[str]) -> dict[str, list]:
     """{block topic: its block messages in log-time order} (deserialized to the generated classes)."""
-    from rclpy.serialization import deserialize_message
     block_topics = list(block_topics)
     classes = {b: block_class(b) for b in block_topics}
     blocks: dict[str, list] = {b: [] for b in block_topics}
@@ -128,7 +126,6 @@ def read_blocks(reader: BagReader, block_topics: Iterable[str]) -> dict[str, lis
 def block_summaries(reader: BagReader) -> dict[str, tuple[int, list[str]]]:
     """{block topic: (samples, problems)} of the bag's block topics; problems: skipped or
     repeated steps between consecutive blocks (telemetry_blocks.step_gaps)."""
-    from drive_common.telemetry_blocks import step_gaps
     present = sorted({block for block, _ in block_sources(reader).values()})
     return {topic: (sum(b.count for b in blocks), step_gaps(blocks))
             for topic, blocks in read_blocks(reader, present).items()}

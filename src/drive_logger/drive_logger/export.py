@@ -11,6 +11,10 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+from rclpy.serialization import deserialize_message
+
+from drive_common.telemetry_blocks import block_columns
 from drive_logger.bag_reader import BagReader, BagReadError
 from drive_logger.bag_writer import BagWriteError, BagWriter
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, block_sources
@@ -68,7 +72,6 @@ class _TableWriter:
             self.flush()
 
     def flush(self) -> None:
-        import numpy as np
         import pyarrow as pa
         if not self._rows:
             return
@@ -94,9 +97,6 @@ class _TableWriter:
 def export_tables(reader: BagReader, out: Path, fmt: str, topics=None, start=None, end=None,
                   every: int = 1, quiet: bool = True) -> dict[str, Path]:
     """One table per block topic into the new directory out; {table name: file}."""
-    import numpy as np
-    from rclpy.serialization import deserialize_message
-    from drive_common.telemetry_blocks import block_columns
     present = sorted({block for block, _ in block_sources(reader).values()})
     if topics is not None:
         wanted = set(topics)
