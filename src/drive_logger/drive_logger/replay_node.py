@@ -12,7 +12,9 @@ import sys
 import threading
 import time
 
+from rclpy.duration import Duration
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
@@ -95,7 +97,6 @@ class ReplayNode(Node):
         self.publish_clock = bool(get['publish_clock'])
         self.synthesize_clock = self.publish_clock and CLOCK_TOPIC not in self.topic_names
         if self.synthesize_clock:
-            from rosgraph_msgs.msg import Clock
             self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
         self.published = 0
 
@@ -152,7 +153,6 @@ class ReplayNode(Node):
 
     def _wait_for_acks(self, stop: threading.Event, timeout: float = 5.0) -> None:
         """Let the last reliable samples (and any a late-matching reader asks again for) go out."""
-        from rclpy.duration import Duration
         deadline = time.monotonic() + timeout
         for publisher in self.publishers_by_topic.values():
             left = deadline - time.monotonic()
