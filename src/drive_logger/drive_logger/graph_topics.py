@@ -57,11 +57,8 @@ def is_paced(type_name: str) -> bool:
 
 def known_type(name: str) -> str | None:
     """Type of a drive-graph (or optional) topic, matching relative or absolute names."""
-    for table in (GRAPH_TOPIC_TYPES, OPTIONAL_TOPIC_TYPES):
-        for topic, type_name in table.items():
-            if name == topic or name.lstrip('/') == topic.lstrip('/'):
-                return type_name
-    return None
+    return next((type_name for table in (GRAPH_TOPIC_TYPES, OPTIONAL_TOPIC_TYPES)
+                 for topic, type_name in table.items() if name.lstrip('/') == topic.lstrip('/')), None)
 
 
 def parse_topic_spec(spec: str) -> tuple[str, str | None]:

@@ -54,10 +54,6 @@ def plain(value):
 
 def fields_of(msg, exclude=('header',)) -> dict:
     """A message's fields as plain Python values (arrays -> lists), header excluded."""
-    out = {}
-    for name in msg.get_fields_and_field_types():
-        if name in exclude:
-            continue
-        value = getattr(msg, name)
-        out[name] = fields_of(value, ()) if hasattr(value, 'get_fields_and_field_types') else plain(value)
-    return out
+    values = {name: getattr(msg, name) for name in msg.get_fields_and_field_types() if name not in exclude}
+    return {name: fields_of(value, ()) if hasattr(value, 'get_fields_and_field_types') else plain(value)
+            for name, value in values.items()}
