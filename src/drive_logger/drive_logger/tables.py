@@ -54,11 +54,8 @@ def joined(table: dict[str, np.ndarray], name: str, width: int) -> np.ndarray:
 
 def table_files(directory: Path) -> dict[str, Path]:
     """{table name: file} of an export directory (parquet preferred over csv)."""
-    out = {}
-    for fmt in reversed(TABLE_FORMATS):
-        for path in sorted(Path(directory).glob(f'*.{fmt}')):
-            out[path.stem] = path
-    return out
+    return {path.stem: path for fmt in reversed(TABLE_FORMATS)
+            for path in sorted(Path(directory).glob(f'*.{fmt}'))}
 
 
 def read_table(path: Path) -> dict[str, np.ndarray]:
