@@ -1,13 +1,8 @@
 """Read a rosbag2 MCAP bag without ROS (``mcap`` + ``mcap-ros2-support``).
 
-:class:`BagReader` checks the bag before reading: a missing ``metadata.yaml``
-(bag never finalized), a data file that is missing, shorter than the MCAP
-magic, lacks its footer (truncated, e.g. the recorder was killed) or has a
-corrupt record is a :class:`BagReadError` whose message names the file and the
-problem. With ``salvage=True`` the intact part is read instead: records are
-streamed from the start of the file up to the first damaged one (for a
-truncated file: every complete chunk, and the open chunk the writer flushed
-beside it; :func:`intact_records`, which ``drive_logger.bag_reindex`` uses too).
+A bag without ``metadata.yaml`` or with a missing, truncated or corrupt data file is a
+:class:`BagReadError` naming the file and the problem; with ``salvage=True`` the intact part
+is read instead (:func:`intact_records`, which ``drive_logger.bag_reindex`` uses too).
 """
 from __future__ import annotations
 
@@ -80,13 +75,9 @@ def check_mcap_file(path: Path) -> str | None:
 
 
 def intact_records(stream, problems: list[str], name: str) -> Iterator[Any]:
-    """MCAP records of stream from its start up to the first damaged one.
-
-    Chunks are yielded record by record only once the whole chunk was read and
-    its CRC checked, so a file cut inside a chunk yields every complete chunk
-    before it and nothing of the cut one. What ended the intact part (a cut, a
-    bad CRC, a corrupt record) is appended to problems, naming the file.
-    """
+    """MCAP records of stream up to the first damaged one (a chunk only whole and CRC-checked),
+    then the open chunk flushed beside the file if it belongs there; what ended the intact
+    part is appended to problems, naming the file."""
     end = stream.tell()
     try:
         for record in StreamReader(stream, validate_crcs=True).records:
@@ -158,12 +149,9 @@ the namespace of a drive recorded under one."""
 class BagReader:
     """A rosbag2 bag directory (or a single .mcap file), read without ROS.
 
-    :param salvage: read the intact part of a truncated/corrupt bag instead of
-        raising; :attr:`problems` lists what was found.
-    :param namespace: read the drive recorded under this namespace (``/drive1``)
-        with its topics named as a drive's without one (``/plant/state_block``);
-        ``'auto'``: the one namespace holding drive topics (``''``: none). The
-        bag's other topics are left out. None: every topic as recorded.
+    salvage: read the intact part of a damaged bag (:attr:`problems` says what was found).
+    namespace: read only the drive recorded under it (``/drive1``), its topics named without
+    it; ``'auto'``: the one namespace holding drive topics; None: every topic as recorded.
     """
 
     def __init__(self, path: str | os.PathLike, salvage: bool = False,
@@ -175,18 +163,16 @@ class BagReader:
         if not self.path.exists():
             raise BagReadError(f'bag {str(self.path)!r} does not exist')
         if self.path.is_dir():
-            meta = self.path / 'metadata.yaml'
-            if meta.is_file():
+            meta, names = self.path / 'metadata.yaml', None
+            if not meta.is_file():
+                self.problems.append(f'{str(self.path)!r} has no metadata.yaml (bag not finalized)')
+            else:
                 try:
                     self.metadata = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
                     names = self.metadata['relative_file_paths']
                 except (yaml.YAMLError, KeyError, TypeError) as exc:
                     self.problems.append(f'metadata.yaml of {str(self.path)!r} is corrupt ({exc})')
                     self.metadata = None
-                    names = None
-            else:
-                self.problems.append(f'{str(self.path)!r} has no metadata.yaml (bag not finalized)')
-                names = None
             if names is None:
                 names = sorted(p.name for p in self.path.glob('*.mcap'))
                 if not names:
@@ -194,19 +180,14 @@ class BagReader:
             self.files = [self.path / Path(n).name for n in names]
         else:
             self.files = [self.path]
-        self._damaged = set()
-        for file in self.files:
-            problem = check_mcap_file(file)
-            if problem:
-                self.problems.append(problem)
-                self._damaged.add(file)
+        problems = {file: check_mcap_file(file) for file in self.files}
+        self._damaged = {file for file, problem in problems.items() if problem}
+        self.problems += [problem for problem in problems.values() if problem]
         if self.problems and not salvage:
             raise BagReadError('; '.join(self.problems) + SALVAGE_HINT)
         self._decoders: dict[tuple[Path, int], Any] = {}
         self._factory = DecoderFactory()
-        self.namespace = None
-        if namespace is not None:
-            self.namespace = self._choose_namespace(namespace)
+        self.namespace = None if namespace is None else self._choose_namespace(namespace)
 
     def drive_namespaces(self) -> list[str]:
         """Namespaces ('' for none) under which the bag holds a drive's topics."""
@@ -231,19 +212,14 @@ class BagReader:
                                f'{namespace or "/"!r} (its namespaces: {listed})')
         return namespace
 
-    def _recorded_name(self, topic: str) -> str:
-        return (self.namespace or '') + topic
-
     @property
     def log_time_source(self) -> str:
-        """Clock of the log times: 'sim' or 'wall' (metadata.yaml's custom_data, else the
-        data file's drive_logger record; bags from before sim-time recording count as 'wall')."""
+        """Clock of the log times, 'sim' or 'wall' (older bags: 'wall')."""
         if self.metadata is not None:
             return (self.metadata.get('custom_data') or {}).get('log_time', 'wall')
         with open(self.files[0], 'rb') as stream:    # not finalized: the record after the header
             return log_time_record(intact_records(stream, [], str(self.files[0])))[0].get('log_time', 'wall')
 
-    # ----------------------------------------------------------------- topics
     @functools.cached_property
     def topics(self) -> dict[str, TopicInfo]:
         """Topic name -> TopicInfo (under the chosen namespace, named without it)."""
@@ -274,7 +250,6 @@ class BagReader:
                         channel.metadata.get('topic_type_hash', ''))
         return out
 
-    # --------------------------------------------------------------- messages
     def _iter_file(self, file: Path, topics: Iterable[str] | None = None, only_channels: bool = False):
         topics = list(topics) if topics is not None else None
         with open(file, 'rb') as stream:
@@ -308,14 +283,13 @@ class BagReader:
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
         """Every message (of the given topics), file by file, in log-time order."""
-        for _, message in self._messages(topics):
-            yield message
+        return (message for _, message in self._messages(topics))
 
     def _messages(self, topics: Iterable[str] | None):
         """(schema, BagMessage) of every message of topics (named without the namespace)."""
         strip = len(self.namespace or '')
         if strip:
-            topics = [self._recorded_name(t) for t in (self.topics if topics is None else topics)]
+            topics = [self.namespace + t for t in (self.topics if topics is None else topics)]
         for file in self.files:
             for schema, channel, message in self._iter_file(file, topics):
                 yield schema, BagMessage(channel.topic[strip:], schema.name if schema else '',

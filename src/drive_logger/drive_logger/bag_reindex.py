@@ -1,16 +1,9 @@
 """Turn the bag of a killed recorder into a complete rosbag2 MCAP bag (``ros2 run drive_logger reindex <bag>``).
 
-A recorder killed with SIGKILL (or a power cut) leaves an MCAP file without
-summary and footer and no metadata.yaml. :func:`reindex` reads the intact
-chunks (complete and CRC-valid: :func:`drive_logger.bag_reader.intact_records`)
-and writes those messages, unchanged and in file order, into a complete MCAP
-file, then metadata.yaml. Nothing is invented: a message of a cut chunk is
-dropped. The data file is replaced atomically (the new file written and
-fsynced next to it, the original kept as ``<file>.orig``, then renamed over
-it); a bag that is already complete is left as it is. docs/architecture.md
-"Bags: log times and crash recovery".
-
-No rclpy here.
+The intact records (:func:`drive_logger.bag_reader.intact_records`) are written, unchanged and
+in file order, into a complete MCAP file and metadata.yaml; nothing is invented. The data file
+is replaced atomically, the original kept as ``<file>.orig``; a complete bag is left as it is
+(docs/architecture.md "Bags: log times and crash recovery"). No rclpy here.
 """
 from __future__ import annotations
 
@@ -78,17 +71,13 @@ def _complete(bag: Path, data: Path) -> int | None:
         return None
 
 
-def _aside_name(data: Path) -> Path:
-    candidate = data.with_name(data.name + '.orig')
-    n = 1
-    while candidate.exists():
-        candidate = data.with_name(f'{data.name}.orig.{n}')
-        n += 1
-    return candidate
-
-
 def _keep_aside(data: Path) -> Path:
-    aside = _aside_name(data)
+    """A hard link (or copy) of data as <file>.orig, or <file>.orig.N if that exists."""
+    aside = data.with_name(data.name + '.orig')
+    n = 1
+    while aside.exists():
+        aside = data.with_name(f'{data.name}.orig.{n}')
+        n += 1
     try:
         os.link(data, aside)
     except OSError:

@@ -1,17 +1,9 @@
-"""rosbag2-layout (Jazzy, metadata version 9) MCAP bag writer on the ``mcap`` library.
+"""rosbag2-layout (Jazzy, metadata version 9) MCAP bag writer on the ``mcap`` library, without rclpy.
 
-Layout (docs/architecture.md "Bags"): a new directory ``<dir>`` holding
-``<dir>_0.mcap`` and, once closed, ``metadata.yaml``; one ``ros2msg`` schema per
-type, one ``cdr`` channel per topic (offered QoS and type hash in its metadata),
-messages at the log and publish times the caller gives (:data:`LOG_TIME_SOURCES`),
-a ``drive_logger`` metadata record first and the ``rosbag2`` one at the end.
-Chunks of ``chunk_size`` bytes are compressed and streamed to disk (bounded
-memory); :meth:`BagWriter.flush` puts the open chunk on disk as it stands and
-fsyncs, so a crash loses only what came after it (``drive_logger.bag_reindex``
-completes such a file), while chunks are still cut by size only.
-
-No rclpy here: message data are the exact CDR bytes the caller took from a
-raw subscription.
+A new directory ``<dir>`` holding ``<dir>_0.mcap`` and, once closed, ``metadata.yaml``: one
+``ros2msg`` schema per type, one ``cdr`` channel per topic, the caller's CDR bytes at the log
+and publish times it gives, chunks cut by size only; :meth:`BagWriter.flush` puts the open
+chunk on disk for crash recovery (docs/architecture.md "Bags").
 """
 from __future__ import annotations
 
@@ -60,18 +52,6 @@ class TopicRecord:
     channel_id: int = -1
     message_count: int = 0
 
-    def metadata_entry(self) -> dict[str, Any]:
-        return {
-            'topic_metadata': {
-                'name': self.name,
-                'type': self.definition.name,
-                'serialization_format': 'cdr',
-                'offered_qos_profiles': self.qos_profiles,
-                'type_description_hash': self.definition.type_hash,
-            },
-            'message_count': self.message_count,
-        }
-
 
 def check_output_directory(path: str | os.PathLike) -> Path:
     """Raise BagWriteError unless path does not exist and its parent can be written."""
@@ -92,19 +72,11 @@ def check_output_directory(path: str | os.PathLike) -> Path:
 
 
 class BagWriter:
-    """Write one rosbag2 MCAP bag; use as a context manager or call :meth:`close`.
+    """Write one rosbag2 MCAP bag into the new directory path; a context manager, or call :meth:`close`.
 
-    :param path: bag directory to create (must not exist).
-    :param compression: MCAP chunk compression: 'lz4' (default), 'zstd' (needs the
-        ``zstandard`` module) or 'none'.
-    :param chunk_size: uncompressed chunk size in bytes before it is flushed to disk.
-    :param log_time: clock of the log times the caller gives, one of :data:`LOG_TIME_SOURCES`
-        (stored in the bag: a ``drive_logger`` MCAP metadata record and metadata.yaml's
-        ``custom_data``).
-    :param data_file: write the MCAP data here instead of ``<dir>/<dir>_0.mcap``, into an
-        existing directory (for :mod:`drive_logger.bag_reindex`); metadata.yaml still names
-        ``file_name``.
-    :param file_name: the data file's name in metadata.yaml (default ``<dir>_0.mcap``).
+    compression: 'lz4', 'zstd' or 'none'; chunk_size: uncompressed bytes per chunk; log_time: one
+    of :data:`LOG_TIME_SOURCES`; data_file: write the MCAP data there instead, path existing
+    (:mod:`drive_logger.bag_reindex`); file_name: the data file's name in metadata.yaml.
     """
 
     def __init__(self, path: str | os.PathLike, compression: str = 'lz4',
@@ -186,7 +158,16 @@ class BagWriter:
             'duration': {'nanoseconds': duration},
             'starting_time': {'nanoseconds_since_epoch': start},
             'message_count': self.message_count,
-            'topics_with_message_count': [t.metadata_entry() for t in self.topics.values()],
+            'topics_with_message_count': [{
+                'topic_metadata': {
+                    'name': t.name,
+                    'type': t.definition.name,
+                    'serialization_format': 'cdr',
+                    'offered_qos_profiles': t.qos_profiles,
+                    'type_description_hash': t.definition.type_hash,
+                },
+                'message_count': t.message_count,
+            } for t in self.topics.values()],
             # MCAP chunk compression is internal to the storage: rosbag2 reports none here.
             'compression_format': '',
             'compression_mode': '',
@@ -202,20 +183,9 @@ class BagWriter:
         }
 
     def flush(self, sync_in_background: bool = False) -> None:
-        """Put the open chunk on disk as it stands and fsync the file; the chunk stays open.
-
-        It is written after the closed chunks, where the chunk in its final
-        form (cut at ``chunk_size``) or the end of the file overwrites it, so
-        the finished file does not depend on when flushes came. The same
-        record goes first to ``<data file>.open-chunk`` (atomically, with its
-        offset), which a reader of a cut file takes where the file's intact
-        part ends at that offset (:func:`drive_logger.bag_reader.intact_records`).
-        So after a kill everything written before the last flush is
-        salvageable; after a power cut, once the fsync is done.
-        With ``sync_in_background`` the fsync runs on a helper thread, so a
-        slow disk does not stall the caller (the recorder's take loop, whose
-        publishers' queues are short).
-        """
+        """Put the open chunk on disk where its final form overwrites it, and into
+        ``<data file>.open-chunk`` with its offset, then fsync (on a helper thread with
+        sync_in_background); the chunk stays open (docs/architecture.md "Bags": Flush)."""
         if self.closed:
             return
         self._write_open_chunk()
@@ -296,18 +266,12 @@ class BagWriter:
 
 
 class SimTimeLog:
-    """Sim-time log times for a :class:`BagWriter` or the recorder's
-    :class:`drive_logger.sample_topics.CanonicalWriter` (``log_time='sim'``; docs/architecture.md "Bags").
+    """Sim-time log times for a :class:`BagWriter` or a :class:`drive_logger.sample_topics.CanonicalWriter`.
 
-    A message that carries its sample's sim time (kind SAMPLE_STAMP,
-    :func:`message_definitions.sim_stamp_kind`) is written at once, logged and
-    published at that stamp; so is a parameter event (NODE_STAMP) whose stamp
-    is a sim time (:func:`message_definitions.is_sim_stamp`: a drive node's).
-    Any other message (a wall-stamped parameter event of a node outside the
-    stack, an unstamped type) waits for the end of the caller's wake-up
-    (:meth:`end_of_wakeup`) and is logged at the latest sample stamp taken by
-    then, so a message taken in the same wake-up as later samples is not
-    logged too early, and a wall stamp never lands in the bag's time range.
+    A message with a sim stamp (:func:`message_definitions.sim_stamp_kind`,
+    :func:`message_definitions.is_sim_stamp`) is logged at it; any other waits for
+    :meth:`end_of_wakeup` and is logged at the latest sample stamp taken by then
+    (docs/architecture.md "Bags").
     """
 
     def __init__(self, writer: BagWriter) -> None:

@@ -1,23 +1,20 @@
 """A bag's per-sample topics, taken from its block topics where it has them.
 
-A block topic (``/plant/state_block``, ``/dtc/status_block``,
-``/pfc/status_block``) carries every sample of the per-sample topics of its
-parts (:data:`drive_common.telemetry_blocks.BLOCK_PARTS`). Readers take a
-per-sample topic from its block whenever the bag holds the block topic, and
-never mix it with a recorded per-sample topic of the same name: one source per
-topic, every sample. Bags without blocks read as before.
-
-:func:`per_sample_messages` yields the other topics' messages and the expanded
-per-sample messages (bit-exact) merged in log-time order; a sample's log time
-is the block's plus its stamp offset (docs/architecture.md "Telemetry: blocks
-and live topics").
+A block topic carries every sample of the per-sample topics of its parts
+(:data:`drive_common.telemetry_blocks.BLOCK_PARTS`); a reader takes such a topic from the block
+whenever the bag holds it, never mixed with recorded messages of that name. A sample's log time
+is the block's plus its stamp offset (docs/architecture.md "Telemetry: blocks and live topics").
 """
 from __future__ import annotations
 
 import heapq
 from typing import Iterable, Iterator
 
+from rclpy.serialization import deserialize_message, serialize_message
+
 from drive_common import topics as names
+from drive_common.telemetry_blocks import BLOCK_PARTS, expand, sample_stamps_ns, step_gaps
+from drive_logger import ros_types
 from drive_logger.bag_reader import BagMessage, BagReader, BagReadError
 from drive_logger.message_definitions import normalize_type_name
 
@@ -40,10 +37,8 @@ PUBLISH_ORDER = (2, 0, 1)
 
 
 def block_sources(reader: BagReader) -> dict[str, tuple[str, int]]:
-    """{per-sample topic: (block topic, part index)} for every block topic the bag holds messages of.
-
-    A block topic recorded with another type than its block message is a BagReadError.
-    """
+    """{per-sample topic: (block topic, part index)} for every block topic the bag holds messages of
+    (BagReadError for a block topic recorded with another type)."""
     out = {}
     for block_topic, (block_type, parts) in BLOCK_TOPICS.items():
         info = reader.topics.get(block_topic)
@@ -69,28 +64,20 @@ def split_namespace(topic: str) -> tuple[str, str] | None:
 
 def block_class(block_topic: str) -> type:
     """The generated block message class of a block topic."""
-    from drive_logger import ros_types
     return ros_types.message_class(BLOCK_TOPICS[block_topic][0])
 
 
 def part_classes(block_topic: str) -> list[type]:
     """Per-sample message classes of a block topic's parts (BLOCK_PARTS order)."""
-    from drive_common.telemetry_blocks import BLOCK_PARTS
     return [msg_type for _, msg_type in BLOCK_PARTS[block_class(block_topic)]]
 
 
 def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) -> Iterator[BagMessage]:
     """The bag's messages of `topics` (None: every topic, blocks replaced by their per-sample topics).
 
-    A wanted topic that a block carries is expanded from the block (the
-    recorded messages of that name are skipped); other topics are read as
-    recorded, block topics themselves included when asked for by name.
-    Merged in log-time order (ties: recorded first, then the samples of a
-    block in publish order: measurement, command, status).
+    A wanted topic a block carries is expanded from it, others read as recorded; in log-time
+    order (ties: recorded first, then a block's samples in PUBLISH_ORDER).
     """
-    from rclpy.serialization import deserialize_message, serialize_message
-    from drive_common.telemetry_blocks import expand, sample_stamps_ns
-
     sources = block_sources(reader)
     every = topics is None
     wanted = set(reader.topics) | set(sources) if every else set(topics)
@@ -128,7 +115,6 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
 
 def read_blocks(reader: BagReader, block_topics: Iterable[str]) -> dict[str, list]:
     """{block topic: its block messages in log-time order} (deserialized to the generated classes)."""
-    from rclpy.serialization import deserialize_message
     block_topics = list(block_topics)
     classes = {b: block_class(b) for b in block_topics}
     blocks: dict[str, list] = {b: [] for b in block_topics}
@@ -140,7 +126,6 @@ def read_blocks(reader: BagReader, block_topics: Iterable[str]) -> dict[str, lis
 def block_summaries(reader: BagReader) -> dict[str, tuple[int, list[str]]]:
     """{block topic: (samples, problems)} of the bag's block topics; problems: skipped or
     repeated steps between consecutive blocks (telemetry_blocks.step_gaps)."""
-    from drive_common.telemetry_blocks import step_gaps
     present = sorted({block for block, _ in block_sources(reader).values()})
     return {topic: (sum(b.count for b in blocks), step_gaps(blocks))
             for topic, blocks in read_blocks(reader, present).items()}

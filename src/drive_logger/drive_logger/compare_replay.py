@@ -1,14 +1,10 @@
 """Regression: re-drive a controller from a bag's drive measurements and compare its commands.
 
-The measurements and recorded commands are the bag's raw lockstep topics when
-it has them, else those its controller status blocks carry. The controller
-(``--package/--executable`` as ``ros2 run`` finds it, or ``--command``) runs as its
-own process; each recorded measurement is published with /clock at its stamp
-and the command of the same ``step`` awaited (the first one is re-sent until
-answered, as the plant does). Parameter changes the recorded
-controller accepted (its ``/parameter_events``) are applied at the same place in
-the sequence. Commands are compared field by field (header excluded); exit 0 if
-every recorded step is reproduced exactly, 1 otherwise.
+The controller (``--package/--executable``, or ``--command``) runs as its own process; each
+recorded measurement (raw lockstep topic, else from the status block) is published with /clock
+at its stamp and the command of the same ``step`` awaited, the recorded controller's parameter
+changes re-applied where they happened. Commands are compared field by field (header
+excluded); exit 0 if every step is reproduced exactly, 1 otherwise (docs/bags.md).
 
     compare_replay bags/run1 --package dtc_controller --executable dtc_controller --json report.json
 """
@@ -25,11 +21,21 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import rclpy
 import yaml
+from rcl_interfaces.msg import ParameterEvent
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.serialization import deserialize_message
+from rosgraph_msgs.msg import Clock
 
 from drive_common.processes import NodeProcess
+from drive_common.topics import FIRST_ANSWER_RESEND, LOCKSTEP_QOS
 from drive_common.waiting import WaitTimeout, future_result, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
+from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.message_definitions import cdr_stamp_ns
@@ -66,20 +72,16 @@ class ComparisonReport:
         return self.steps_compared > 0 and self.mismatch_count == 0 and not self.missing_replies
 
 
+def _equal(a, b) -> bool:
+    """Exact equality of plain values and lists of them; NaN equals NaN (same bits are not required)."""
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(map(_equal, a, b))
+    return a == b or (a != a and b != b)
+
+
 def compare_fields(recorded: dict, replayed: dict) -> bool:
-    """Exact equality of plain field values; NaN equals NaN (same bits are not required)."""
-    if recorded.keys() != replayed.keys():
-        return False
-    for key, a in recorded.items():
-        b = replayed[key]
-        if isinstance(a, float) and isinstance(b, float) and a != a and b != b:
-            continue
-        if isinstance(a, list) and isinstance(b, list):
-            if len(a) != len(b) or not all(x == y or (x != x and y != y) for x, y in zip(a, b)):
-                return False
-        elif a != b:
-            return False
-    return True
+    """Exact equality of plain field values; NaN equals NaN."""
+    return recorded.keys() == replayed.keys() and all(_equal(a, replayed[k]) for k, a in recorded.items())
 
 
 PARAMETER_EVENTS = '/parameter_events'
@@ -89,15 +91,10 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
                    controller_node: str = '/dtc_controller', namespace: str = 'auto'):
     """(measurement type, [(step, stamp_ns, bytes)], command type, {step: bytes}, changes) from a bag.
 
-    The measurements and commands are the raw lockstep topics when the bag has them, else
-    the ones the controller's status block carries (``/dtc/status_block`` for
-    ``/drive/measurement`` and ``/drive/gate_command``, ``/pfc/status_block`` for the PFC
-    pair; :mod:`drive_logger.block_topics`), expanded bit-exact.
-    changes: {index of the first measurement after the change: [(name, value), ...]} from the
-    controller node's recorded parameter events (changed parameters only).
+    Raw lockstep topics if the bag has them, else expanded from the status block
+    (:mod:`drive_logger.block_topics`); changes: {index of the first measurement after the
+    change: [(name, value), ...]} from the controller node's recorded parameter events.
     """
-    from rclpy.serialization import deserialize_message
-    from drive_logger import ros_types
     reader = BagReader(bag, salvage=salvage, namespace=namespace)   # a namespaced drive: its own
     if reader.namespace and not controller_node.startswith(reader.namespace + '/'):
         controller_node = reader.namespace + controller_node        # events name /NS/node
@@ -115,8 +112,6 @@ def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage
         classes = [part_classes(sources[t][0])[sources[t][1]] for t in pair]
         stream = functools.partial(per_sample_messages, reader)
     meas_cls, cmd_cls = classes
-    from rcl_interfaces.msg import ParameterEvent
-    from rclpy.parameter import parameter_value_to_python
     measurements, commands, changes, events = [], {}, {}, []
     topics = [measurement_topic, command_topic] + ([PARAMETER_EVENTS] if PARAMETER_EVENTS in infos else [])
     for msg in stream(topics):
@@ -148,15 +143,6 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
                        controller_node: str = '/dtc_controller',
                        namespace: str = 'auto') -> ComparisonReport:
     """Drive the (already started) controller with the bag's measurements; compare its commands."""
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.serialization import deserialize_message
-    from rosgraph_msgs.msg import Clock
-    from drive_common.topics import FIRST_ANSWER_RESEND, LOCKSTEP_QOS
-    from drive_logger.ros_types import fields_of
-
-    from rclpy.parameter import Parameter
-    from rclpy.parameter_client import AsyncParameterClient
     meas_cls, measurements, cmd_cls, recorded, changes = load_recording(
         bag, measurement_topic, command_topic, salvage, controller_node, namespace)
     if max_steps is not None:
@@ -220,8 +206,8 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
             report.steps_compared += 1
             a, b = recorded[step], replies[step]
             report.byte_identical += a == b
-            rec_f = fields_of(deserialize_message(a, cmd_cls))
-            rep_f = fields_of(deserialize_message(b, cmd_cls))
+            rec_f = ros_types.fields_of(deserialize_message(a, cmd_cls))
+            rep_f = ros_types.fields_of(deserialize_message(b, cmd_cls))
             if compare_fields(rec_f, rep_f):
                 report.matching += 1
             else:
@@ -252,7 +238,6 @@ def _run(args) -> ComparisonReport:
         controller = NodeProcess('command', Path(args.command[0]).name, argv=args.command, **process)
     else:
         controller = NodeProcess(args.package, args.executable, **process)
-    import rclpy
     context = rclpy.Context()
     rclpy.init(context=context)
     try:

@@ -1,15 +1,9 @@
 """Export a bag for viewers and tables: ``ros2 run drive_logger export BAG --to mcap|parquet|csv OUT``.
 
-- ``--to mcap``: a viewer bag in rosbag2 layout where every sample of the block
-  topics is its own per-sample message, bit-exact, at the sample's sim time, in
-  canonical order (:mod:`drive_logger.sample_topics`); ``/clock``,
-  ``/parameter_events`` and ``/diagnostics`` are copied.
-- ``--to parquet`` / ``--to csv``: one table per block topic, one row per sample
-  (:mod:`drive_logger.tables`), for pandas and MATLAB.
-
-Options ``--topics``, ``--start`` / ``--end`` (s of sim time), ``--every N``,
-``--quiet``. Streams block by block: memory stays bounded whatever the bag's
-length (benchmarks/bench_export.py). Exit 0 done, 2 bad input. docs/bags.md.
+``--to mcap``: a viewer bag where every sample of the block topics is its own message
+(:mod:`drive_logger.sample_topics`), ``/clock``, ``/parameter_events`` and ``/diagnostics``
+copied; ``--to parquet|csv``: one table per block topic (:mod:`drive_logger.tables`). Streams
+block by block in bounded memory. Exit 0 done, 2 bad input (docs/bags.md).
 """
 from __future__ import annotations
 
@@ -17,6 +11,10 @@ import argparse
 import sys
 from pathlib import Path
 
+import numpy as np
+from rclpy.serialization import deserialize_message
+
+from drive_common.telemetry_blocks import block_columns
 from drive_logger.bag_reader import BagReader, BagReadError
 from drive_logger.bag_writer import BagWriteError, BagWriter
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, block_sources
@@ -74,7 +72,6 @@ class _TableWriter:
             self.flush()
 
     def flush(self) -> None:
-        import numpy as np
         import pyarrow as pa
         if not self._rows:
             return
@@ -100,9 +97,6 @@ class _TableWriter:
 def export_tables(reader: BagReader, out: Path, fmt: str, topics=None, start=None, end=None,
                   every: int = 1, quiet: bool = True) -> dict[str, Path]:
     """One table per block topic into the new directory out; {table name: file}."""
-    import numpy as np
-    from rclpy.serialization import deserialize_message
-    from drive_common.telemetry_blocks import block_columns
     present = sorted({block for block, _ in block_sources(reader).values()})
     if topics is not None:
         wanted = set(topics)

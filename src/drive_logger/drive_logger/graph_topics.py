@@ -45,13 +45,8 @@ drive_common.lockstep_wire, telemetry_blocks); the recorder brings every other
 message to that form (drive_common.cdr_padding.canonicalize)."""
 
 DEFAULT_TOPICS = BLOCK_TOPICS + [t.DIAGNOSTICS, t.CLOCK, t.PARAMETER_EVENTS]
-"""Default recording: the blocks, /diagnostics, /clock (decimated) and parameter changes.
-
-Neither the lockstep topics nor the decimated live topics (plant/state,
-dtc/status, pfc/status): the status blocks hold the measurements and
-commands bit-exact, and no recorder subscription sits on a per-sample
-publish (docs/architecture.md "Telemetry: blocks and live topics").
-"""
+"""Default recording: the blocks, /diagnostics, /clock (decimated) and parameter changes; not the
+lockstep or live topics, whose samples the blocks hold bit-exact (no subscription on a per-sample publish)."""
 
 
 def is_paced(type_name: str) -> bool:
@@ -62,11 +57,8 @@ def is_paced(type_name: str) -> bool:
 
 def known_type(name: str) -> str | None:
     """Type of a drive-graph (or optional) topic, matching relative or absolute names."""
-    for table in (GRAPH_TOPIC_TYPES, OPTIONAL_TOPIC_TYPES):
-        for topic, type_name in table.items():
-            if name == topic or name.lstrip('/') == topic.lstrip('/'):
-                return type_name
-    return None
+    return next((type_name for table in (GRAPH_TOPIC_TYPES, OPTIONAL_TOPIC_TYPES)
+                 for topic, type_name in table.items() if name.lstrip('/') == topic.lstrip('/')), None)
 
 
 def parse_topic_spec(spec: str) -> tuple[str, str | None]:

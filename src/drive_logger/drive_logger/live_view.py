@@ -1,18 +1,11 @@
 """live_view node: serve the running graph to the Foxglove app over the Foxglove WebSocket protocol.
 
-Built on ``foxglove-sdk``. Open the Foxglove app, "Open connection",
-``ws://localhost:8765``, then import ``share/drive_logger/layouts/dtc_live.json``
-(docs/live_view.md). It serves each chosen topic as a channel with its
-``ros2msg`` schema and the CDR bytes as received, decimated by sim time; sim time
-from ``/clock`` as the server time; the graph's parameters (get and set through
-each node's parameter services, a rejected change reported in the app); and its
-own health on /diagnostics (frames forwarded and dropped).
-
-A viewer never blocks the graph: best-effort subscriptions of bounded depth, a
-bounded queue between the receive and the send thread (full: the oldest frame is
-dropped and counted), and the SDK's bounded per-client outbox (its drops are not
-reported to Python). Parameters (read at start): :data:`LIVE_VIEW_SCHEMA`, listed
-in the node reference; bad parameters end the node with exit code 2.
+Built on ``foxglove-sdk`` (docs/live_view.md): each chosen topic as a channel with its
+``ros2msg`` schema and the CDR bytes as received, decimated by sim time; ``/clock`` as the
+server time; the graph's parameters through each node's parameter services; its own health on
+/diagnostics. A viewer never blocks the graph: best-effort subscriptions, a bounded queue to
+the send thread (full: the oldest frame is dropped and counted), the SDK's bounded outbox.
+Parameters: :data:`LIVE_VIEW_SCHEMA`; bad parameters end the node with exit code 2.
 """
 from __future__ import annotations
 
@@ -59,7 +52,6 @@ def _positive(*names: str):
     return check
 
 
-
 LIVE_VIEW_SCHEMA = schema([
     ParameterSpec('topics', list(DEFAULT_TOPICS), 'served topics: name or name:pkg/msg/Type'),
     ParameterSpec('decimation_period', 0.0, 'per topic, at most one message per this much sim time (0 = all)', 's'),
@@ -76,6 +68,11 @@ LIVE_VIEW_SCHEMA = schema([
                   min_value=0.0, max_value=0.1),
 ], _positive('parameter_timeout', 'diagnostics_period'), read_only=True)
 """The live view's parameters (all read-only, set at start); see the module docstring."""
+
+
+def _plain(value):
+    """A value the app sent, arrays as lists of Python numbers."""
+    return ros_types.plain(value) if isinstance(value, (list, tuple)) else value
 
 
 class _Stream:
@@ -149,7 +146,6 @@ class LiveViewNode(Node):
             f'live view ready: ws://{p["host"]}:{self.server.port} serving {len(self.streams)} topic(s) '
             f'{[s.name for s in self.streams]}')
 
-    # ---------------------------------------------------------------- set-up
     def _topic_periods(self, specs) -> dict[str, float]:
         out = {}
         for spec in specs:
@@ -179,7 +175,6 @@ class LiveViewNode(Node):
                 raise LiveViewConfigError(f'topic {name!r}: {exc}') from exc
         return out
 
-    # ----------------------------------------------------- receive (ROS side)
     def _receiver_for(self, stream: _Stream):
         outbox, decimator = self.outbox, stream.decimator
 
@@ -205,7 +200,6 @@ class LiveViewNode(Node):
             if receiver.poll(0.1) and self.batch_period > 0.0:
                 stop.wait(self.batch_period)
 
-    # ------------------------------------------------------ send (SDK side)
     def send_loop(self, stop: threading.Event) -> None:
         while not stop.is_set():
             for stream, data, stamp in self.outbox.take_all(0.1):
@@ -215,7 +209,7 @@ class LiveViewNode(Node):
                     stream.channel.log(data, log_time=stamp)
                     stream.forwarded += 1
 
-    # ------------------------------------------------ Foxglove ServerListener
+    # the Foxglove ServerListener callbacks, called from the SDK's threads
     def on_subscribe(self, client, channel) -> None:
         with self._viewers_lock:
             self.viewers.setdefault(client.id, set()).add(channel.id)
@@ -238,7 +232,7 @@ class LiveViewNode(Node):
         if self.push.is_push(request_id):
             return list(parameters)            # our own push: the SDK sends these to their subscribers
         try:
-            values = self.set_ros_parameters({p.name: self._from_fg(p) for p in parameters})
+            values = self.set_ros_parameters({p.name: _plain(p.get_value()) for p in parameters})
             return self._fg_parameters(values)
         except Exception as exc:
             self._status(f'set parameters failed: {exc}', 'Error')
@@ -258,7 +252,6 @@ class LiveViewNode(Node):
     def on_parameters_unsubscribe(self, param_names) -> None:
         return None
 
-    # ---------------------------------------------- ROS parameter services
     def _client(self, node: str) -> AsyncParameterClient | None:
         client = self.param_clients.get(node)
         if client is None:
@@ -306,11 +299,8 @@ class LiveViewNode(Node):
         return values
 
     def set_ros_parameters(self, changes: dict[str, object]) -> dict[str, object]:
-        """Set through each node's set_parameters service; return the values now in force.
-
-        A value the node refuses keeps the old one; the reason goes to the
-        app as a status message and to this node's log.
-        """
+        """Set through each node's set_parameters service; return the values now in force (a refusal's
+        reason goes to the app as a status message and to the log)."""
         current = self.get_ros_parameters(list(changes))
         for node, names in core.by_node(changes).items():
             client = self._client(node)
@@ -339,23 +329,14 @@ class LiveViewNode(Node):
                                   type=getattr(ParameterType, hint) if (hint := core.type_hint(value)) else None)
                 for name, value in values.items()]
 
-    @staticmethod
-    def _from_fg(parameter):
-        value = parameter.get_value()
-        return ros_types.plain(value) if isinstance(value, (list, tuple)) else value
-
     def _status(self, message: str, level: str) -> None:
         self.get_logger().warning(message)
         self.server.publish_status(message, getattr(StatusLevel, level))
 
-    # ------------------------------------------------------------ diagnostics
-    def dropped_frames(self) -> int:
-        return self.outbox.dropped
-
     def publish_diagnostics(self) -> None:
         with self._viewers_lock:
             viewers = len(self.viewers)
-        dropped = self.dropped_frames()
+        dropped = self.outbox.dropped
         values = [('viewers_subscribed', viewers), ('dropped_frames', dropped)]
         values += [(f'forwarded {s.name}', s.forwarded) for s in self.streams]
         status = DiagnosticStatus(

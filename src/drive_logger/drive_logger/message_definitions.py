@@ -1,12 +1,9 @@
 """Message definitions and type hashes of ROS interfaces, as rosbag2 stores them (no rclpy).
 
-rosbag2 (Jazzy) writes one MCAP schema per type: encoding ``ros2msg``, text =
-the root ``.msg`` verbatim, then every dependency once, depth-first with each
-type's dependencies sorted, each as ``"\\n" + "=" * 80 + "\\nMSG: pkg/Type\\n"``
-followed by its text (docs/architecture.md "Bags"). The type hash (``RIHS01_...``) is read
-from the ``.json`` type description rosidl installs next to the ``.msg``.
-Definitions are found under ``share/<pkg>/msg/`` of every prefix on
-``AMENT_PREFIX_PATH``.
+A schema is the root ``.msg`` verbatim, then every dependency once, depth-first with sorted
+dependencies, each after ``"\\n" + "=" * 80 + "\\nMSG: pkg/Type\\n"`` (docs/architecture.md
+"Bags"); the type hash comes from the ``.json`` rosidl installs beside the ``.msg``, under
+``share/<pkg>/msg/`` of a prefix on ``AMENT_PREFIX_PATH``.
 """
 from __future__ import annotations
 
@@ -49,11 +46,6 @@ def normalize_type_name(type_name: str) -> str:
     raise ValueError(f'not a message type name: {type_name!r} (expected pkg/msg/Type)')
 
 
-def _short_name(type_name: str) -> str:
-    pkg, _, name = normalize_type_name(type_name).split('/')
-    return f'{pkg}/{name}'
-
-
 def _prefixes() -> list[Path]:
     return [Path(p) for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
 
@@ -84,7 +76,8 @@ def dependencies(msg_text: str, package: str) -> list[str]:
         if field_type == 'Header':
             deps.add('std_msgs/Header')
         elif '/' in field_type:
-            deps.add(_short_name(field_type))
+            pkg, _, name = normalize_type_name(field_type).split('/')
+            deps.add(f'{pkg}/{name}')
         else:
             deps.add(f'{package}/{field_type}')
     return sorted(deps)
@@ -135,8 +128,6 @@ def type_definition(type_name: str) -> TypeDefinition:
 
 HEADER_FIELD_TYPES = frozenset({'std_msgs/Header', 'std_msgs/msg/Header', 'Header'})
 CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
-
-
 _CONSTANT = re.compile(r'^\S+\s+[A-Za-z]\w*\s*=')
 
 
@@ -160,49 +151,28 @@ NO_STAMP = ''             # no sim time in the data
 
 @lru_cache(maxsize=None)
 def carries_sim_stamp(type_name: str) -> bool:
-    """True if a message of type_name carries the sim time of its sample in its first bytes.
-
-    The drive graph's messages start with a std_msgs/Header stamped with the
-    sim time t_k of their sample; rosgraph_msgs/Clock starts with the sim time
-    itself. Both put a builtin_interfaces/Time (int32 sec, uint32 nanosec)
-    right after the CDR encapsulation header. Other types that start with a
-    Time (rcl_interfaces ParameterEvent, Log) are stamped by the publishing
-    node, so they do not count here (see :func:`sim_stamp_kind`).
-    """
+    """True if a message of type_name starts with its sample's sim time: a std_msgs/Header (the
+    drive graph's messages) or rosgraph_msgs/Clock (node-stamped types: :func:`sim_stamp_kind`)."""
     full = normalize_type_name(type_name)
     return full == CLOCK_TYPE or first_field_is_header(message_text(full))
 
 
 def sim_stamp_kind(type_name: str) -> str:
-    """SAMPLE_STAMP, NODE_STAMP or NO_STAMP for type_name.
-
-    rcl_interfaces/ParameterEvent is NODE_STAMP: the drive nodes stamp their
-    parameter events with sim time (drive_common.ros_parameters.SimStampedEvents:
-    the plant's current time, a controller's last answered sample), every other
-    node (recorder, replay, live view, a CLI) with its wall clock; tell them
-    apart by :func:`is_sim_stamp`.
-    """
+    """SAMPLE_STAMP, NODE_STAMP (rcl_interfaces/ParameterEvent: sim time from a drive node, else
+    wall time; :func:`is_sim_stamp`) or NO_STAMP for type_name."""
     if carries_sim_stamp(type_name):
         return SAMPLE_STAMP
     return NODE_STAMP if normalize_type_name(type_name) == PARAMETER_EVENT_TYPE else NO_STAMP
 
 
 def is_sim_stamp(stamp_ns: int) -> bool:
-    """A node's stamp that is plausible as sim time: in [0, 1e9 s).
-
-    Wall clocks read > 1.7e9 s since the epoch; no simulation runs for 31
-    years. (A node whose wall clock reads before 2001, e.g. a board without a
-    real-time clock, would be taken as sim time.)
-    """
+    """A node's stamp that is plausible as sim time: in [0, 1e9 s) (wall clocks read > 1.7e9 s)."""
     return 0 <= stamp_ns < SIM_TIME_LIMIT_NS
 
 
 def cdr_stamp_ns(data: bytes) -> int:
-    """The leading builtin_interfaces/Time of a CDR message, in ns (see :func:`carries_sim_stamp`).
-
-    Read without deserializing (the live view decimates every sample by it);
-    ValueError for bytes that are not CDR with room for a leading stamp.
-    """
+    """The leading builtin_interfaces/Time of CDR bytes, in ns, without deserializing
+    (:func:`carries_sim_stamp`); ValueError for bytes with no room for one."""
     if len(data) < 12 or data[0] != 0 or data[1] not in (0, 1):
         raise ValueError('not a CDR message with a leading time stamp')
     sec, nanosec = struct.unpack_from('<iI' if data[1] == 1 else '>iI', data, 4)

@@ -1,19 +1,12 @@
 """Push parameter values to the viewers subscribed to them, without hanging the live view.
 
-foxglove-sdk (0.30.3) holds its lock of parameter subscriptions while it calls
-the Python listener's ``on_parameters_subscribe`` / ``on_parameters_unsubscribe``
-(a viewer subscribing, unsubscribing or leaving; the call needs the GIL), and
-``WebSocketServer.publish_parameter_values`` takes that lock while it holds the
-GIL. A push from any Python thread at such a moment hangs the whole process.
-
-The one push the SDK makes without the GIL is its answer to a client's
-``setParameters``: it publishes the values the listener returned to every
-subscribed client. So a :class:`ParameterPush` is a loopback client of the
-server: it sends the values as a ``setParameters`` marked with a token made for
-this process, and the listener, seeing :meth:`ParameterPush.is_push`, returns
-them as they are instead of setting anything. A thread of its own sends them
-(the latest value of each name), so a caller never waits on the network.
-Nothing in this module imports rclpy.
+foxglove-sdk (0.30.3) holds its parameter-subscription lock while it calls the listener's
+``on_parameters_(un)subscribe`` (which needs the GIL), and ``publish_parameter_values`` takes
+that lock while holding the GIL: a push at such a moment hangs the process. Its answer to a
+client's ``setParameters`` is published without the GIL, so :class:`ParameterPush` is a
+loopback client that sends the values as a ``setParameters`` marked with its token, which the
+listener (:meth:`ParameterPush.is_push`) echoes instead of setting; its own thread sends the
+latest value of each name. No rclpy here.
 """
 from __future__ import annotations
 
@@ -34,10 +27,7 @@ WIRE_TYPES = {'Float64': 'float64', 'Float64Array': 'float64_array', 'ByteArray'
 
 
 def wire_parameter(name: str, value) -> dict:
-    """One parameter as a client's setParameters carries it (Foxglove WebSocket protocol).
-
-    A ROS byte array (a list of one-byte ``bytes``) goes as ``byte_array``, base64.
-    """
+    """One parameter as a client's setParameters carries it (a ROS byte array as base64 ``byte_array``)."""
     if isinstance(value, list) and value and all(isinstance(v, bytes) for v in value):
         value = b''.join(value)
     out = {'name': name, 'value': value}
@@ -56,10 +46,8 @@ def websocket_uri(host: str, port: int) -> str:
 
 
 class ParameterPush:
-    """A loopback WebSocket client that has the server push parameter values (see the module).
-
-    on_error(reason) is called (from the push thread) for values that could not be pushed.
-    """
+    """A loopback WebSocket client that has the server push parameter values (see the module);
+    on_error(reason) is called from the push thread for values that could not be pushed."""
 
     def __init__(self, host: str, on_error: Callable[[str], None], open_timeout: float = 10.0) -> None:
         self.token = f'parameter-push-{secrets.token_hex(16)}'
@@ -86,11 +74,8 @@ class ParameterPush:
         return isinstance(request_id, str) and secrets.compare_digest(request_id.encode(), self.token.encode())
 
     def publish(self, values: dict[str, object]) -> None:
-        """Queue '/node.param' -> value for the viewers subscribed to them; never waits.
-
-        A name queued again before it was sent is sent once, with its latest value.
-        Nothing is queued once the push is closed (the live view is stopping).
-        """
+        """Queue '/node.param' -> value for the viewers subscribed to them (latest value per name;
+        nothing once closed); never waits."""
         with self._ready:
             if self._closed or not values:
                 return
@@ -107,7 +92,6 @@ class ParameterPush:
         if self._ws is not None:
             self._ws.close()
 
-    # ------------------------------------------------------------ push thread
     def _push_loop(self) -> None:
         while True:
             with self._ready:

@@ -1,9 +1,7 @@
 """QoS profiles in the rosbag2 (metadata version 9) form, without rclpy.
 
-A profile is a dict of named policies, exactly the items of
-``offered_qos_profiles`` in metadata.yaml; the MCAP channel carries the same
-list as a YAML string (rosbags drops a topic whose two copies differ).
-Durations are ``{sec, nsec}``; "infinite" is rmw's 9223372036 s 854775807 ns.
+A profile is one item of ``offered_qos_profiles`` in metadata.yaml; the MCAP channel carries the
+same list as a YAML string. Durations are ``{sec, nsec}``; "infinite" is rmw's 2**63-1 ns.
 """
 from __future__ import annotations
 

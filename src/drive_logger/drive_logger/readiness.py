@@ -1,17 +1,8 @@
 """How a scenario runner knows the recorder is ready: its subscriptions are on the graph.
 
-The recorder creates every subscription of its ``topics`` parameter before it
-logs ``recorder ready``; :func:`wait_for_recorder` polls the ROS graph from
-the runner's own node until the recorder (node name ``recorder`` unless
-remapped) has a subscription on each topic. Start the plant only after it
-returns, and stop the recorder with SIGINT/SIGTERM after the run.
-
-A subscription on the graph is not yet a matched one: a publisher that its
-subscription matches only after the first samples went out never delivers
-them (volatile durability). Before a run, ask the recorder's
-``recorder/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers)
-until it has matched every publisher of the topics you need, as
-``run_scenario`` does.
+:func:`wait_for_recorder` polls the graph until the recorder has a subscription on each topic.
+A subscription is not yet matched with a publisher: before a run, also ask the recorder's
+``recorder/matched_publishers`` service (dtc_msgs/srv/MatchedPublishers), as ``run_scenario`` does.
 """
 from __future__ import annotations
 
@@ -21,19 +12,15 @@ from drive_common.waiting import WaitTimeout, wait_until
 from drive_logger import graph_topics
 
 
-def recorder_subscribed(node, topic: str, recorder_name: str = 'recorder') -> bool:
-    """True if a node named recorder_name subscribes to topic (as seen from node)."""
-    name = node.resolve_topic_name(topic)
-    return any(info.node_name == recorder_name for info in node.get_subscriptions_info_by_topic(name))
-
-
 def wait_for_recorder(node, topics: Iterable[str] = graph_topics.DEFAULT_TOPICS,
                       recorder_name: str = 'recorder', timeout: float = 10.0) -> None:
     """Block until the recorder subscribes to every topic (names without ':type'); TimeoutError otherwise."""
     names = [graph_topics.parse_topic_spec(t)[0] for t in topics]
+
+    def missing() -> list[str]:
+        return [t for t in names if not any(info.node_name == recorder_name for info in
+                                            node.get_subscriptions_info_by_topic(node.resolve_topic_name(t)))]
     try:
-        wait_until(lambda: all(recorder_subscribed(node, t, recorder_name) for t in names),
-                   timeout, 0.02)
+        wait_until(lambda: not missing(), timeout, 0.02)
     except WaitTimeout:
-        missing = [t for t in names if not recorder_subscribed(node, t, recorder_name)]
-        raise TimeoutError(f'recorder {recorder_name!r} not subscribed to {missing} after {timeout} s') from None
+        raise TimeoutError(f'recorder {recorder_name!r} not subscribed to {missing()} after {timeout} s') from None

@@ -1,18 +1,10 @@
 """Recorder node: record topics of the drive graph into a rosbag2-layout MCAP bag.
 
-Thin ROS wrapper over :class:`drive_logger.bag_writer.BagWriter`: raw subscriptions
-hand over the CDR bytes, taken in the node's own wait loop (the executor serves
-only its services). Blocks and lockstep messages are written as they come; any
-other message is brought to canonical CDR first
-(:func:`drive_common.cdr_padding.canonicalize`). Subscriptions exist once the node
-logs ``recorder ready`` (:func:`drive_logger.readiness.wait_for_recorder`).
-Parameters: :data:`RECORDER_SCHEMA` (read-only; the node reference lists them).
-
-The bag is written in canonical order as it comes
-(:class:`drive_logger.sample_topics.CanonicalWriter`: two recordings of one scenario
-are byte-identical files). Stop with SIGINT or SIGTERM: queued messages are taken and
-written, metadata.yaml is written and it exits 0; a bad output or topic type is
-refused at start (exit 2).
+Raw subscriptions, taken in the node's own wait loop, hand their CDR bytes (made canonical
+unless canonical at the source) to a :class:`drive_logger.sample_topics.CanonicalWriter`, so
+two recordings of one scenario are byte-identical files. Subscriptions exist once it logs
+``recorder ready``. Parameters: :data:`RECORDER_SCHEMA`. SIGINT/SIGTERM: drain, finalize,
+exit 0; a bad output or topic type: exit 2 at start.
 """
 from __future__ import annotations
 
@@ -46,11 +38,11 @@ class RecorderConfigError(RuntimeError):
 class _Topic:
     """A recorded topic: subscription, type and (once the first message came) bag record."""
 
-    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'qos', 'callback', 'stamp_kind',
-                 'canonical_of', 'paced')
+    __slots__ = ('name', 'type_name', 'definition', 'subscription', 'record', 'stamp_kind', 'canonical_of',
+                 'paced')
 
-    def __init__(self, name, type_name, definition, qos):
-        self.name, self.type_name, self.definition, self.qos = name, type_name, definition, qos
+    def __init__(self, name, type_name, definition):
+        self.name, self.type_name, self.definition = name, type_name, definition
         self.stamp_kind = sim_stamp_kind(type_name) if definition is not None else NO_STAMP
         self.paced = definition is not None and graph_topics.is_paced(type_name)
         # the message class whose bytes need canonicalize(); None: canonical at the source
@@ -58,8 +50,6 @@ class _Topic:
                              else ros_types.message_class(type_name))
         self.subscription = None
         self.record = None
-        self.callback = None
-
 
 
 RECORDER_SCHEMA = schema([
@@ -95,12 +85,10 @@ class RecorderNode(Node):
         self.qos_depth = int(p['qos_depth'])
         self.all_topics = bool(p['all_topics'])
         self._lock = threading.Lock()
-        self._not_spun = DirectCallbackGroup()   # subscriptions: taken by TakeLoop, not the executor
-
-        # 1. Resolve every topic and its type before touching the disk.
+        self._not_spun = DirectCallbackGroup()   # subscriptions: taken by run(), not the executor
+        # every topic and type resolved before the bag is created, then the subscriptions
         wanted = self._resolve_topics(p['topics'] or [], float(p['type_discovery_timeout']))
         output = p['output'] or str(graph_topics.default_output_dir())
-        # 2. Create the bag (BagWriter refuses an existing or unwritable directory first), then the subscriptions (ready once they exist).
         try:
             self.writer = BagWriter(output, compression=p['compression'], chunk_size=int(p['chunk_size']),
                                     log_time=p['log_time'])
@@ -119,7 +107,6 @@ class RecorderNode(Node):
             f'recorder ready: recording {len(self.topics)} topic(s) {sorted(self.topics)} '
             f'into {self.writer.path}')
 
-    # ---------------------------------------------------------------- set-up
     def _resolve_topics(self, specs, timeout: float) -> dict:
         resolved = {}
         unknown = []
@@ -159,48 +146,41 @@ class RecorderNode(Node):
         # (the plant's /clock is reliable, so nothing of it is lost either).
         best_effort = any(info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
                           for info in self.get_publishers_info_by_topic(name))
-        if self.qos_depth > 0:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=self.qos_depth)
-        else:
-            qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, depth=1)
-        qos.reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
-        qos.durability = DurabilityPolicy.VOLATILE
-        return qos
+        reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
+        history = HistoryPolicy.KEEP_LAST if self.qos_depth > 0 else HistoryPolicy.KEEP_ALL
+        return QoSProfile(history=history, depth=self.qos_depth or 1, reliability=reliability,
+                          durability=DurabilityPolicy.VOLATILE)
 
     def _subscribe(self, name: str, type_name: str, definition) -> None:
-        topic = _Topic(name, type_name, definition, self._subscription_qos(name))
-        topic.callback = self._callback_for(topic)
+        topic = _Topic(name, type_name, definition)
         topic.subscription = self.create_subscription(
-            ros_types.message_class(type_name), name, topic.callback, topic.qos, raw=True,
-            callback_group=self._not_spun)
+            ros_types.message_class(type_name), name, self._callback_for(topic), self._subscription_qos(name),
+            raw=True, callback_group=self._not_spun)
         self.topics[name] = topic
 
     def _matched_publishers(self, request, response):
         """Per requested topic, the publishers its subscription has matched (a runner waits for
         them before the run: a publisher matched only on its own side loses the first samples)."""
-        response.publishers = [self._matched(self.resolve_topic_name(t)) for t in request.topics]
+        topics = [self.topics.get(self.resolve_topic_name(t)) for t in request.topics]
+        response.publishers = [t.subscription.get_publisher_count() if t and t.subscription else 0
+                               for t in topics]
         return response
-
-    def _matched(self, name: str) -> int:
-        topic = self.topics.get(name)
-        return topic.subscription.get_publisher_count() if topic and topic.subscription else 0
 
     def discover(self) -> None:
         for name, types in self.get_topic_names_and_types():
             if name in self.topics or not types:
                 continue
             if name in self.derived:        # the bag has it from the blocks
-                self.topics[name] = _Topic(name, types[0], None, None)
+                self.topics[name] = _Topic(name, types[0], None)
                 continue
             try:
                 ros_types.message_class(types[0])
                 self._subscribe(name, normalize_type_name(types[0]), type_definition(types[0]))
                 self.get_logger().info(f'recording discovered topic {name} ({types[0]})')
             except (ros_types.UnknownTypeError, DefinitionNotFoundError, ValueError) as exc:
-                self.topics[name] = _Topic(name, types[0], None, None)  # remember, do not retry
+                self.topics[name] = _Topic(name, types[0], None)  # remember, do not retry
                 self.get_logger().warning(f'cannot record {name}: {exc}')
 
-    # -------------------------------------------------------------- messages
     def _offered_qos(self, topic: _Topic) -> list:
         return [ros_types.qos_to_dict(info.qos_profile) for info in self.get_publishers_info_by_topic(topic.name)]
 
@@ -263,37 +243,23 @@ class RecorderNode(Node):
         self.get_logger().info(f'bag finalized: {self.writer.path} ({self.writer.message_count} messages: {counts})')
 
 
-class TakeLoop:
-    """Take every queued message of every subscription per wake-up (no executor overhead).
-
-    The rclpy executor dispatches one callback per wait; at the graph's rates
-    that costs more than the recording itself, so the recorder waits on its
-    subscriptions directly (drive_common.lockstep_io) and drains each one.
-    """
-
-    def __init__(self, node: RecorderNode) -> None:
-        self.node = node
-        self._receiver = None
-        self._subscriptions: list = []
-
-    def spin_once(self, timeout_sec: float) -> int:
-        """Wait up to timeout_sec, then take everything queued; return how many were taken."""
-        subscriptions = [t.subscription for t in self.node.topics.values() if t.subscription]
-        if subscriptions != self._subscriptions:      # topics discovered since the last wait
-            self._subscriptions = subscriptions
-            self._receiver = DirectReceiver(self.node.context, subscriptions, with_info=True)
-        return self._receiver.poll(timeout_sec)
-
-
 def run(node: RecorderNode, stop: threading.Event) -> None:
-    """Record until stop is set, then take what is still queued and finalize the bag."""
-    loop = TakeLoop(node)
+    """Record until stop is set, then take what is still queued and finalize the bag.
+
+    Each wake-up takes every queued message of every subscription (drive_common.lockstep_io):
+    the executor's one callback per wait costs more than the recording at the graph's rates.
+    """
+    receiver, subscriptions = None, []
     next_discovery = time.monotonic()
     next_flush = time.monotonic() + node.flush_period
 
     def spin_once() -> int:
-        nonlocal next_flush
-        taken = loop.spin_once(min(0.1, node.flush_period))
+        nonlocal next_flush, receiver, subscriptions
+        current = [t.subscription for t in node.topics.values() if t.subscription]
+        if current != subscriptions:      # topics discovered since the last wait
+            subscriptions = current
+            receiver = DirectReceiver(node.context, current, with_info=True)
+        taken = receiver.poll(min(0.1, node.flush_period))
         node.end_of_wakeup()
         if time.monotonic() >= next_flush:
             node.flush()

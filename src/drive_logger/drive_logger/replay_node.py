@@ -1,16 +1,9 @@
-"""Replay node: publish a bag's messages in sim time.
+"""Replay node: publish a bag's messages in sim time (docs/bags.md "Reading a bag again").
 
-Messages are published as the exact recorded CDR bytes, in log-time order,
-paced by their recorded log times divided by ``rate``. /clock follows the
-bag: its recorded /clock messages if it has them, otherwise a /clock built
-from each message's header stamp whenever it advances, so ``use_sim_time``
-nodes follow the recorded sim time. ``expand_blocks`` publishes the per-sample
-topics a block topic carries instead of the blocks, every sample bit-exact, so
-a controller can be re-driven from a block bag; ``namespace`` picks one drive of
-a bag of namespaced drives. Parameters: :data:`REPLAY_SCHEMA` (read-only; the
-node reference lists them). At the end a replay waits (up to 5 s) until every
-reliable sample is acknowledged. A bag that cannot be read is an error naming
-the problem (exit code 2). docs/bags.md "Reading a bag again".
+The recorded CDR bytes in log-time order, paced by log time / ``rate``; /clock as recorded,
+else from each stamped message's header whenever it advances; ``expand_blocks``: the
+per-sample topics of the block topics instead of the blocks, bit-exact; ``namespace``: one
+drive of several. Parameters: :data:`REPLAY_SCHEMA`. An unreadable bag: exit code 2.
 """
 from __future__ import annotations
 
@@ -19,7 +12,9 @@ import sys
 import threading
 import time
 
+from rclpy.duration import Duration
 from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
 
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
@@ -41,6 +36,7 @@ def clock_cdr(stamp_ns: int) -> bytes:
 
 
 def parse_remaps(items) -> dict[str, str]:
+    """{from: to} of 'from:=to' items."""
     out = {}
     for item in items:
         src, sep, dst = item.partition(':=')
@@ -48,7 +44,6 @@ def parse_remaps(items) -> dict[str, str]:
             raise ValueError(f'remap {item!r} is not from:=to')
         out[src] = dst
     return out
-
 
 
 REPLAY_SCHEMA = schema([
@@ -102,7 +97,6 @@ class ReplayNode(Node):
         self.publish_clock = bool(get['publish_clock'])
         self.synthesize_clock = self.publish_clock and CLOCK_TOPIC not in self.topic_names
         if self.synthesize_clock:
-            from rosgraph_msgs.msg import Clock
             self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
         self.published = 0
 
@@ -117,32 +111,14 @@ class ReplayNode(Node):
                 topics[topic] = (f'dtc_msgs/msg/{msg_type.__name__}', infos[block_topic].qos_profiles)
         return topics
 
-    def _messages(self):
-        if self.expand_blocks:
-            return per_sample_messages(self.reader, self.topic_names)
-        return self.reader.messages(self.topic_names)
-
-    def _header_topics(self) -> set[str]:
-        """The topics whose messages lead with their sample's sim stamp (a type not installed: not)."""
-        def stamped(type_name: str) -> bool:
-            try:
-                return carries_sim_stamp(type_name)
-            except LookupError:
-                return False
-        return {t for t, n in self.topic_types.items() if stamped(n)}
-
-    def _wait_for_subscribers(self, stop: threading.Event) -> None:
-        if not wait_until(lambda: stop.is_set() or all(
-                p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()),
-                self.wait_for_subscribers, 0.02, raise_timeout=False):
-            self.get_logger().warning('not every replayed topic has a subscriber; starting anyway')
-
     def play_once(self, stop: threading.Event) -> None:
         """Publish the bag once, paced by log time / rate, until stop is set."""
-        stamped = self._header_topics() if self.synthesize_clock else set()
+        stamped = {t for t, n in self.topic_types.items() if _stamped(n)} if self.synthesize_clock else set()
         last_clock = None
         wall0 = bag0 = first = None
-        for msg in self._messages():
+        messages = (per_sample_messages(self.reader, self.topic_names) if self.expand_blocks
+                    else self.reader.messages(self.topic_names))
+        for msg in messages:
             if stop.is_set():
                 return
             first = msg.log_time if first is None else first
@@ -164,8 +140,10 @@ class ReplayNode(Node):
 
     def play(self, stop: threading.Event) -> None:
         """Publish the bag (again and again with ``loop``) until done or stop is set."""
-        if self.wait_for_subscribers > 0:
-            self._wait_for_subscribers(stop)
+        if self.wait_for_subscribers > 0 and not wait_until(lambda: stop.is_set() or all(
+                p.get_subscription_count() > 0 for p in self.publishers_by_topic.values()),
+                self.wait_for_subscribers, 0.02, raise_timeout=False):
+            self.get_logger().warning('not every replayed topic has a subscriber; starting anyway')
         while not stop.is_set():
             self.play_once(stop)
             if not self.loop:
@@ -175,13 +153,20 @@ class ReplayNode(Node):
 
     def _wait_for_acks(self, stop: threading.Event, timeout: float = 5.0) -> None:
         """Let the last reliable samples (and any a late-matching reader asks again for) go out."""
-        from rclpy.duration import Duration
         deadline = time.monotonic() + timeout
         for publisher in self.publishers_by_topic.values():
             left = deadline - time.monotonic()
             if stop.is_set() or left <= 0 or not publisher.wait_for_all_acked(Duration(seconds=left)):
                 break
         stop.wait(0.2)
+
+
+def _stamped(type_name: str) -> bool:
+    """Whether its messages lead with their sample's sim stamp (a type not installed: no)."""
+    try:
+        return carries_sim_stamp(type_name)
+    except LookupError:
+        return False
 
 
 def main(args=None) -> int:

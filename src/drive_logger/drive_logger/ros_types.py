@@ -35,11 +35,8 @@ def qos_to_dict(qos: QoSProfile) -> dict:
 
 
 def replay_qos(profiles: list, depth: int = 1000) -> QoSProfile:
-    """Publisher QoS for replaying a topic recorded with the given offered profiles.
-
-    Reliable unless every recorded publisher was best effort; transient-local
-    only if one was; KEEP_LAST with a deep queue so a burst is not dropped.
-    """
+    """Publisher QoS for replaying a topic recorded with the given offered profiles: reliable unless
+    every one was best effort, transient-local if one was, KEEP_LAST deep enough for a burst."""
     reliable = not profiles or any(p.get('reliability') != 'best_effort' for p in profiles)
     latched = any(p.get('durability') == 'transient_local' for p in profiles)
     return QoSProfile(
@@ -57,10 +54,6 @@ def plain(value):
 
 def fields_of(msg, exclude=('header',)) -> dict:
     """A message's fields as plain Python values (arrays -> lists), header excluded."""
-    out = {}
-    for name in msg.get_fields_and_field_types():
-        if name in exclude:
-            continue
-        value = getattr(msg, name)
-        out[name] = fields_of(value, ()) if hasattr(value, 'get_fields_and_field_types') else plain(value)
-    return out
+    values = {name: getattr(msg, name) for name in msg.get_fields_and_field_types() if name not in exclude}
+    return {name: fields_of(value, ()) if hasattr(value, 'get_fields_and_field_types') else plain(value)
+            for name, value in values.items()}

@@ -1,16 +1,10 @@
 """Per-sample messages derived from a bag's telemetry blocks, and bag files in one total order.
 
-:class:`SampleTopics` turns a block's bytes into the per-sample messages of its
-parts (``/plant/state`` from ``/plant/state_block``, ...), bit-exact in canonical
-CDR and logged at their sample's time, every sample (``period`` 0) or the first
-at or after each multiple of ``period`` of sim time
-(:class:`drive_common.telemetry.Decimator`: the recorder's viewer topics).
-
-:class:`CanonicalWriter` writes a recording in one total order as it comes, with
-the viewer topics derived on the way; :func:`write_canonical` copies a complete
-MCAP file so (the exporter's full-rate viewer bags). The file depends only on the
-messages (sorted by log time, topic, order within the topic; chunks cut by size
-only), so two recordings of one scenario are byte-identical files.
+:class:`SampleTopics` turns a block into the per-sample messages of its parts, bit-exact in
+canonical CDR at their sample's time, decimated by sim time (the recorder's viewer topics).
+:class:`CanonicalWriter` (a recording as it comes) and :func:`write_canonical` (a complete
+file: the exporter) write messages sorted by log time, topic and order within the topic, so
+two recordings of one scenario are byte-identical files.
 """
 from __future__ import annotations
 
@@ -38,13 +32,9 @@ ALL_PARTS = (0, 1, 2)
 
 
 class SampleTopics:
-    """Derive per-sample messages from block messages (see the module docstring).
-
-    :param period: s of sim time between kept samples (0: every sample).
-    :param parts: part indexes (BLOCK_PARTS order) whose topics are derived.
-    :param every: keep every N-th of the samples the period keeps (counted per block topic).
-    :param start_ns, end_ns: keep samples stamped in [start_ns, end_ns] only (None: no bound).
-    """
+    """Per-sample messages of block messages: period s of sim time between kept samples (0: all),
+    parts (BLOCK_PARTS indexes) to derive, every N-th kept sample per block topic, only samples
+    stamped in [start_ns, end_ns] (None: no bound)."""
 
     def __init__(self, period: float = 0.0, parts: Iterable[int] = STATUS_PARTS, every: int = 1,
                  start_ns: int | None = None, end_ns: int | None = None) -> None:
@@ -108,11 +98,8 @@ class SampleTopics:
 
 
 def _field_offsets(msg) -> tuple[dict[str, int], int]:
-    """({field: byte offset after the encapsulation header}, end) of msg's little-endian CDR.
-
-    For the per-sample telemetry messages: a std_msgs/Header, then primitives,
-    fixed arrays of primitives and strings (each item aligned to its size).
-    """
+    """({field: byte offset after the encapsulation header}, end) of msg's little-endian CDR
+    (a std_msgs/Header, then primitives, fixed arrays of primitives and strings)."""
     offsets, pos = {}, 0
     for name, kind in type(msg).get_fields_and_field_types().items():
         if kind == 'std_msgs/Header':
@@ -133,12 +120,8 @@ def _field_offsets(msg) -> tuple[dict[str, int], int]:
 def sample_cdr(block, part: int, indices: list[int], templates: dict | None = None) -> list[bytes]:
     """Canonical CDR of the per-sample messages of one part of a block, samples `indices`.
 
-    All samples of a block share one layout (one frame_id, one mode string), so
-    the first is serialized by rclpy (canonical_bytes: padding zeroed) as the
-    template and the others get their values written at the fields' offsets,
-    all samples at once: the bytes equal each message's own canonical
-    serialization (test_export), at a fraction of the cost. templates: keep
-    the templates there for the next blocks of the same layout.
+    The first sample, serialized by rclpy, is the template the others' values are written
+    into at the fields' offsets (the same bytes, test_export); templates: a cache of them.
     """
     lay = layout(type(block))
     key = (type(block), part, block.header.frame_id, *(getattr(block, c.name) for c in lay.per_block))
@@ -211,15 +194,11 @@ def write_canonical(source: Path, writer: BagWriter, samples: SampleTopics | Non
                     topics: Iterable[str] | None = None, keep_blocks: bool = True,
                     replace_samples: bool = False, start_ns: int | None = None, end_ns: int | None = None,
                     progress: Callable[[int], None] | None = None) -> None:
-    """Copy the messages of the complete MCAP file `source` into `writer` in canonical order.
+    """Copy the complete MCAP file `source` into `writer` in canonical order.
 
-    samples: add its per-sample topics derived from the block topics (a topic
-    the source already holds is not derived, unless replace_samples: then the
-    source's messages of that topic are dropped). topics: copy only these (None:
-    all; a derived topic counts as wanted when it or its block topic is named).
-    keep_blocks False drops the block topics themselves. progress(n) is called
-    with the number of source messages read since the last call. start_ns,
-    end_ns: copy only messages logged in [start_ns, end_ns].
+    samples: add its derived topics (one the source holds only with replace_samples, which drops
+    the source's); topics: copy only these (or derived from these); keep_blocks False drops the
+    block topics; only messages logged in [start_ns, end_ns]; progress(n): n more read.
     """
     with open(source, 'rb') as stream:
         reader = make_reader(stream)
@@ -297,15 +276,9 @@ class _Stream:
 class CanonicalWriter:
     """Write a recording into a :class:`BagWriter` in canonical order while it comes.
 
-    Messages wait in a heap until :meth:`flush` is given a watermark above
-    their log time; they are then written sorted by (log time, topic, order
-    taken within the topic), each channel registered at its first message. The caller promises that
-    no message logged below a watermark comes after it (the recorder's
-    paced topics each arrive in log-time order: :meth:`watermark`); a later
-    one is still written, out of order, and counted in ``late``. samples:
-    per-sample topics derived from the block topics on the way, except the
-    names in ``reserved`` (topics recorded under that name); a block that
-    does not decode is written without them and counted in ``underived``.
+    Messages wait until :meth:`flush` gets a watermark above their log time (a later one is
+    written out of order and counted in ``late``); samples: topics derived from the blocks,
+    except ``reserved`` (a block that does not decode is counted in ``underived``).
     """
 
     def __init__(self, writer: BagWriter, samples: SampleTopics | None = None, reserved: Iterable[str] = ()) -> None:
@@ -357,11 +330,8 @@ class CanonicalWriter:
     def watermark(self, expected: Iterable[str] = ()) -> int | None:
         """The least latest log time of the paced topics (None: no paced topic, no bound).
 
-        A paced topic more than HOLD behind the one furthest ahead (stalled)
-        does not count; one of ``expected`` (the paced topics subscribed to)
-        that has sent nothing holds it at -1 until the one furthest ahead is
-        HOLD past the first paced message (a block topic's first message
-        comes a block later than /clock's). Their later messages are late.
+        A topic more than HOLD behind the lead (stalled) does not count; one of ``expected``
+        that has sent nothing holds it at -1 until the lead is HOLD past the first paced message.
         """
         times = [s.latest for s in self.streams.values() if s.paced]
         if not times:
@@ -386,8 +356,8 @@ class CanonicalWriter:
         self.writer.flush(sync_in_background)
 
     def close(self, silent: dict[str, tuple[TypeDefinition, list]] | None = None) -> None:
-        """Write everything, register the topics without a message (silent: {name: (definition,
-        QoS profiles)} too), sorted by name, then finish the bag and write metadata.yaml."""
+        """Write everything, register the silent topics ({name: (definition, QoS profiles)} too)
+        by name, then finish the bag and write metadata.yaml."""
         self.flush()
         for name, (definition, profiles) in (silent or {}).items():
             if name not in self.streams:

@@ -1,18 +1,9 @@
 """Block topics as tables: one row per sample, one column per scalar (the export's naming rule).
 
-A table holds one block topic (``/plant/state_block`` -> ``plant_state``,
-the name of the per-sample topic of its status part with ``/`` turned into
-``_``). Columns, in order: ``time`` (s of sim time, the sample's stamp, as
-:func:`drive_common.telemetry_blocks.block_columns` computes it), ``step``,
-then every block field under its block name (status fields bare, the
-measurement and command fields prefixed ``measurement_`` / ``command_``).
-A field of width > 1 is split into one column per element: width 3 (the
-phase quantities: currents, voltages, back-EMFs, flux linkages) gets the
-suffixes ``_a``, ``_b``, ``_c``; width 6 (the switches SW1..SW6) gets
-``_1`` .. ``_6``. Numbers keep their message type (float64, int8, uint8,
-int64, uint64), flags are booleans, DtcStatus.mode is a string column.
-Parquet keeps every value bit for bit (NaN payloads included); CSV keeps
-every number exactly (shortest round-trip decimal) and writes NaN as ``nan``.
+Table ``plant_state`` for ``/plant/state_block`` (its status part's topic); columns ``time`` (s
+of sim time), ``step``, then every block field by its block name, width 3 split into ``_a``,
+``_b``, ``_c`` and width 6 into ``_1`` .. ``_6`` (docs/bags.md). Parquet keeps every bit; CSV
+every number exactly, NaN as ``nan``.
 """
 from __future__ import annotations
 
@@ -63,11 +54,8 @@ def joined(table: dict[str, np.ndarray], name: str, width: int) -> np.ndarray:
 
 def table_files(directory: Path) -> dict[str, Path]:
     """{table name: file} of an export directory (parquet preferred over csv)."""
-    out = {}
-    for fmt in reversed(TABLE_FORMATS):
-        for path in sorted(Path(directory).glob(f'*.{fmt}')):
-            out[path.stem] = path
-    return out
+    return {path.stem: path for fmt in reversed(TABLE_FORMATS)
+            for path in sorted(Path(directory).glob(f'*.{fmt}'))}
 
 
 def read_table(path: Path) -> dict[str, np.ndarray]:

@@ -1,17 +1,10 @@
 """Bags of one headless run, written without the ROS graph: per-sample topics, block topics, or both.
 
-For readers' tests: the same samples a recorded graph would
-carry, from :func:`drive_bringup.headless.run_headless` (the same cores the
-nodes wrap), serialized as the nodes fill them
-(:class:`drive_common.conversions.ReusedMessage`, stamp = the sample's sim
-time) and written with :class:`drive_logger.bag_writer.BagWriter` on sim log
-times. The per-sample bag holds ``/plant/state``, ``/dtc/status``,
-``/drive/measurement``, ``/drive/gate_command`` (and the PFC topics) every
-sample, like a recording of the graph before blocks; the block bag holds
-``/plant/state_block``, ``/dtc/status_block`` (``/pfc/status_block``) packed
-by :class:`drive_common.telemetry_blocks.BlockPacker`, optionally with the
-decimated live topics as the nodes publish them
-(:class:`drive_common.telemetry.Decimator`).
+For readers' tests: the samples of :func:`drive_bringup.headless.run_headless` (the cores the
+nodes wrap), filled and stamped as the nodes fill them and written with
+:class:`drive_logger.bag_writer.BagWriter` at sim log times, either every per-sample message
+(a recording before blocks) or the blocks as :class:`drive_common.telemetry_blocks.BlockPacker`
+packs them, optionally with the decimated live topics.
 """
 from __future__ import annotations
 
@@ -19,8 +12,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from unittest import mock
 
+from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
+from rcl_interfaces.msg import ParameterEvent
+from rclpy.parameter import Parameter
+
 from drive_common import topics as names
+from drive_common.cdr_padding import canonicalize, serialize_zero_padded
+from drive_common.conversions import ReusedMessage
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD, Decimator, nanoseconds
+from drive_common.telemetry_blocks import BlockPacker, stamp_ns
+from drive_logger import qos_yaml
+from drive_logger.bag_reader import BagReader
+from drive_logger.bag_writer import BagWriter
+from drive_logger.block_topics import block_sources, per_sample_messages
+from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
+from drive_logger.message_definitions import type_definition
+from drive_logger.ros_types import message_class
 
 
 class _Tap:
@@ -76,15 +83,11 @@ class _Bag:
     """A BagWriter on sim log times whose topics are registered on first use."""
 
     def __init__(self, path: Path) -> None:
-        from drive_logger import qos_yaml
-        from drive_logger.bag_writer import BagWriter
         self.writer = BagWriter(path, log_time='sim')
         self._topics: dict = {}
         self._qos = [qos_yaml.profile()]
 
     def write(self, topic: str, msg, stamp_ns: int) -> None:
-        from drive_common.cdr_padding import serialize_zero_padded
-        from drive_logger.message_definitions import type_definition
         record = self._topics.get(topic)
         if record is None:
             module = type(msg).__module__.split('.')[0]
@@ -98,7 +101,6 @@ class _Bag:
 
 def _fill(msg_type, data, stamp_ns: int):
     """A new message of msg_type from a core sample, stamped as the nodes stamp it."""
-    from drive_common.conversions import ReusedMessage
     msg = ReusedMessage(msg_type).fill(data)
     msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     return msg
@@ -106,8 +108,6 @@ def _fill(msg_type, data, stamp_ns: int):
 
 def _per_sample_streams(samples: HeadlessSamples):
     """(stamp_ns, order, topic, message) of every per-sample message of the run."""
-    from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
-    from drive_logger.ros_types import message_class
     types = {topic: message_class(type_name) for topic, type_name in GRAPH_TOPIC_TYPES.items()}
     for stamp, state in samples.states:
         yield stamp, 3, names.PLANT_STATE, _fill(types[names.PLANT_STATE], state, stamp)
@@ -126,8 +126,6 @@ PARAMETER_EVENTS = names.PARAMETER_EVENTS.lstrip('/')   # _Bag.write adds the '/
 def _write_parameter_events(bag: '_Bag', samples: HeadlessSamples) -> None:
     """The scenario's runtime changes as /parameter_events of their node, logged at the event's
     sim time (the headless run applies them before the sample at that time, as the graph does)."""
-    from rcl_interfaces.msg import ParameterEvent
-    from rclpy.parameter import Parameter
     for event in samples.scenario.events:
         msg = ParameterEvent(node=f'/{event.node}', changed_parameters=[
             Parameter(name, value=value).to_parameter_msg() for name, value in event.parameters.items()])
@@ -154,8 +152,6 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
     """A bag of block topics (+ the live topics decimated to live_period unless None, + the raw
     lockstep topics if asked), as the nodes publish them; blocks logged at their first stamp;
     and the parameter events."""
-    from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantStateBlock
-    from drive_common.telemetry_blocks import BlockPacker, stamp_ns
     packers = {names.PLANT_STATE: (names.PLANT_STATE_BLOCK, BlockPacker(PlantStateBlock, block_size)),
                names.DTC_STATUS: (names.DTC_STATUS_BLOCK, BlockPacker(DtcStatusBlock, block_size)),
                names.PFC_STATUS: (names.PFC_STATUS_BLOCK, BlockPacker(PfcStatusBlock, block_size))}
@@ -196,16 +192,8 @@ def scenario_bags(name: str, duration: float, root: Path, block_size: int = 16):
 
 
 def recorded_samples(bag: Path) -> dict[str, list[bytes]]:
-    """{per-sample topic: every sample's serialized message} a recorded bag's block topics carry.
-
-    Block boundaries (a partial block flushed while the plant held) and CDR
-    padding (canonical CDR, :func:`drive_common.cdr_padding.canonicalize`) do
-    not matter: two bags of the same samples compare equal.
-    """
-    from drive_common.cdr_padding import canonicalize
-    from drive_logger.bag_reader import BagReader
-    from drive_logger.block_topics import block_sources, per_sample_messages
-    from drive_logger.ros_types import message_class
+    """{per-sample topic: every sample's canonical CDR} a recorded bag's block topics carry: two bags
+    of the same samples compare equal whatever their block boundaries and padding."""
     out: dict[str, list[bytes]] = {}
     reader = BagReader(bag, namespace='auto')    # a namespaced drive's topics named as without
     for msg in per_sample_messages(reader, list(block_sources(reader))):

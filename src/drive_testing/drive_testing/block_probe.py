@@ -1,10 +1,5 @@
-"""A test subscriber that turns a telemetry block topic back into per-sample messages.
-
-Tests that check every sample read the full-rate blocks (the per-sample live
-topics are decimated, docs/architecture.md "Telemetry: blocks and live
-topics"); :func:`drive_common.telemetry_blocks.expand` restores the
-messages the node would have published per sample, bit-exact.
-"""
+"""A test subscriber that turns a telemetry block topic back into per-sample messages, bit-exact
+(:func:`drive_common.telemetry_blocks.expand`): tests that check every sample read the blocks."""
 from __future__ import annotations
 
 import array
@@ -17,12 +12,8 @@ from drive_common.topics import BLOCK_QOS
 
 
 class BlockSamples:
-    """Blocks of one topic as received, and their samples.
-
-    blocks: the block messages; records: one tuple of per-sample messages
-    per sample (status, measurement, command for a status block); first:
-    the first message of each record (PlantState, DtcStatus, PfcStatus).
-    """
+    """Blocks of one topic as received (blocks), a tuple of per-sample messages per sample (records:
+    status, measurement, command for a status block) and each record's first message (first)."""
 
     def __init__(self, node, block_type: type, topic: str) -> None:
         self.blocks: list = []
@@ -35,7 +26,6 @@ class BlockSamples:
         records = list(expand(block))
         self.records.extend(records)
         self.first.extend(record[0] for record in records)
-
 
 
 def _bits(value):
@@ -54,18 +44,13 @@ def _bits(value):
 
 
 def message_bits(msg) -> tuple:
-    """Every field of msg, header included, as comparable bits (equal iff bit-identical).
-
-    Not the serialized bytes: CDR alignment padding is not guaranteed to be zero.
-    """
+    """Every field of msg, header included, as comparable bits (equal iff bit-identical; not the
+    serialized bytes, whose CDR padding need not be zero)."""
     return tuple((name, _bits(getattr(msg, name))) for name in msg.get_fields_and_field_types())
 
 
 def same_bits(msg, sample) -> bool:
-    """msg carries every field of sample (a core sample or a message) bit for bit.
-
-    The header is msg's own (check stamps separately).
-    """
+    """msg carries every field of sample (a core sample or a message) bit for bit, header excepted."""
     from drive_common.conversions import ReusedMessage
     expected = ReusedMessage(type(msg)).fill(sample)
     expected.header = msg.header

@@ -1,16 +1,9 @@
-"""The raw rclpy publish -> reply ceiling of the lockstep protocol.
+"""The raw rclpy publish -> reply ceiling of the lockstep protocol (docs/benchmarks.md).
 
-``raw_responder`` answers each DriveMeasurement with a GateCommand of the
-same step and nothing else; :func:`measure_round_trips` publishes
-measurements one at a time and waits for each reply the way the plant node
-does (a wait set, no executor per message, bytes via
-:mod:`drive_common.lockstep_wire`). The plant's lockstep rate divided by this
-figure is the overhead ratio the benchmarks report.
-
-The naive ceiling is plain rclpy: ``naive_responder`` replies from a
-subscription callback spun by a SingleThreadedExecutor, and
-:func:`measure_naive_round_trips` spins its own executor until the reply's
-callback has run (docs/benchmarks.md).
+``raw_responder`` answers each DriveMeasurement with a GateCommand of the same step, nothing
+else; :func:`measure_round_trips` waits for each reply as the plant does (a wait set, bytes via
+:mod:`drive_common.lockstep_wire`). The naive ceiling is plain rclpy: ``naive_responder`` and
+:func:`measure_naive_round_trips` reply and wait through SingleThreadedExecutor callbacks.
 """
 from __future__ import annotations
 
@@ -18,6 +11,8 @@ import threading
 import time
 
 import rclpy
+from dtc_msgs.msg import DriveMeasurement, GateCommand
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from drive_common import topics
@@ -30,7 +25,6 @@ from drive_common.waiting import wait_until
 
 def _wires() -> tuple[LockstepWire, LockstepWire]:
     """The measurement and command wires of the DTC lockstep."""
-    from dtc_msgs.msg import DriveMeasurement, GateCommand
     return LockstepWire(DriveMeasurement, DriveSample), LockstepWire(GateCommand, GateSample)
 
 
@@ -38,7 +32,6 @@ class RawResponder(Node):
     """Answers each measurement with a fixed command: the lockstep nodes' publish/take, nothing else."""
 
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DriveMeasurement, GateCommand
         super().__init__('raw_responder', **kwargs)
         measurement, command = _wires()
         pub = self.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
@@ -65,7 +58,6 @@ class RawResponder(Node):
 
 def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> float:
     """Round trips per wall second against a running raw_responder."""
-    from dtc_msgs.msg import DriveMeasurement, GateCommand
     node = rclpy.create_node('ceiling_probe', context=context)
     replies: dict[int, object] = {}
     measurement, command = _wires()
@@ -99,7 +91,6 @@ class NaiveResponder(Node):
     """Answers each measurement from a subscription callback (the textbook rclpy ping-pong)."""
 
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DriveMeasurement, GateCommand
         super().__init__('naive_responder', **kwargs)
         pub = self.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
 
@@ -112,8 +103,6 @@ class NaiveResponder(Node):
 
 def measure_naive_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> float:
     """Round trips per wall second against a running naive_responder, probe spun by an executor."""
-    from dtc_msgs.msg import DriveMeasurement, GateCommand
-    from rclpy.executors import SingleThreadedExecutor
     node = rclpy.create_node('naive_probe', context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)

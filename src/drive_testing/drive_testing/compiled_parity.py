@@ -1,11 +1,8 @@
 """Compiled vs interpreted kernels: the same run in this process and with ``NUMBA_DISABLE_JIT=1``.
 
-:func:`interpreted_and_compiled` calls a function ``module:name(*args)`` that
-returns a dict of numpy arrays twice: in this process (kernels compiled by
-numba, see :mod:`drive_common.compiled`) and in a subprocess with
-``NUMBA_DISABLE_JIT=1`` (the same kernels as plain Python); tests compare the
-arrays bit for bit with :func:`differing`. :func:`scenario_arrays` is such a
-function for shipped scenarios run headless.
+:func:`interpreted_and_compiled` calls ``module:name(*args)``, returning a dict of numpy arrays,
+here (kernels compiled by numba) and in a subprocess with the JIT disabled; tests compare the
+arrays bit for bit with :func:`differing`.
 """
 from __future__ import annotations
 
@@ -27,16 +24,10 @@ np.savez(sys.argv[3], **getattr(importlib.import_module(module), name)(*json.loa
 
 
 def requires_jit():
-    """pytest mark: skip when NUMBA_DISABLE_JIT=1 is set on purpose (the compiled side is missing
-    then); without numba installed the tests run and fail."""
+    """pytest mark: skip when NUMBA_DISABLE_JIT=1 is set (nothing compiled to compare)."""
     import pytest
     return pytest.mark.skipif(os.environ.get('NUMBA_DISABLE_JIT', '0') not in ('', '0'),
                               reason='NUMBA_DISABLE_JIT is set: nothing compiled to compare')
-
-
-def _call(target: str, args: list):
-    module, name = target.split(':')
-    return getattr(importlib.import_module(module), name)(*args)
 
 
 def interpreted_and_compiled(target: str, args: list, tmp: Path):
@@ -50,7 +41,8 @@ def interpreted_and_compiled(target: str, args: list, tmp: Path):
                    check=True, timeout=900)
     with np.load(out) as data:
         interpreted = {k: data[k] for k in data.files}
-    return interpreted, _call(target, args)
+    module, name = target.split(':')
+    return interpreted, getattr(importlib.import_module(module), name)(*args)
 
 
 def scenario_arrays(names: list, duration: float) -> dict:

@@ -1,20 +1,12 @@
 """Fault injection matrix: every fault kind into real runs, and what each run said about it.
 
-Each case runs ``run_scenario`` (graph: plant, controller and recorder as
-processes in a private domain; or ``--headless``) on a short scenario and
-injects one fault at a known sim time, where a graph run is held
-(``--pause-at``) so the injection never races the simulation: a signal to
-the controller or the recorder, bytes or messages from an outsider on a
-lockstep topic, a bad parameter through the parameter service, or a scenario
-event that makes the drive itself fault (shoot-through, a protection trip).
-Per case it records
-
-- reported: a WARN/ERROR log line of a node, an ERROR/WARN ``/diagnostics``
-  status and the run's result (exit code and summary) that name it, as the
-  kind of fault requires (:data:`EXPECTED`);
-- silent: injected and none of those (goal 0);
-- crashed: a traceback, a hang or an exit code the fault does not explain (goal 0);
-- changed: an outsider's run whose recorded drive data differs from a clean run (goal 0).
+Each case runs ``run_scenario`` (graph in a private domain, or ``--headless``) on a short
+scenario and injects one fault at INJECT_AT, where a graph run is held (``--pause-at``) so
+the injection never races the simulation: a signal to a node, bytes or messages from an
+outsider on a lockstep topic, a bad parameter, or a scenario event that makes the drive fault.
+Per case: reported (log line, /diagnostics status and run result, as :data:`EXPECTED`
+requires), silent (none of those), crashed (traceback, hang, unexplained exit code) and
+changed (an outsider's run whose recorded drive data differ from a clean run's).
 """
 from __future__ import annotations
 
@@ -32,9 +24,24 @@ from pathlib import Path
 from typing import Callable
 
 import yaml
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from std_srvs.srv import Trigger
 
-from drive_common.starter import starter_env
+from drive_bringup.scenario import find_scenario
+from drive_common import topics
+from drive_common.domain_guard import RUNNER_NODE
+from drive_common.lockstep_io import readers_matched
+from drive_common.processes import NodeProcess
+from drive_common.starter import proc_stat, starter_env
+from drive_common.waiting import wait_until
+from drive_logger.bag_reader import BagReadError
+from drive_logger.ros_types import message_class
 from drive_testing.block_bags import recorded_samples
+from drive_testing.harness import (RosSession, call_until_answered, isolated_env, processes_with_env,
+                                   reserve_domain)
 
 SCENARIO = 'two_phase_six_switch_torque_step'
 DURATION = 0.3             # s of sim time per run (long enough in wall time for an injection at INJECT_AT)
@@ -57,10 +64,6 @@ class Injection:
     def __init__(self, domain_id: int, runner: subprocess.Popen, node) -> None:
         """runner: the case's run_scenario (its nodes are its children); node: an rclpy node
         in the run's domain, spun by its session."""
-        from diagnostic_msgs.msg import DiagnosticArray
-        from std_srvs.srv import Trigger
-        from drive_common import topics
-        from drive_common.domain_guard import RUNNER_NODE
         self.domain_id, self.runner, self.node = domain_id, runner, node
         self.runner_pid = runner.pid
         self.diagnostics: list = []
@@ -75,14 +78,12 @@ class Injection:
 
     def wait_paused(self) -> None:
         """Until the run is held at INJECT_AT (or has ended)."""
-        from drive_common.waiting import wait_until
         wait_until(lambda: self._resume_client.service_is_ready() or self._ended(), RUN_TIMEOUT,
                    what=f'the run held at {INJECT_AT} s')
 
     def _reporters_matched(self) -> bool:
         """This reader is matched with every /diagnostics publisher, the plant's and the
         controller's (the publisher of its commands) among them."""
-        from drive_common import topics
         reporters = {i.node_name for i in self.node.get_publishers_info_by_topic(topics.DIAGNOSTICS)}
         controllers = {i.node_name for i in self.node.get_publishers_info_by_topic(topics.GATE_COMMAND)
                        } - {self.node.get_name()}     # (this injector's own outsider publisher)
@@ -92,9 +93,6 @@ class Injection:
     def resume(self) -> None:
         """Once this reader has every /diagnostics publisher (none of the fault's reports is
         lost to discovery), let the held run go on; at most once, never after its end."""
-        from std_srvs.srv import Trigger
-        from drive_common.waiting import wait_until
-        from drive_testing.harness import call_until_answered
         if self._resumed:
             return
         self._resumed = True
@@ -109,8 +107,6 @@ class Injection:
     def pid(self, executable: str) -> int:
         """The pid of the run's node process started as ``executable`` (a child of this case's
         runner: a process of an earlier run in the domain, still exiting, is not taken)."""
-        from drive_common.starter import proc_stat
-        from drive_testing.harness import processes_with_env
         for pid in processes_with_env(f'ROS_DOMAIN_ID={self.domain_id}'):
             try:
                 cmdline = Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')
@@ -124,16 +120,9 @@ class Injection:
         raise LookupError(f'no {executable} process in domain {self.domain_id}')
 
     def publish(self, msg_type, topic: str, messages, period: float = 0.002) -> None:
-        """Publish messages (objects or raw CDR bytes) on topic as an outsider: the first half
-        while the run is paused at INJECT_AT, the rest once it runs again.
-
-        The publisher is made while the run is held (the graph's peers are bound: it cannot be
-        taken for one) and sends once matched with the graph's readers, so its messages reach
-        the graph however loaded the machine is.
-        """
-        from drive_common import topics
-        from drive_common.lockstep_io import readers_matched
-        from drive_common.waiting import wait_until
+        """Publish messages (objects or raw CDR bytes) on topic as an outsider, made while the run
+        is held (the graph's peers are bound) and matched with every reader of the graph: the
+        first half while the run is paused, the rest once it runs again."""
         self.wait_paused()
         pub = self.node.create_publisher(msg_type, topic, topics.LOCKSTEP_QOS)
         # every reader the graph has (the plant's and the recorder's): matched with one only,
@@ -146,21 +135,8 @@ class Injection:
                 self.resume()
             pub.publish(msg)
             time.sleep(period)    # an outsider's pace, not a synchronisation
-        from rclpy.duration import Duration
         pub.wait_for_all_acked(Duration(seconds=10.0))   # delivered, not dropped with the publisher
         self.node.destroy_publisher(pub)
-
-    def set_parameter(self, node_name: str, name: str, value) -> tuple[bool, str]:
-        """(successful, reason) of a set_parameters call on /node_name."""
-        from rclpy.parameter import Parameter
-        from rclpy.parameter_client import AsyncParameterClient
-        from drive_common.waiting import wait_until
-        client = AsyncParameterClient(self.node, node_name)
-        client.wait_for_services(timeout_sec=30.0)
-        future = client.set_parameters([Parameter(name, value=value)])
-        wait_until(future.done, 30.0, what=f'set {name} on {node_name}')
-        result = future.result().results[0]
-        return result.successful, result.reason
 
 
 @dataclass
@@ -201,7 +177,6 @@ class Outcome:
         return not (self.log or self.diagnostics or self.result)
 
 
-# --- injectors -------------------------------------------------------------------------------
 def _signal(executable: str, sig: int, resume_after: float | None = None):
     """The signal right after the paused run goes on: the node is lost mid-run, not at a hold."""
     def inject(ctx: Injection) -> None:
@@ -217,7 +192,6 @@ def _signal(executable: str, sig: int, resume_after: float | None = None):
 
 def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], bytes]):
     def inject(ctx: Injection) -> None:
-        from drive_logger.ros_types import message_class
         rng = random.Random(7)
         ctx.publish(message_class(msg_type_name), topic, [make(rng) for _ in range(20)])
     return inject
@@ -225,14 +199,8 @@ def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], b
 
 def _valid_messages(msg_type_name: str, topic: str):
     def inject(ctx: Injection) -> None:
-        from drive_logger.ros_types import message_class
         cls = message_class(msg_type_name)
-        messages = []
-        for step in range(0, 2000, 100):
-            msg = cls()
-            msg.step = step
-            messages.append(msg)
-        ctx.publish(cls, topic, messages)
+        ctx.publish(cls, topic, [cls(step=step) for step in range(0, 2000, 100)])
     return inject
 
 
@@ -245,10 +213,16 @@ def _random(rng: random.Random) -> bytes:
 
 
 def _parameter(node: str, name: str, value):
+    """A set_parameters call on node while the run is held; noted as refused (with a reason) or taken."""
     def inject(ctx: Injection) -> None:
         ctx.wait_paused()
-        ok, reason = ctx.set_parameter(node, name, value)
-        ctx.notes.append(('refused' if not ok and reason else 'taken', f'{name}={value!r}: {reason}'))
+        client = AsyncParameterClient(ctx.node, node)
+        client.wait_for_services(timeout_sec=30.0)
+        future = client.set_parameters([Parameter(name, value=value)])
+        wait_until(future.done, 30.0, what=f'set {name} on {node}')
+        result = future.result().results[0]
+        ctx.notes.append(('refused' if not result.successful and result.reason else 'taken',
+                          f'{name}={value!r}: {result.reason}'))
     return inject
 
 
@@ -256,9 +230,6 @@ def _second_node(package: str, executable: str, node_name: str):
     """A late node started while the run is paused; the run goes on once the node has refused
     (exited) or, if it stays, after SECOND_NODE_LOOK s, so it can intrude while the run runs."""
     def inject(ctx: Injection) -> None:
-        from drive_common.processes import NodeProcess
-        from drive_common.waiting import wait_until
-        from drive_testing.harness import isolated_env
         ctx.wait_paused()
         process = NodeProcess(package, executable, env=isolated_env(ctx.domain_id),
                               node_name=node_name)
@@ -314,9 +285,7 @@ def cases() -> list[Case]:
     return out
 
 
-# --- running ---------------------------------------------------------------------------------
 def _scenario_file(case: Case, directory: Path) -> Path:
-    from drive_bringup.scenario import find_scenario
     tree = yaml.safe_load(find_scenario(SCENARIO).read_text())
     tree['duration'] = case.duration
     tree['events'] = [e for e in tree.get('events') or [] if e['time'] < case.duration] + case.events
@@ -340,20 +309,16 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
     scenario = _scenario_file(case, directory)
     out = directory / f'out_{where}_{scenario.stem}'
     command = [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
-               '--overwrite']
-    if not case.headless:
-        command += ['--pause-at', str(INJECT_AT)]
+               '--overwrite'] + (['--headless'] if case.headless else ['--pause-at', str(INJECT_AT)])
     if case.headless:
-        command.append('--headless')
         code, text = _run(command, None)
-        outcome.detail = text.strip().splitlines()[-1] if text.strip() else ''
+        outcome.detail = _last_line(text)
         outcome.result = _names_fault(code, text, case)
         outcome.crashed = _crash(code, text, case)
         return outcome
-    code, text, ctx = _in_a_reserved_domain(
-        lambda domain_id: _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id))
-    logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log')) \
-        if (out / 'logs').is_dir() else ''
+    with reserve_domain() as domain_id:
+        code, text, ctx = _run_graph(command + ['--domain-id', str(domain_id)], case, domain_id)
+    logs = '\n'.join(p.read_text(errors='replace') for p in (out / 'logs').glob('*.log'))
     outcome.log = bool(LOG_LINE.search(logs))
     outcome.diagnostics = any(_level(s) >= 1 for s in ctx.diagnostics)
     refused = _refused_itself(ctx)
@@ -362,18 +327,19 @@ def run_case(case: Case, directory: Path, reference: dict | None = None) -> Outc
         outcome.detail = refused
     outcome.crashed = next((f'injection failed: {why}' for kind, why in ctx.notes
                             if kind == 'injection failed'), '') or _crash(code, text + logs, case)
-    if case.expect == 'refused':
-        outcome.result = any(kind == 'refused' for kind, _ in ctx.notes)
-    else:
-        outcome.result = _names_fault(code, text, case)
+    outcome.result = (any(kind == 'refused' for kind, _ in ctx.notes) if case.expect == 'refused'
+                      else _names_fault(code, text, case))
     if case.expect in ('outsider', 'refused') and reference is not None and (out / 'bag').is_dir():
-        from drive_logger.bag_reader import BagReadError
         try:
             outcome.changed = recorded_samples(out / 'bag') != reference
         except BagReadError as exc:     # a run that failed: its unfinished bag is the detail
             outcome.crashed = outcome.crashed or f'bag unreadable: {exc}'
-    outcome.detail = outcome.detail or (text.strip().splitlines()[-1] if text.strip() else '')
+    outcome.detail = outcome.detail or _last_line(text)
     return outcome
+
+
+def _last_line(text: str) -> str:
+    return text.strip().splitlines()[-1] if text.strip() else ''
 
 
 def _refused_itself(ctx: Injection) -> str:
@@ -393,18 +359,13 @@ def _level(status) -> int:
 
 
 def _names_fault(code: int, text: str, case: Case) -> bool:
-    """Whether the run's exit code and verdict line say what the case did."""
+    """Whether the run's exit code and the last line in which run_scenario says how it ended
+    (a failed run, a fault state, the end state) say what the case did."""
     if case.expect == 'outsider':
         return code == 0
-    return code in case.exit_codes and code != 0 and case.kind in verdict(text)
-
-
-def verdict(text: str) -> str:
-    """The line in which run_scenario says how the run ended ('' if none): a failed run,
-    a fault state, or the end state."""
     ends = [line for line in text.splitlines()
             if line.startswith(('run failed:', 'run_scenario:', '[run_scenario]'))]
-    return ends[-1] if ends else ''
+    return code in case.exit_codes and code != 0 and case.kind in (ends[-1] if ends else '')
 
 
 def _crash(code: int | None, text: str, case: Case) -> str:
@@ -427,7 +388,6 @@ def _run(command, env) -> tuple[int | None, str]:
 
 def _run_graph(command, case: Case, domain_id: int):
     """Start run_scenario in domain_id, inject while it is held, wait for its end."""
-    from drive_testing.harness import RosSession, isolated_env
     log = tempfile.TemporaryFile(mode='w+')
     runner = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, text=True,
                               env=starter_env(isolated_env(domain_id)), start_new_session=True)
@@ -460,22 +420,14 @@ def _run_graph(command, case: Case, domain_id: int):
     return code, log.read(), ctx
 
 
-def _in_a_reserved_domain(run: Callable[[int], tuple]) -> tuple:
-    """run(domain_id) in a ROS domain reserved for it (drive_common.processes.reserve_domain)."""
-    from drive_testing.harness import reserve_domain
-    with reserve_domain() as domain_id:
-        return run(domain_id)
-
-
 def clean_reference(directory: Path, duration: float = DURATION) -> dict[str, list[bytes]]:
     """The block data of the scenario run without a fault (what outsiders must not change)."""
     clean = Case(f'clean {duration:g} s', 'outsider', duration=duration)
     scenario = _scenario_file(clean, directory)
     out = directory / f'clean_{duration:g}'
-    from drive_testing.harness import isolated_env
-    code, text = _in_a_reserved_domain(lambda domain_id: _run(
-        [sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
-         '--overwrite', '--domain-id', str(domain_id)], isolated_env(domain_id)))
+    with reserve_domain() as domain_id:
+        code, text = _run([sys.executable, '-m', 'drive_bringup.runner_cli', str(scenario), '--out', str(out),
+                           '--overwrite', '--domain-id', str(domain_id)], isolated_env(domain_id))
     if code != 0:
         raise RuntimeError(f'the clean run failed (exit {code}): {text[-2000:]}')
     return recorded_samples(out / 'bag')
@@ -509,12 +461,11 @@ def table(outcomes: list[Outcome]) -> str:
                     f'{"-" if o.changed is None else "YES" if o.changed else "no"}')
     rows += [f'  {o.case} ({o.where}): {o.detail}' for o in outcomes
              if not o.reported or o.crashed or o.changed]      # the run's last line, to see why
-    rows.append('')
-    rows.append(f'faults injected: {len(outcomes)}')
-    rows.append(f'reported (as their kind requires): {sum(o.reported for o in outcomes)}')
-    rows.append(f'silent: {sum(o.silent for o in outcomes)} (goal 0)')
-    rows.append(f'crashes: {sum(bool(o.crashed) for o in outcomes)} (goal 0)')
-    rows.append(f'runs an outsider changed: {sum(bool(o.changed) for o in outcomes)} (goal 0)')
+    rows += ['', f'faults injected: {len(outcomes)}',
+             f'reported (as their kind requires): {sum(o.reported for o in outcomes)}',
+             f'silent: {sum(o.silent for o in outcomes)} (goal 0)',
+             f'crashes: {sum(bool(o.crashed) for o in outcomes)} (goal 0)',
+             f'runs an outsider changed: {sum(bool(o.changed) for o in outcomes)} (goal 0)']
     return '\n'.join(rows)
 
 

@@ -1,9 +1,8 @@
-"""fixed_responder: answers drive measurements with a fixed gate pattern.
+"""fixed_responder: a stand-in controller answering drive measurements with a fixed gate pattern.
 
-A stand-in controller for plant tests and benchmarks: it takes part in the
-lockstep protocol exactly as dtc_controller does (same topics, QoS, step
-matching) but its core is :class:`~drive_testing.fixed_commands.FixedGateCore`.
-Parameters: ``switch_on`` (6 bools as 0/1 numbers), ``topology`` (4 or 6).
+It takes part in the lockstep protocol exactly as dtc_controller does, with
+:class:`~drive_testing.fixed_commands.FixedGateCore`. Parameters: ``switch_on`` (6 values 0/1),
+``topology`` (4 or 6).
 """
 from __future__ import annotations
 

@@ -1,17 +1,10 @@
 """Launch-free test harness: run drive nodes in tests and benchmarks without launch files.
 
-- Node processes and private DDS domains: :mod:`drive_common.processes`
-  (re-exported here: :func:`reserve_domain`, :func:`isolated_env`,
-  :class:`NodeProcess`, :func:`ros_arguments`, :func:`executable_path`).
-- :class:`RosSession` is an in-process rclpy context in a given domain with a
-  background executor, for test nodes (injected ``context`` and overrides);
-  :func:`domain_context` and :func:`private_domain` give just the context, for
-  benchmarks that spin their own executors.
-- :func:`processes_with_env` finds leftover processes of a test.
-- the ``wait_for_*`` helpers wait for graph matching
-  (:func:`drive_common.waiting.wait_until`, re-exported); :func:`send_until_answered`
-  re-sends a lockstep sample as the plant does until it is answered;
-  :func:`call_until_answered` does the same for a service call.
+Node processes and private DDS domains come from :mod:`drive_common.processes` (re-exported);
+:class:`RosSession` is an in-process rclpy context in a domain with a background executor;
+:func:`domain_context` and :func:`private_domain` give just the context; the ``wait_for_*``,
+:func:`send_until_answered` and :func:`call_until_answered` helpers wait for graph matching
+and answers as the plant does.
 """
 from __future__ import annotations
 
@@ -28,16 +21,12 @@ from drive_common.waiting import WaitTimeout, wait_until
 
 __all__ = ['NodeProcess', 'PrivateDomain', 'RosSession', 'WaitTimeout', 'domain_context', 'executable_path',
            'isolated_env', 'private_domain', 'processes_with_env', 'reserve_domain', 'ros_arguments', 'send_until_answered',
-           'wait_for_publishers', 'wait_for_subscribers', 'wait_until']
+           'wait_for_subscribers', 'wait_until']
 
 
 def processes_with_env(marker: str) -> list[int]:
-    """PIDs (other than this one) whose environment holds the entry marker, 'KEY=value'
-    exactly ('ROS_DOMAIN_ID=1' is not found in a process of domain 12).
-
-    Tests put a unique variable in a runner's environment; every node it starts
-    inherits it, so leftovers are found even after they were re-parented.
-    """
+    """PIDs (other than this one) whose environment holds the entry marker, 'KEY=value' exactly:
+    the leftovers of a runner started with it, even re-parented ones."""
     found = []
     entry = marker.encode()
     for proc in Path('/proc').iterdir():
@@ -76,11 +65,8 @@ def private_domain() -> Iterator[PrivateDomain]:
 
 
 class RosSession:
-    """An rclpy context in one domain with an executor spinning in a thread.
-
-    Nodes made by :meth:`node` (or added with :meth:`add`) share the context
-    and are destroyed by :meth:`close`.
-    """
+    """An rclpy context in one domain with an executor spinning in a thread; its nodes
+    (:meth:`node`, :meth:`add`) are destroyed by :meth:`close`."""
 
     def __init__(self, domain_id: int) -> None:
         import rclpy
@@ -143,13 +129,8 @@ def wait_for_subscribers(node, topic: str, count: int = 1, timeout: float = 10.0
 
 def send_until_answered(publish, answered, timeout: float = 30.0, every: float = 1.0,
                         what: str = 'answer') -> None:
-    """publish() then wait for answered(); re-send every ``every`` s until timeout [s].
-
-    A controller binds to a counterpart only once its graph cache shows it (peer
-    binding); a sample that arrives earlier is dropped, and the plant re-sends it.
-    Tests that stand in for the plant do the same (a re-sent sample is answered
-    again without a second core update).
-    """
+    """publish() then wait for answered(); re-send every ``every`` s until timeout [s], as the
+    plant re-sends a sample a controller dropped before it bound to its peer."""
     deadline = time.monotonic() + timeout
     while True:
         publish()
@@ -170,7 +151,3 @@ def call_until_answered(client, request, timeout: float = 30.0, every: float = 2
                         lambda: stop() or any(f.done() for f in calls), timeout, every, what)
     return next((f.result() for f in calls if f.done()), None)
 
-
-def wait_for_publishers(node, topic: str, count: int = 1, timeout: float = 10.0) -> None:
-    wait_until(lambda: node.count_publishers(topic) >= count, timeout,
-               what=f'{count} publisher(s) on {topic}')

@@ -6,25 +6,19 @@ use it to prove that every interface crosses a process boundary field-exact.
 """
 from __future__ import annotations
 
-import importlib
-
+import dtc_msgs.msg
 from rclpy.node import Node
 
 from drive_common.node_main import run_node
 from drive_common.topics import LOCKSTEP_QOS
 
-def _message_types() -> tuple[str, ...]:
-    """Every message type of dtc_msgs (read from the generated package, not listed by hand)."""
-    module = importlib.import_module('dtc_msgs.msg')
-    return tuple(sorted(name for name, value in vars(module).items()
-                        if isinstance(value, type) and hasattr(value, 'get_fields_and_field_types')))
-
-
-MESSAGE_TYPES = _message_types()
+MESSAGE_TYPES = tuple(sorted(name for name, value in vars(dtc_msgs.msg).items()
+                             if isinstance(value, type) and hasattr(value, 'get_fields_and_field_types')))
+"""Every message type of dtc_msgs (read from the generated package, not listed by hand)."""
 
 
 def message_class(name: str) -> type:
-    return getattr(importlib.import_module('dtc_msgs.msg'), name)
+    return getattr(dtc_msgs.msg, name)
 
 
 class MessageEcho(Node):

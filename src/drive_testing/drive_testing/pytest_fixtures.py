@@ -1,10 +1,8 @@
 """pytest fixtures of the launch-free harness (enabled by the top-level conftest.py).
 
-- ``ros_domain``: a reserved ROS_DOMAIN_ID for this test (no cross-talk).
-- ``ros_session``: an in-process rclpy context in that domain, spinning.
-- ``start_node``: start a node process as ``ros2 run`` would; every process
-  is stopped at teardown, and its output is printed (shown when a test fails),
-  after the stacks of its threads if the test failed while it ran.
+``ros_domain`` (a reserved ROS_DOMAIN_ID), ``ros_session`` (an rclpy context in it, spinning)
+and ``start_node`` (a node process as ``ros2 run`` starts it; stopped at teardown, its output
+printed, after its threads' stacks if the test failed).
 """
 from __future__ import annotations
 

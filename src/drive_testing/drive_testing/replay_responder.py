@@ -1,16 +1,10 @@
 """replay_responder: deterministic stand-in controller for the replay regression tests.
 
-Answers every drive/measurement with a GateCommand of the same step whose
-switches depend on the measurement (hall code and current signs) and on an
-internal counter (state), like a controller. ``corrupt_step`` (>= 0) flips SW1
-at that step, to prove the comparison catches a difference; ``drop_first``
-ignores the first measurement, as one lost while the graph matches.
-
-What a test cannot see from outside, it logs: ``gate_command matched N
-subscription(s)`` whenever its publisher's match count changes, and
-``gate_command acknowledged through step K`` once every matched reader
-acknowledged the replies up to step K (reliable QoS), so a test waits on
-those conditions instead of sleeping.
+Answers every drive/measurement with a GateCommand of the same step whose switches depend on
+the measurement and an internal counter. ``corrupt_step`` (>= 0) flips SW1 at that step;
+``drop_first`` ignores the first measurement. It logs ``gate_command matched N
+subscription(s)`` on a change of its match count and ``gate_command acknowledged through step
+K``, so tests wait on those instead of sleeping.
 """
 import sys
 

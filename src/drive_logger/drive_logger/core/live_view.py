@@ -1,15 +1,7 @@
-"""What the live_view node decides without ROS: decimation, the bounded hand-off, parameter names.
+"""What the live_view node decides without ROS: decimation period, the bounded hand-off, parameter names.
 
-- :func:`check_period` bounds a decimation period; the node decimates with the
-  live topics' :class:`drive_common.telemetry.Decimator` (a fixed grid of sim
-  time: the same samples are forwarded on every run).
-- :class:`Outbox` is the bounded queue between the ROS receive side and the
-  WebSocket send side: when it is full the oldest frame is dropped and
-  counted; the receive side never waits.
-- Foxglove parameter names are ``/node.parameter`` (the node's fully
-  qualified name, a dot, the ROS parameter name, which may itself contain
-  dots); :func:`coerce` turns a value the app sent into the type of the
-  parameter's current value (the app sends a whole float as an integer).
+Foxglove parameter names are ``/node.parameter`` (the node's fully qualified name, a dot, the
+ROS parameter name, which may itself contain dots).
 """
 from __future__ import annotations
 
@@ -89,12 +81,8 @@ def _is_int(value: Any) -> bool:
 
 
 def coerce(value: Any, current: Any) -> Any:
-    """A value from the app in the type of the parameter's current value, where that is lossless.
-
-    The app sends 2.0 as 2; ROS refuses an integer for a double parameter,
-    so integers become floats for double (and double-array) parameters.
-    Anything else is passed as sent: the node's own checks decide.
-    """
+    """A value from the app in the type of the parameter's current value, where lossless: the app
+    sends 2.0 as 2, which ROS refuses for a double (array); anything else goes as sent."""
     if isinstance(current, float) and _is_int(value):
         return float(value)
     if (isinstance(current, (list, tuple)) and current and all(isinstance(c, float) for c in current)
