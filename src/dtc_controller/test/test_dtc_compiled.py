@@ -2,9 +2,10 @@
 import numpy as np
 
 from drive_common.compiled import jit_disabled
-from drive_testing.compiled_parity import DTC_OPTION_CASES, differing, interpreted_and_compiled, requires_jit
+from drive_testing.compiled_parity import differing, interpreted_and_compiled, requires_jit
 from dtc_controller.core.modes.three_phase_kernel import three_phase_step
 from dtc_controller.core.modes.two_phase_kernel import two_phase_step
+from dtc_test_tables import DTC_OPTION_CASES
 
 pytestmark = requires_jit()
 
@@ -37,7 +38,7 @@ def test_compiled_equals_interpreted_bit_for_bit(tmp_path):
 def test_three_phase_options_compiled_equal_interpreted(tmp_path):
     """Options no shipped scenario uses (sine rotor flux, LPF compensation, table flux reference,
     sensorless pmsm, encoder dtifc, a runtime change of rotation and drop compensation)."""
-    interpreted, compiled = interpreted_and_compiled('drive_testing.compiled_parity:dtc_option_arrays',
+    interpreted, compiled = interpreted_and_compiled('dtc_test_tables:dtc_option_arrays',
                                                      [2000], tmp_path)
     for n in range(len(DTC_OPTION_CASES)):
         assert np.ptp(compiled[f'{n}:torque_estimate']) > 0.0 and np.ptp(compiled[f'{n}:sector']) > 0.0
