@@ -79,13 +79,22 @@ def headless_samples(scenario) -> HeadlessSamples:
     return out
 
 
-class _Bag:
-    """A BagWriter on sim log times whose topics are registered on first use."""
+PARAMETER_EVENTS = names.PARAMETER_EVENTS.lstrip('/')   # _Bag.write adds the '/'
 
-    def __init__(self, path: Path) -> None:
+
+class _Bag:
+    """A BagWriter on sim log times whose topics are registered on first use; it starts with the
+    scenario's runtime changes as /parameter_events of their node, logged at the event's sim time
+    (the headless run applies them before the sample at that time, as the graph does)."""
+
+    def __init__(self, path: Path, samples: HeadlessSamples) -> None:
         self.writer = BagWriter(path, log_time='sim')
         self._topics: dict = {}
         self._qos = [qos_yaml.profile()]
+        for event in samples.scenario.events:
+            msg = ParameterEvent(node=f'/{event.node}', changed_parameters=[
+                Parameter(name, value=value).to_parameter_msg() for name, value in event.parameters.items()])
+            self.write(PARAMETER_EVENTS, msg, nanoseconds(event.time))
 
     def write(self, topic: str, msg, stamp_ns: int) -> None:
         record = self._topics.get(topic)
@@ -120,22 +129,9 @@ def _per_sample_streams(samples: HeadlessSamples):
             yield stamp, 2, status, _fill(types[status], stat, stamp)
 
 
-PARAMETER_EVENTS = names.PARAMETER_EVENTS.lstrip('/')   # _Bag.write adds the '/'
-
-
-def _write_parameter_events(bag: '_Bag', samples: HeadlessSamples) -> None:
-    """The scenario's runtime changes as /parameter_events of their node, logged at the event's
-    sim time (the headless run applies them before the sample at that time, as the graph does)."""
-    for event in samples.scenario.events:
-        msg = ParameterEvent(node=f'/{event.node}', changed_parameters=[
-            Parameter(name, value=value).to_parameter_msg() for name, value in event.parameters.items()])
-        bag.write(PARAMETER_EVENTS, msg, nanoseconds(event.time))
-
-
 def write_per_sample_bag(samples: HeadlessSamples, path: Path) -> Path:
     """A bag of every per-sample message (the recording before blocks) and the parameter events."""
-    bag = _Bag(path)
-    _write_parameter_events(bag, samples)
+    bag = _Bag(path, samples)
     for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
         bag.write(topic, msg, stamp)
     bag.close()
@@ -157,8 +153,7 @@ def write_block_bag(samples: HeadlessSamples, path: Path, block_size: int = DEFA
                names.PFC_STATUS: (names.PFC_STATUS_BLOCK, BlockPacker(PfcStatusBlock, block_size))}
     decimators = {t: Decimator(live_period) for t in packers} if live_period is not None else {}
     lockstep_topics = {names.DRIVE_MEASUREMENT, names.GATE_COMMAND, names.PFC_MEASUREMENT, names.DUTY_COMMAND}
-    bag = _Bag(path)
-    _write_parameter_events(bag, samples)
+    bag = _Bag(path, samples)
     sample_parts: dict = {}
     for stamp, _, topic, msg in sorted(_per_sample_streams(samples), key=lambda r: (r[0], r[1])):
         if topic in lockstep_topics:
