@@ -190,26 +190,25 @@ def _signal(executable: str, sig: int, resume_after: float | None = None):
     return inject
 
 
-def _raw_bytes(msg_type_name: str, topic: str, make: Callable[[random.Random], bytes]):
-    def inject(ctx: Injection) -> None:
-        rng = random.Random(7)
-        ctx.publish(message_class(msg_type_name), topic, [make(rng) for _ in range(20)])
-    return inject
-
-
-def _valid_messages(msg_type_name: str, topic: str):
+def _outsider(msg_type_name: str, topic: str, make: Callable[[type, random.Random], list]):
+    """Publish make(message class, a seeded rng) on topic as an outsider: messages or raw CDR bytes."""
     def inject(ctx: Injection) -> None:
         cls = message_class(msg_type_name)
-        ctx.publish(cls, topic, [cls(step=step) for step in range(0, 2000, 100)])
+        ctx.publish(cls, topic, make(cls, random.Random(7)))
     return inject
 
 
-def _truncated(rng: random.Random) -> bytes:
-    return b'\x00\x01\x00\x00' + bytes(rng.randrange(256) for _ in range(rng.randrange(0, 12)))
+def _truncated(cls: type, rng: random.Random) -> list[bytes]:
+    return [b'\x00\x01\x00\x00' + bytes(rng.randrange(256) for _ in range(rng.randrange(0, 12)))
+            for _ in range(20)]
 
 
-def _random(rng: random.Random) -> bytes:
-    return bytes(rng.randrange(256) for _ in range(rng.randrange(0, 120)))
+def _random(cls: type, rng: random.Random) -> list[bytes]:
+    return [bytes(rng.randrange(256) for _ in range(rng.randrange(0, 120))) for _ in range(20)]
+
+
+def _valid(cls: type, rng: random.Random) -> list:
+    return [cls(step=step) for step in range(0, 2000, 100)]
 
 
 def _parameter(node: str, name: str, value):
@@ -260,9 +259,9 @@ def cases() -> list[Case]:
     ]
     for type_name, topic in LOCKSTEP:
         short = type_name.rsplit('/', 1)[1]
-        out += [Case(f'truncated {short} bytes', 'outsider', _raw_bytes(type_name, topic, _truncated)),
-                Case(f'random bytes on {topic}', 'outsider', _raw_bytes(type_name, topic, _random)),
-                Case(f'intruding {short} messages', 'outsider', _valid_messages(type_name, topic))]
+        out += [Case(f'truncated {short} bytes', 'outsider', _outsider(type_name, topic, _truncated)),
+                Case(f'random bytes on {topic}', 'outsider', _outsider(type_name, topic, _random)),
+                Case(f'intruding {short} messages', 'outsider', _outsider(type_name, topic, _valid))]
     out += [
         # A late node that finds the running graph refuses to join it (exit 2, one line) or, if
         # it gets to send, is ignored and reported by the graph: a run long enough for either.
