@@ -23,17 +23,13 @@ from drive_common.samples import ALL_OFF, DriveSample, GateSample
 from drive_common.waiting import wait_until
 
 
-def _wires() -> tuple[LockstepWire, LockstepWire]:
-    """The measurement and command wires of the DTC lockstep."""
-    return LockstepWire(DriveMeasurement, DriveSample), LockstepWire(GateCommand, GateSample)
-
-
 class RawResponder(Node):
     """Answers each measurement with a fixed command: the lockstep nodes' publish/take, nothing else."""
 
     def __init__(self, **kwargs) -> None:
         super().__init__('raw_responder', **kwargs)
-        measurement, command = _wires()
+        measurement = LockstepWire(DriveMeasurement, DriveSample)
+        command = LockstepWire(GateCommand, GateSample)
         pub = self.create_publisher(GateCommand, topics.GATE_COMMAND, topics.LOCKSTEP_QOS)
 
         def answer(data: bytes) -> None:
@@ -60,7 +56,7 @@ def measure_round_trips(context, samples: int = 2000, timeout: float = 30.0) -> 
     """Round trips per wall second against a running raw_responder."""
     node = rclpy.create_node('ceiling_probe', context=context)
     replies: dict[int, object] = {}
-    measurement, command = _wires()
+    measurement, command = LockstepWire(DriveMeasurement, DriveSample), LockstepWire(GateCommand, GateSample)
     pub = node.create_publisher(DriveMeasurement, topics.DRIVE_MEASUREMENT, topics.LOCKSTEP_QOS)
 
     def reply(data: bytes) -> None:
