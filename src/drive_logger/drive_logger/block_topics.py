@@ -19,16 +19,12 @@ from drive_logger.bag_reader import BagMessage, BagReader, BagReadError
 from drive_logger.message_definitions import normalize_type_name
 
 
-def _absolute(name: str) -> str:
-    return '/' + name
-
-
 BLOCK_TOPICS: dict[str, tuple[str, tuple[str, ...]]] = {
-    _absolute(names.PLANT_STATE_BLOCK): ('dtc_msgs/msg/PlantStateBlock', (_absolute(names.PLANT_STATE),)),
-    _absolute(names.DTC_STATUS_BLOCK): ('dtc_msgs/msg/DtcStatusBlock', (
-        _absolute(names.DTC_STATUS), _absolute(names.DRIVE_MEASUREMENT), _absolute(names.GATE_COMMAND))),
-    _absolute(names.PFC_STATUS_BLOCK): ('dtc_msgs/msg/PfcStatusBlock', (
-        _absolute(names.PFC_STATUS), _absolute(names.PFC_MEASUREMENT), _absolute(names.DUTY_COMMAND))),
+    '/' + names.PLANT_STATE_BLOCK: ('dtc_msgs/msg/PlantStateBlock', ('/' + names.PLANT_STATE,)),
+    '/' + names.DTC_STATUS_BLOCK: ('dtc_msgs/msg/DtcStatusBlock', (
+        '/' + names.DTC_STATUS, '/' + names.DRIVE_MEASUREMENT, '/' + names.GATE_COMMAND)),
+    '/' + names.PFC_STATUS_BLOCK: ('dtc_msgs/msg/PfcStatusBlock', (
+        '/' + names.PFC_STATUS, '/' + names.PFC_MEASUREMENT, '/' + names.DUTY_COMMAND)),
 }
 """Block topic -> (block type, the per-sample topics of its parts in BLOCK_PARTS order: status, measurement, command)."""
 
