@@ -60,7 +60,8 @@ class SampleTopics:
             for part in self.parts:
                 if part >= len(classes):     # the plant's block has one part
                     continue
-                out[namespace + BLOCK_TOPICS[base][1][part]] = (_type_name(classes[part]), block_topic, part)
+                type_name = f'dtc_msgs/msg/{classes[part].__name__}'
+                out[namespace + BLOCK_TOPICS[base][1][part]] = (type_name, block_topic, part)
         return out
 
     def derive(self, block_topic: str, data: bytes, log_time: int, publish_time: int,
@@ -76,11 +77,8 @@ class SampleTopics:
             decimator = self._decimators[block_topic] = Decimator(self.period)
         kept = []
         for i, stamp in enumerate(stamps):
-            if self.start_ns is not None and stamp < self.start_ns:
-                continue
-            if self.end_ns is not None and stamp > self.end_ns:
-                continue
-            if not decimator.keep(stamp):
+            if ((self.start_ns is not None and stamp < self.start_ns)
+                    or (self.end_ns is not None and stamp > self.end_ns) or not decimator.keep(stamp)):
                 continue
             counter = self._counters.get(block_topic, 0)
             self._counters[block_topic] = counter + 1
@@ -178,10 +176,6 @@ def _packed_rows(block, part: int, indices: list[int], template: bytes, offsets:
             struct.pack_into(fmt, row, at, *values[i * width:(i + 1) * width])
         rows.append(bytes(row))
     return rows
-
-
-def _type_name(msg_class: type) -> str:
-    return f'dtc_msgs/msg/{msg_class.__name__}'
 
 
 def _sorted_profiles(profiles: list) -> list:
