@@ -32,7 +32,7 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from drive_common.processes import NodeProcess
-from drive_common.topics import FIRST_ANSWER_RESEND, LOCKSTEP_QOS
+from drive_common.topics import CLOCK, FIRST_ANSWER_RESEND, LOCKSTEP_QOS, PARAMETER_EVENTS
 from drive_common.waiting import WaitTimeout, future_result, wait_until
 from drive_common.parameter_files import ParameterFileError, read_params_file
 from drive_logger import ros_types
@@ -82,9 +82,6 @@ def _equal(a, b) -> bool:
 def compare_fields(recorded: dict, replayed: dict) -> bool:
     """Exact equality of plain field values; NaN equals NaN."""
     return recorded.keys() == replayed.keys() and all(_equal(a, replayed[k]) for k, a in recorded.items())
-
-
-PARAMETER_EVENTS = '/parameter_events'
 
 
 def load_recording(bag: str, measurement_topic: str, command_topic: str, salvage: bool = False,
@@ -162,7 +159,7 @@ def replay_and_compare(bag: str, controller: NodeProcess | None, *, measurement_
 
     node.create_subscription(cmd_cls, command_topic, on_command, LOCKSTEP_QOS, raw=True)
     meas_pub = node.create_publisher(meas_cls, measurement_topic, LOCKSTEP_QOS)
-    clock_pub = node.create_publisher(Clock, '/clock', 10)
+    clock_pub = node.create_publisher(Clock, CLOCK, 10)
     params = AsyncParameterClient(node, controller_node) if changes else None
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()

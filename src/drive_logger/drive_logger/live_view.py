@@ -124,7 +124,7 @@ class LiveViewNode(Node):
         self._stream_subscriptions.append(self._io.create_subscription(Clock, t.CLOCK, self._on_clock, qos, raw=True))
 
         self.param_clients: dict[str, AsyncParameterClient] = {}
-        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event, 100)
+        self.create_subscription(ParameterEvent, t.PARAMETER_EVENTS, self._on_parameter_event, 100)
         self._diag_pub = self.create_publisher(DiagnosticArray, t.DIAGNOSTICS, 10)
         self.create_timer(float(p['diagnostics_period']), self.publish_diagnostics)
         # before the server: a viewer may set parameters as soon as it is up

@@ -19,14 +19,13 @@ from rosgraph_msgs.msg import Clock
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterSpec, schema
 from drive_common.ros_parameters import SchemaParameters
+from drive_common.topics import CLOCK
 from drive_common.waiting import wait_until
 
 from drive_logger import ros_types
 from drive_logger.bag_reader import BagReadError, BagReader
 from drive_logger.block_topics import block_sources, part_classes, per_sample_messages
 from drive_logger.message_definitions import carries_sim_stamp, cdr_stamp_ns
-
-CLOCK_TOPIC = '/clock'
 
 
 def clock_cdr(stamp_ns: int) -> bytes:
@@ -95,9 +94,9 @@ class ReplayNode(Node):
             self.publishers_by_topic[name] = self.create_publisher(
                 ros_types.message_class(type_name), target, ros_types.replay_qos(profiles))
         self.publish_clock = bool(get['publish_clock'])
-        self.synthesize_clock = self.publish_clock and CLOCK_TOPIC not in self.topic_names
+        self.synthesize_clock = self.publish_clock and CLOCK not in self.topic_names
         if self.synthesize_clock:
-            self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
+            self.clock_publisher = self.create_publisher(Clock, CLOCK, 10)
         self.published = 0
 
     def _available_topics(self) -> dict[str, tuple[str, list]]:
