@@ -15,6 +15,8 @@ import subprocess
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from drive_common.processes import isolated_env
+
 PREFIX = 'dtcvh'          # every namespace made here starts with this
 SUBNET = '10.213.0'       # /24 inside the bridge; only ever routed inside our namespaces
 _NETNS_DIR = Path('/run/netns')
@@ -89,12 +91,13 @@ class VirtualHosts:
             raise HostsUnavailable(reason)
         remove_stale()
         try:
-            self._add_namespace(self.switch)
+            for ns in (self.switch, *self.namespaces.values()):
+                _ip('netns', 'add', ns)
+                self._made.append(ns)
             _ip('-n', self.switch, 'link', 'add', 'br0', 'type', 'bridge', 'mcast_snooping', '0')
             _ip('-n', self.switch, 'link', 'set', 'br0', 'up')
             for i, label in enumerate(self.labels):
                 ns = self.namespaces[label]
-                self._add_namespace(ns)
                 port = f'p{i}'
                 _ip('link', 'add', 'eth0', 'netns', ns, 'type', 'veth',
                     'peer', 'name', port, 'netns', self.switch)
@@ -102,20 +105,12 @@ class VirtualHosts:
                 _ip('-n', ns, 'link', 'set', 'lo', 'up')
                 _ip('-n', ns, 'addr', 'add', f'{self.addresses[label]}/24', 'dev', 'eth0')
                 _ip('-n', ns, 'link', 'set', 'eth0', 'up')
-                self._route_multicast(ns)
+                if self.multicast:   # SPDP discovery goes to 239.255.0.1, and there is no default route
+                    _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
         except BaseException:
             self.close()
             raise
         return self
-
-    def _add_namespace(self, name: str) -> None:
-        _ip('netns', 'add', name)
-        self._made.append(name)
-
-    def _route_multicast(self, ns: str) -> None:
-        # SPDP discovery goes to 239.255.0.1: without a default route it needs this route
-        if self.multicast:
-            _ip('-n', ns, 'route', 'replace', '224.0.0.0/4', 'dev', 'eth0')
 
     def close(self) -> None:
         """Kill what still runs in the hosts and delete every namespace made."""
@@ -137,17 +132,13 @@ class VirtualHosts:
             static_peers: bool = False) -> dict[str, str]:
         """ROS environment for a node in host: the shared domain, :data:`FASTDDS_PROFILE` (unless
         set), discovery range SUBNET, or with static_peers LOCALHOST plus the others as peers."""
-        env = dict(os.environ if base is None else base)
-        env['ROS_DOMAIN_ID'] = str(domain_id)
-        env.pop('ROS_LOCALHOST_ONLY', None)
+        env = isolated_env(domain_id, base)
         if static_peers:
-            env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
             env['ROS_STATIC_PEERS'] = ';'.join(a for h, a in self.addresses.items() if h != host)
         else:
             env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
             env.pop('ROS_STATIC_PEERS', None)
         env.setdefault('FASTRTPS_DEFAULT_PROFILES_FILE', str(FASTDDS_PROFILE))
-        env['PYTHONUNBUFFERED'] = '1'
         return env
 
     def exec(self, host: str, command: Sequence[str], **kwargs) -> subprocess.CompletedProcess:

@@ -123,15 +123,11 @@ def parse_values(text: str, where: str = 'values'):
         raise CliError(f'the passed value needs to be a dictionary in YAML format: {exc}') from None
 
 
-def _prefixes() -> list[Path]:
-    return [Path(p) for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
-
-
 def interface_text(type_name: str) -> str:
     """The installed definition file of an interface, verbatim."""
     pkg, kind, name = split_type(type_name)
-    for prefix in _prefixes():
-        path = prefix / 'share' / pkg / kind / f'{name}.{kind}'
+    for prefix in filter(None, os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)):
+        path = Path(prefix, 'share', pkg, kind, f'{name}.{kind}')
         if path.is_file():
             return path.read_text()
     raise CliError(f"Unknown interface '{type_name}'" if len(type_name.split('/')) == 3

@@ -59,18 +59,10 @@ def _exec_node(executable: str, parameters: dict) -> int:
 def record_main(args) -> int:
     if args.all and args.topics:
         raise CliError('Invalid choice: cannot specify topics and --all at the same time')
-    parameters: dict = {}
-    if args.output:
-        parameters['output'] = str(Path(args.output))
-    if args.topics:
-        parameters['topics'] = list(args.topics)
-    if args.all:
-        parameters['all_topics'] = True
-    if args.use_sim_time:
-        parameters['use_sim_time'] = True
-    if args.compression_format:
-        parameters['compression'] = args.compression_format
-    return _exec_node('recorder', parameters)
+    parameters = {'output': args.output and str(Path(args.output)), 'topics': list(args.topics),
+                  'all_topics': args.all, 'use_sim_time': args.use_sim_time,
+                  'compression': args.compression_format}
+    return _exec_node('recorder', {name: value for name, value in parameters.items() if value})
 
 
 def play_main(args) -> int:
@@ -79,12 +71,9 @@ def play_main(args) -> int:
     if args.start_offset < 0:
         raise CliError('--start-offset must be non-negative')
     parameters: dict = {'bag': args.bag_path, 'rate': float(args.rate), 'loop': bool(args.loop)}
-    if args.topics:
-        parameters['topics'] = list(args.topics)
-    if args.remap:
-        parameters['remap'] = list(args.remap)
-    if args.start_offset:
-        parameters['start_offset'] = float(args.start_offset)
+    optional = {'topics': list(args.topics), 'remap': list(args.remap),
+                'start_offset': float(args.start_offset)}
+    parameters.update({name: value for name, value in optional.items() if value})
     return _exec_node('replay', parameters)
 
 

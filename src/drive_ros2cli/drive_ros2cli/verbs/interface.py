@@ -39,10 +39,9 @@ def all_interfaces() -> dict[str, list[str]]:
 
 def list_main(args) -> int:
     found = all_interfaces()
-    only = [k for k, flag in (('msg', args.only_msgs), ('srv', args.only_srvs), ('action', args.only_actions))
-            if flag] or list(messages.KINDS)
+    only = {'msg': args.only_msgs, 'srv': args.only_srvs, 'action': args.only_actions}
     for kind, title in (('msg', 'Messages'), ('srv', 'Services'), ('action', 'Actions')):
-        if kind in only:
+        if only[kind] or not any(only.values()):
             print(f'{title}:')
             for name in found[kind]:
                 print(f'    {name}')

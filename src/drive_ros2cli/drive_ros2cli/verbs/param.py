@@ -76,23 +76,13 @@ class _Params:
         if not self.client.wait_for_services(timeout_sec=args.timeout):
             raise CliError(f'Wait for service timed out waiting for parameter services for node {node_name}')
 
-    def _call(self, future, service: str):
+    def request(self, service: str, argument):
+        """The response of the node's parameter service (an AsyncParameterClient method name)."""
+        future = getattr(self.client, service)(list(argument))
         return self.cli.call(future, self.timeout, f"{service} service of node '{self.name}'")
 
     def list(self, prefixes=()):
-        return sorted(self._call(self.client.list_parameters(list(prefixes)), 'list_parameters').result.names)
-
-    def get(self, names):
-        return list(self._call(self.client.get_parameters(list(names)), 'get_parameters').values)
-
-    def types(self, names):
-        return list(self._call(self.client.get_parameter_types(list(names)), 'get_parameter_types').types)
-
-    def describe(self, names):
-        return list(self._call(self.client.describe_parameters(list(names)), 'describe_parameters').descriptors)
-
-    def set(self, parameters):
-        return list(self._call(self.client.set_parameters(parameters), 'set_parameters').results)
+        return sorted(self.request('list_parameters', prefixes).result.names)
 
 
 def _open(cli: CliNode, args) -> _Params:
@@ -113,7 +103,8 @@ def list_main(args) -> int:
                 names = params.list(args.param_prefixes)
                 if regex:
                     names = [n for n in names if regex.match(n)]
-                types = params.types(names) if args.param_type and names else []
+                wanted = args.param_type and names
+                types = params.request('get_parameter_types', names).types if wanted else []
             except CliError as exc:
                 if args.node_name:
                     raise
@@ -129,7 +120,7 @@ def list_main(args) -> int:
 
 def get_main(args) -> int:
     with CliNode(args) as cli:
-        values = _open(cli, args).get([args.parameter_name])
+        values = _open(cli, args).request('get_parameters', [args.parameter_name]).values
     if not values:
         raise CliError('Parameter not set')
     value = values[0]
@@ -177,7 +168,8 @@ def set_main(args) -> int:
                        f'Got {len(args.params_and_values)} argument(s).')
     with CliNode(args) as cli:
         params = _open(cli, args)
-        results = params.set([parameter_from_value(n, _parse_value(v)) for n, v in pairs])
+        results = params.request('set_parameters',
+                                 [parameter_from_value(n, _parse_value(v)) for n, v in pairs]).results
     for (name, _), result in zip(pairs, results):
         msg = 'Set parameter successful' if result.successful else 'Setting parameter failed'
         if result.reason:
@@ -190,7 +182,7 @@ def set_main(args) -> int:
 
 def describe_main(args) -> int:
     with CliNode(args) as cli:
-        descriptors = _open(cli, args).describe(args.parameter_names)
+        descriptors = _open(cli, args).request('describe_parameters', args.parameter_names).descriptors
     for d in descriptors:
         print('Parameter name:', d.name)
         print('  Type:', TYPE_NAMES.get(d.type, d.type))
@@ -225,7 +217,7 @@ def dump_main(args) -> int:
     with CliNode(args) as cli:
         params = _open(cli, args)
         names = params.list()
-        values = params.get(names) if names else []
+        values = params.request('get_parameters', names).values if names else []
     tree: dict = {}
     for name, value in zip(names, values):
         python = parameter_value_to_python(value)
@@ -267,9 +259,9 @@ def load_main(args) -> int:
         params = _open(cli, args)
         wanted = parameters_for_node(document, params.name, args.use_wildcard, args.parameter_file)
         names = list(wanted)
-        declared = dict(zip(names, params.types(names))) if names else {}
+        declared = dict(zip(names, params.request('get_parameter_types', names).types)) if names else {}
         parameters = [parameter_from_value(n, v, declared.get(n)) for n, v in wanted.items()]
-        results = params.set(parameters) if parameters else []
+        results = params.request('set_parameters', parameters).results if parameters else []
     for name, result in zip(names, results):
         msg = f"Set parameter {name} {'successful' if result.successful else 'failed'}"
         if result.reason:

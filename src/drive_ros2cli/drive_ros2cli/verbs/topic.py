@@ -184,13 +184,11 @@ def info_main(args) -> int:
             raise CliError(f"Unknown topic '{topic}'")
         node = cli.node
         print(f"Type: {', '.join(types)}", end=end)
-        print(f'Publisher count: {node.count_publishers(topic)}', end=end)
-        if args.verbose:
-            for info in node.get_publishers_info_by_topic(topic):
-                print(info, end=end)
-        print(f'Subscription count: {node.count_subscribers(topic)}', end=end)
-        if args.verbose:
-            for info in node.get_subscriptions_info_by_topic(topic):
+        for kind, count, endpoints in (
+                ('Publisher', node.count_publishers, node.get_publishers_info_by_topic),
+                ('Subscription', node.count_subscribers, node.get_subscriptions_info_by_topic)):
+            print(f'{kind} count: {count(topic)}', end=end)
+            for info in endpoints(topic) if args.verbose else ():
                 print(info, end=end)
     return 0
 
