@@ -84,13 +84,6 @@ def power_factor(t, v, i, f1: float) -> float:
     return signals.power_factor(np.interp(grid, t, v), np.interp(grid, t, i))
 
 
-def current_balance(fundamentals) -> dict:
-    """Fundamental amplitude per phase and the imbalance (max - min) / mean * 100 %."""
-    f = np.asarray(fundamentals, float)
-    return {'fundamental_amplitudes': [float(a) for a in f],
-            'imbalance_percent': float((f.max() - f.min()) / f.mean() * 100.0)}
-
-
 def error_stats(estimate, truth, angle: bool = False) -> dict:
     """Mean, RMS and max |error| of estimate - truth (angles wrapped), NaN samples skipped."""
     err = np.asarray(estimate, float) - np.asarray(truth, float)
@@ -105,10 +98,9 @@ def error_stats(estimate, truth, angle: bool = False) -> dict:
 
 def _safe(fn, *args, **kwargs):
     try:
-        value = fn(*args, **kwargs)
+        return fn(*args, **kwargs)
     except (ValueError, ZeroDivisionError, IndexError, FloatingPointError) as exc:
         return {'error': str(exc)}
-    return value
 
 
 def _phase_currents(out: dict, t, currents) -> None:
@@ -125,8 +117,10 @@ def _phase_currents(out: dict, t, currents) -> None:
     out['current_thd_percent'] = dict(zip('abc', thd))
     if all(isinstance(x, float) for x in thd):
         out['current_thd_total_percent'] = signals.total_thd(thd)
-    if all(isinstance(h, np.ndarray) for h in spectra):
-        out['current_balance'] = current_balance([float(h[1]) for h in spectra])
+    if all(isinstance(h, np.ndarray) for h in spectra):   # fundamentals, (max - min) / mean * 100 %
+        f = np.array([float(h[1]) for h in spectra])
+        out['current_balance'] = {'fundamental_amplitudes': [float(a) for a in f],
+                                  'imbalance_percent': float((f.max() - f.min()) / f.mean() * 100.0)}
 
 
 def _steady_state(out: dict, arrays, t0: float, t1: float, rated_torque, line_frequency) -> None:
