@@ -23,11 +23,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
-from drive_bringup.scenario import Scenario
+from drive_bringup.scenario import Scenario, ScenarioError
 from drive_common import topics
 from drive_common.domain_guard import RUNNER_NODE, DomainBusy, refuse_if_busy
 from drive_common.namespaces import namespace_arguments, namespace_remappings, normalized
-from drive_common.processes import NodeProcess, graph_lock, isolated_env
+from drive_common.processes import NodeProcess, executable_path, graph_lock, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
 from drive_common.recorder_matching import RecordersMatched
@@ -49,8 +49,6 @@ def scenario_programs(sc: Scenario) -> list[tuple[str, str, str, str | None]]:
 
 def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> None:
     """ScenarioError naming the first program of the run that is not built (before anything starts)."""
-    from drive_bringup.scenario import ScenarioError
-    from drive_common.processes import executable_path
     wanted = [(key, package, executable) for key, package, executable, _ in scenario_programs(sc)]
     wanted += [('recorder', 'drive_logger', 'recorder')] if record else []
     wanted += [('live_view', 'drive_logger', 'live_view')] if live else []
