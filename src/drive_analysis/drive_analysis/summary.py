@@ -39,25 +39,20 @@ def whole_periods(t: np.ndarray, f1: float) -> tuple[float, float]:
     return t[-1] - periods / f1, t[-1]
 
 
-def _resampled(t, x, f1: float, samples_per_period: int) -> tuple[np.ndarray, int]:
-    """(x resampled uniformly over the last whole periods of f1, number of periods)."""
+def harmonics(t, x, f1: float, n_max: int = 40, points_per_period: int = 256) -> np.ndarray:
+    """Peak amplitudes X_0..X_n_max of x(t) at multiples of f1 (X_0 = mean), from x resampled
+    uniformly over the last whole periods of f1."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     t0, t1 = whole_periods(t, f1)
     periods = round((t1 - t0) * f1)
-    m = periods * samples_per_period
-    return np.interp(t0 + np.arange(m) * (t1 - t0) / m, t, x), periods
-
-
-def harmonics(t, x, f1: float, n_max: int = 40, points_per_period: int = 256) -> np.ndarray:
-    """Peak amplitudes X_0..X_n_max of x(t) at multiples of f1 (X_0 = mean)."""
-    y, periods = _resampled(t, x, f1, max(points_per_period, 2 * n_max + 2))
+    m = periods * max(points_per_period, 2 * n_max + 2)
+    y = np.interp(t0 + np.arange(m) * (t1 - t0) / m, t, x)
     return np.abs(signals.harmonics(y, periods, n_max))
 
 
 def thd_percent(t, x, f1: float, n_max: int = 40) -> float:
     """001 eq. (39), one phase: sqrt(sum_{n=2}^{n_max} X_n^2) / X_1 * 100 %."""
-    y, periods = _resampled(t, x, f1, max(256, 2 * n_max + 2))
-    return signals.thd(y, periods, n_max) * 100.0
+    return signals.thd_of(harmonics(t, x, f1, n_max)) * 100.0
 
 
 def torque_ripple_factor_window_percent(torque, rated_torque: float) -> float:
@@ -82,6 +77,13 @@ def power_factor(t, v, i, f1: float) -> float:
     t0, t1 = whole_periods(t, f1)
     grid = np.linspace(t0, t1, max(len(t), 1000), endpoint=False)
     return signals.power_factor(np.interp(grid, t, v), np.interp(grid, t, i))
+
+
+def current_balance(fundamentals) -> dict:
+    """Fundamental amplitude per phase and the imbalance (max - min) / mean * 100 %."""
+    f = np.asarray(fundamentals, float)
+    return {'fundamental_amplitudes': [float(a) for a in f],
+            'imbalance_percent': float((f.max() - f.min()) / f.mean() * 100.0)}
 
 
 def error_stats(estimate, truth, angle: bool = False) -> dict:
@@ -117,10 +119,8 @@ def _phase_currents(out: dict, t, currents) -> None:
     out['current_thd_percent'] = dict(zip('abc', thd))
     if all(isinstance(x, float) for x in thd):
         out['current_thd_total_percent'] = signals.total_thd(thd)
-    if all(isinstance(h, np.ndarray) for h in spectra):   # fundamentals, (max - min) / mean * 100 %
-        f = np.array([float(h[1]) for h in spectra])
-        out['current_balance'] = {'fundamental_amplitudes': [float(a) for a in f],
-                                  'imbalance_percent': float((f.max() - f.min()) / f.mean() * 100.0)}
+    if all(isinstance(h, np.ndarray) for h in spectra):
+        out['current_balance'] = current_balance([float(h[1]) for h in spectra])
 
 
 def _steady_state(out: dict, arrays, t0: float, t1: float, rated_torque, line_frequency) -> None:
