@@ -14,6 +14,7 @@ import signal
 import sys
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -102,23 +103,18 @@ def record_topics(scenario: Scenario) -> list[str]:
     return list(dict.fromkeys(_absolute_topic(t) for t in names))
 
 
-def _progress(line: str) -> None:
-    """A progress line, seen at once even through a pipe (tee, a script waiting for 'graph up')."""
-    print(line, flush=True)
-
-
 class GraphRunner:
     """Runs one scenario through the ROS graph; see the module docstring."""
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
-                 record: bool | None = None, progress: Callable[[str], None] = _progress,
+                 record: bool | None = None, progress: Callable[[str], None] = partial(print, flush=True),
                  step_timeout: float = 60.0, live: bool = False, namespace: str = '',
                  pause_at: tuple[float, ...] = ()) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.domain_id = domain_id
         self.record = scenario.record if record is None else record
-        self.progress = progress
+        self.progress = progress      # default: seen at once even through a pipe (tee, a script)
         self.step_timeout = step_timeout
         self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
         self.namespace = normalized(namespace)   # '/NAME': the drive's nodes run in it
