@@ -82,11 +82,7 @@ class Paired:
             return default
 
     def __contains__(self, key: str) -> bool:
-        try:
-            self[key]
-        except KeyError:
-            return False
-        return True
+        return self.get(key) is not None
 
     def __len__(self) -> int:
         return len(self._columns['time'])

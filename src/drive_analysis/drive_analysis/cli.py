@@ -1,7 +1,7 @@
 """``analyze``: metrics (JSON) and figures (PNG) of a recorded drive run, without ROS.
 
     analyze bags/run1 [--out DIR] [--rated-torque 0.3] [--window T0 T1]
-            [--pole-pairs P] [--line-frequency 60] [--salvage]
+            [--line-frequency 60] [--salvage] [--namespace NS]
 
 Steady-state metrics (THD, TRF, ripple, balance, PF) use the window (default:
 the last half of the run); the rise time uses the largest torque-reference

@@ -39,25 +39,20 @@ def whole_periods(t: np.ndarray, f1: float) -> tuple[float, float]:
     return t[-1] - periods / f1, t[-1]
 
 
-def _resampled(t, x, f1: float, samples_per_period: int) -> tuple[np.ndarray, int]:
-    """(x resampled uniformly over the last whole periods of f1, number of periods)."""
+def harmonics(t, x, f1: float, n_max: int = 40, points_per_period: int = 256) -> np.ndarray:
+    """Peak amplitudes X_0..X_n_max of x(t) at multiples of f1 (X_0 = mean), from x resampled
+    uniformly over the last whole periods of f1."""
     t, x = np.asarray(t, float), np.asarray(x, float)
     t0, t1 = whole_periods(t, f1)
     periods = round((t1 - t0) * f1)
-    m = periods * samples_per_period
-    return np.interp(t0 + np.arange(m) * (t1 - t0) / m, t, x), periods
-
-
-def harmonics(t, x, f1: float, n_max: int = 40, points_per_period: int = 256) -> np.ndarray:
-    """Peak amplitudes X_0..X_n_max of x(t) at multiples of f1 (X_0 = mean)."""
-    y, periods = _resampled(t, x, f1, max(points_per_period, 2 * n_max + 2))
+    m = periods * max(points_per_period, 2 * n_max + 2)
+    y = np.interp(t0 + np.arange(m) * (t1 - t0) / m, t, x)
     return np.abs(signals.harmonics(y, periods, n_max))
 
 
 def thd_percent(t, x, f1: float, n_max: int = 40) -> float:
     """001 eq. (39), one phase: sqrt(sum_{n=2}^{n_max} X_n^2) / X_1 * 100 %."""
-    y, periods = _resampled(t, x, f1, max(256, 2 * n_max + 2))
-    return signals.thd(y, periods, n_max) * 100.0
+    return signals.thd_of(harmonics(t, x, f1, n_max)) * 100.0
 
 
 def torque_ripple_factor_window_percent(torque, rated_torque: float) -> float:
@@ -105,10 +100,9 @@ def error_stats(estimate, truth, angle: bool = False) -> dict:
 
 def _safe(fn, *args, **kwargs):
     try:
-        value = fn(*args, **kwargs)
+        return fn(*args, **kwargs)
     except (ValueError, ZeroDivisionError, IndexError, FloatingPointError) as exc:
         return {'error': str(exc)}
-    return value
 
 
 def _phase_currents(out: dict, t, currents) -> None:

@@ -14,6 +14,7 @@ import signal
 import sys
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -23,11 +24,11 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
-from drive_bringup.scenario import Scenario
+from drive_bringup.scenario import Scenario, ScenarioError
 from drive_common import topics
 from drive_common.domain_guard import RUNNER_NODE, DomainBusy, refuse_if_busy
 from drive_common.namespaces import namespace_arguments, namespace_remappings, normalized
-from drive_common.processes import NodeProcess, graph_lock, isolated_env
+from drive_common.processes import NodeProcess, executable_path, graph_lock, isolated_env
 from drive_common.run_goal import run_goal_result, send_run_goal
 from drive_common.waiting import WaitTimeout, wait_until
 from drive_common.recorder_matching import RecordersMatched
@@ -49,8 +50,6 @@ def scenario_programs(sc: Scenario) -> list[tuple[str, str, str, str | None]]:
 
 def check_programs(sc: Scenario, record: bool = True, live: bool = False) -> None:
     """ScenarioError naming the first program of the run that is not built (before anything starts)."""
-    from drive_bringup.scenario import ScenarioError
-    from drive_common.processes import executable_path
     wanted = [(key, package, executable) for key, package, executable, _ in scenario_programs(sc)]
     wanted += [('recorder', 'drive_logger', 'recorder')] if record else []
     wanted += [('live_view', 'drive_logger', 'live_view')] if live else []
@@ -104,23 +103,18 @@ def record_topics(scenario: Scenario) -> list[str]:
     return list(dict.fromkeys(_absolute_topic(t) for t in names))
 
 
-def _progress(line: str) -> None:
-    """A progress line, seen at once even through a pipe (tee, a script waiting for 'graph up')."""
-    print(line, flush=True)
-
-
 class GraphRunner:
     """Runs one scenario through the ROS graph; see the module docstring."""
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, domain_id: int | None = None,
-                 record: bool | None = None, progress: Callable[[str], None] = _progress,
+                 record: bool | None = None, progress: Callable[[str], None] = partial(print, flush=True),
                  step_timeout: float = 60.0, live: bool = False, namespace: str = '',
                  pause_at: tuple[float, ...] = ()) -> None:
         self.scenario = scenario
         self.out_dir = Path(out_dir)
         self.domain_id = domain_id
         self.record = scenario.record if record is None else record
-        self.progress = progress
+        self.progress = progress      # default: seen at once even through a pipe (tee, a script)
         self.step_timeout = step_timeout
         self.live = live      # also start drive_logger live_view (Foxglove, ws://localhost:8765)
         self.namespace = normalized(namespace)   # '/NAME': the drive's nodes run in it

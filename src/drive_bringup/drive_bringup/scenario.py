@@ -182,6 +182,13 @@ def _known_metric(path: Path, key: str, name) -> None:
         raise _fail(path, key, exc.args[0]) from exc
 
 
+def _check_metrics(path: Path, metrics: dict) -> None:
+    """Each ``metrics`` entry is a mapping naming a known metric (its ``metric`` option, else its key)."""
+    for name, options in metrics.items():
+        options = _mapping(options, path, f'metrics.{name}')
+        _known_metric(path, f'metrics.{name}', options.get('metric', name))
+
+
 def _fail(path: Path, key: str, reason: str) -> ScenarioError:
     return ScenarioError(f'{path}: {key}: {reason}')
 
@@ -312,9 +319,7 @@ def load_scenario(path: str | Path) -> Scenario:
             raise _fail(path, f'record.topics[{i}]', f'{topic!r} is not a valid ROS topic name')
 
     metrics = _mapping(raw.get('metrics'), path, 'metrics')
-    for metric_name, options in metrics.items():
-        options = _mapping(options, path, f'metrics.{metric_name}')
-        _known_metric(path, f'metrics.{metric_name}', options.get('metric', metric_name))
+    _check_metrics(path, metrics)
     figures = raw.get('figures') or []
     if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
         raise _fail(path, 'figures', 'expected a list of figure names')

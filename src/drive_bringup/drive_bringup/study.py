@@ -31,7 +31,7 @@ from drive_bringup.report import evaluate_metrics
 from drive_bringup.scenario import (NODE_SCHEMAS, Event, Scenario, ScenarioError, find_scenario,
                                     load_scenario)
 # the same checks as scenarios (load_study turns their ScenarioError into a StudyError)
-from drive_bringup.scenario import _entry, _fail, _known_metric, _mapping, _number, read_named_file
+from drive_bringup.scenario import _check_metrics, _entry, _fail, _mapping, _number, read_named_file
 from drive_common.parameters import ParameterError
 from drive_common.uris import resolve_path as resolve_package_path
 
@@ -307,9 +307,7 @@ def _load_study(path: Path) -> Study:
     metrics = _mapping(raw.get('metrics'), path, 'metrics') or dict(base.metrics)
     if not metrics:
         raise _fail(path, 'metrics', 'no metrics: name some here or in the scenario')
-    for metric, options in metrics.items():
-        options = _mapping(options, path, f'metrics.{metric}')
-        _known_metric(path, f'metrics.{metric}', options.get('metric', metric))
+    _check_metrics(path, metrics)
     base = dataclasses.replace(base, metrics=metrics, checks=[], figures=[], record=False)
 
     sampling = raw.get('sampling', 'grid')
