@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .faults import run_end
-from .lockstep import LockstepSchedule, ticks_of
+from .lockstep import ControllerKind, LockstepSchedule, ticks_of
 from .front_end_kernel import FV_PROT
 from .plant import FRONT_END_FIELDS, PlantCore, PlantStateSample, front_extras, state_sample, sv_slots
 
@@ -327,12 +327,12 @@ class CoSimulation:
             if gate.topology != plant.topology:
                 raise RuntimeError(f'gate command for a {gate.topology}-switch inverter, '
                                    f'the plant has {plant.topology}')
-            sched.latch_gates(plant, gate.switch_on)
+            sched.latch(plant, ControllerKind.GATE, gate.switch_on)
         if pfc_due:
             sample = plant.pfc_sample()
             if sample is not None:
                 duty, pfc_status = self.pfc.update(sample)
-                sched.latch_duty(plant, duty.duty, duty.enable)
+                sched.latch(plant, ControllerKind.DUTY, (duty.duty, duty.enable))
         if self.record_every and k % self.record_every == 0:
             self._record(dtc_status, pfc_status, (gate, duty))
         plant.advance()
