@@ -175,7 +175,7 @@ class Trajectory:
 
     def __init__(self) -> None:
         self._parts: list = []
-        self._lists: dict | None = None
+        self._lists: dict[str, list] = {}   # built on first use, cleared on a change
         self.end_state = 'ended normally'
         self.fault_kinds: tuple = ()
 
@@ -186,32 +186,29 @@ class Trajectory:
         """The part per-sample records go to."""
         if not self._parts or not isinstance(self._parts[-1], _Rows):
             self._parts.append(_Rows())
-        self._lists = None
+        self._lists.clear()
         return self._parts[-1]
 
     def add_block(self, block: RecordBlock) -> None:
         if len(block):
             self._parts.append(block)
-            self._lists = None
+            self._lists.clear()
 
     def pop_last_if(self, step: int) -> None:
         """Drop the last record if it is of tick step (the final record of a previous run())."""
         parts = [p for p in self._parts if len(p)]
         if parts and self._last_step(parts[-1]) == step:
             parts[-1].pop()
-            self._lists = None
+            self._lists.clear()
 
     @staticmethod
     def _last_step(part) -> int:
         return part.steps[-1] if isinstance(part, _Rows) else int(part.steps_[part.n - 1])
 
     def _get(self, name: str) -> list:
-        if self._lists is None:
-            self._lists = {}
-        seq = self._lists.get(name)
-        if seq is None:
-            seq = self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
-        return seq
+        if name not in self._lists:
+            self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
+        return self._lists[name]
 
     steps = property(lambda self: self._get('steps'))
     times = property(lambda self: self._get('times'))
