@@ -68,10 +68,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     import yaml  # noqa: PLC0415
 
-    overrides = {}
-    for item in args.param:
-        name, _, value = item.partition('=')
-        overrides[name] = yaml.safe_load(value)
+    overrides = {name: yaml.safe_load(value)
+                 for name, _, value in (item.partition('=') for item in args.param)}
     try:
         params = plant_params(args.motor, **overrides)
         result = generator_test(params, args.points, args.speed)

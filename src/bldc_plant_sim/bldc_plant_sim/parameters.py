@@ -17,6 +17,8 @@ from drive_common import file_cache
 from drive_common.parameters import ParameterError, ParameterSpec, schema
 from drive_common.telemetry import TELEMETRY_PARAMETERS
 
+from .core.lockstep import ticks_of
+
 MOTORS_DIR = Path(__file__).resolve().parent.parent / 'motors'
 """Motor files in the source tree (the symlink install points back here)."""
 
@@ -191,14 +193,9 @@ PLANT_SPECS = (
 def _cross_checks(p: Mapping[str, Any]) -> None:
     """Checks that involve several parameters; raise ParameterError with the reason."""
     tick = p['base_tick']
-    for name in ('dtc_period', 'pfc_period'):
-        period = p[name]
-        if name == 'pfc_period' and not p['pfc_enabled']:
-            continue
-        if period > 0.0:
-            n = round(period / tick)
-            if n < 1 or abs(n * tick - period) > 1e-9 * period:
-                raise ParameterError(f'{name}: {period} s is not an integer multiple of base_tick {tick} s')
+    ticks_of(p['dtc_period'], tick, 'dtc_period')
+    if p['pfc_enabled']:
+        ticks_of(p['pfc_period'], tick, 'pfc_period')
     if p['integration.max_step'] > tick * (1 + 1e-12):
         raise ParameterError(f"integration.max_step: {p['integration.max_step']} s exceeds base_tick {tick} s")
     if p['inverter.dead_time'] >= tick:

@@ -83,7 +83,7 @@ def record_front_end(fp, fx, r, t, pfc_due, pfc_out, rec_sv, rec_x, rec_fe, rec_
 @njit
 def pfc_sample(fp, fx, buf, pfc_prm, pfc_st, pfc_buf, pfc_avg, n_avg, pfc_out, duty, delay, safe_reasons):
     """The PFC's sample (rectified voltage, link voltage, i_L sensed as PlantCore.pfc_sample) and
-    its duty latched as LockstepSchedule.latch_duty / PlantCore.apply_duty / FrontEnd.set_duty."""
+    its duty latched as LockstepSchedule.latch / PlantCore.apply_duty / FrontEnd.set_duty."""
     v_o = buf[PK.B_DC + DC_VU] + buf[PK.B_DC + DC_VL]
     pfc_step(pfc_prm, pfc_st, pfc_buf, pfc_avg, n_avg, FK.rectified_voltage(fp, fx), v_o, fx[FK.FX_IL],
              pfc_out)

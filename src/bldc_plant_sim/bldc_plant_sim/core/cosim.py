@@ -16,7 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .faults import run_end
-from .lockstep import LockstepSchedule, ticks_of
+from .lockstep import ControllerKind, LockstepSchedule, ticks_of
 from .front_end_kernel import FV_PROT
 from .plant import FRONT_END_FIELDS, PlantCore, PlantStateSample, front_extras, state_sample, sv_slots
 
@@ -175,7 +175,7 @@ class Trajectory:
 
     def __init__(self) -> None:
         self._parts: list = []
-        self._lists: dict | None = None
+        self._lists: dict[str, list] = {}   # built on first use, cleared on a change
         self.end_state = 'ended normally'
         self.fault_kinds: tuple = ()
 
@@ -186,32 +186,29 @@ class Trajectory:
         """The part per-sample records go to."""
         if not self._parts or not isinstance(self._parts[-1], _Rows):
             self._parts.append(_Rows())
-        self._lists = None
+        self._lists.clear()
         return self._parts[-1]
 
     def add_block(self, block: RecordBlock) -> None:
         if len(block):
             self._parts.append(block)
-            self._lists = None
+            self._lists.clear()
 
     def pop_last_if(self, step: int) -> None:
         """Drop the last record if it is of tick step (the final record of a previous run())."""
         parts = [p for p in self._parts if len(p)]
         if parts and self._last_step(parts[-1]) == step:
             parts[-1].pop()
-            self._lists = None
+            self._lists.clear()
 
     @staticmethod
     def _last_step(part) -> int:
         return part.steps[-1] if isinstance(part, _Rows) else int(part.steps_[part.n - 1])
 
     def _get(self, name: str) -> list:
-        if self._lists is None:
-            self._lists = {}
-        seq = self._lists.get(name)
-        if seq is None:
-            seq = self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
-        return seq
+        if name not in self._lists:
+            self._lists[name] = [x for part in self._parts for x in part.list_of(name)[:len(part)]]
+        return self._lists[name]
 
     steps = property(lambda self: self._get('steps'))
     times = property(lambda self: self._get('times'))
@@ -327,12 +324,12 @@ class CoSimulation:
             if gate.topology != plant.topology:
                 raise RuntimeError(f'gate command for a {gate.topology}-switch inverter, '
                                    f'the plant has {plant.topology}')
-            sched.latch_gates(plant, gate.switch_on)
+            sched.latch(plant, ControllerKind.GATE, gate.switch_on)
         if pfc_due:
             sample = plant.pfc_sample()
             if sample is not None:
                 duty, pfc_status = self.pfc.update(sample)
-                sched.latch_duty(plant, duty.duty, duty.enable)
+                sched.latch(plant, ControllerKind.DUTY, (duty.duty, duty.enable))
         if self.record_every and k % self.record_every == 0:
             self._record(dtc_status, pfc_status, (gate, duty))
         plant.advance()

@@ -31,7 +31,6 @@ class FaultKind(IntEnum):
         return self.name.lower()
 
 
-FAULT_KINDS = len(FaultKind)          # = the length of PlantState.fault_counts
 PENDING_MAX = 256                     # undrained events kept (the headless runner never drains)
 
 
@@ -62,7 +61,7 @@ class FaultRecord:
     """Counters per kind, the first fault, and the queue of events not yet reported."""
 
     def __init__(self) -> None:
-        self.counts = [0] * FAULT_KINDS
+        self.counts = [0] * len(FaultKind)   # PlantState.fault_counts
         self.total = 0
         self.first_kind = FaultKind.NONE
         self.first_time = math.nan

@@ -31,21 +31,17 @@ _EVENT_TEXT = ('inductor current zero (bridge blocks)', 'bridge forward biased: 
 _front_end_values = FK.front_end_values     # compiled: one dispatch for all the values
 _losses, _grid_voltage = interpreted(FK.losses), interpreted(FK.grid_voltage)
 
-PARAMETER_NAMES = {
-    'front_end.line_voltage': 'line_voltage', 'front_end.line_frequency': 'line_frequency',
-    'front_end.line_phase': 'line_phase', 'front_end.line_resistance': 'line_resistance',
-    'front_end.line_inductance': 'line_inductance', 'front_end.filter.enabled': 'filter_enabled',
-    'front_end.filter.inductance': 'filter_inductance',
-    'front_end.filter.capacitance': 'filter_capacitance',
-    'front_end.filter.resistance': 'filter_resistance', 'front_end.boost.inductance': 'inductance',
-    'front_end.boost.resistance': 'inductor_resistance',
-    'front_end.bridge.diode_drop': 'bridge_diode_drop',
-    'front_end.boost.switch_resistance': 'switch_resistance',
-    'front_end.boost.diode_drop': 'diode_drop', 'front_end.pwm_frequency': 'pwm_frequency',
-    'front_end.pwm_carrier': 'pwm_carrier', 'front_end.over_current_limit': 'over_current_limit',
-    'front_end.over_voltage_limit': 'over_voltage_limit',
-    'front_end.protection_latched': 'protection_latched', 'front_end.max_step': 'max_step',
-}
+
+def _keyword(name: str) -> str:
+    """The FrontEnd keyword of a ``front_end.*`` plant parameter: front_end.filter.inductance ->
+    filter_inductance, front_end.boost.diode_drop -> diode_drop (boost.resistance: of the inductor)."""
+    if name == 'front_end.boost.resistance':
+        return 'inductor_resistance'
+    return name.removeprefix('front_end.').removeprefix('boost.').replace('.', '_')
+
+
+PARAMETER_NAMES = {name: _keyword(name) for name in PLANT_SCHEMA.names()
+                   if name.startswith('front_end.') and name != 'front_end.enabled'}
 """Plant-schema name -> FrontEnd keyword."""
 DEFAULTS = {key: PLANT_SCHEMA[name].default for name, key in PARAMETER_NAMES.items()}
 """FrontEnd keyword -> its default (the plant schema's)."""

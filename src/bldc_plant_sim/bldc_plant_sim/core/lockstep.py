@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
+from drive_common.parameters import ParameterError
 from drive_common.samples import ALL_OFF
 
 
@@ -38,13 +39,13 @@ class ControllerKind(StrEnum):
 
 
 def ticks_of(period: float, base_tick: float, what: str) -> int:
-    """Integer number of base ticks in period; raises ValueError if not a multiple."""
+    """Integer number of base ticks in period (0 if period <= 0); raises ParameterError (a
+    ValueError) if it is not a multiple."""
     if period <= 0.0:
         return 0
     n = round(period / base_tick)
     if n < 1 or abs(n * base_tick - period) > 1e-9 * period + 1e-15:
-        raise ValueError(f'{what} = {period} s is not an integer multiple of the base tick '
-                         f'{base_tick} s')
+        raise ParameterError(f'{what}: {period} s is not an integer multiple of base_tick {base_tick} s')
     return n
 
 
@@ -85,12 +86,6 @@ class LockstepSchedule:
     def due(self, step: int) -> tuple[bool, bool]:
         """(DTC due, PFC due) at tick step."""
         return self.is_due(ControllerKind.GATE, step), self.is_due(ControllerKind.DUTY, step)
-
-    def latch_gates(self, plant, switch_on: tuple) -> None:
-        self.latch(plant, ControllerKind.GATE, switch_on)
-
-    def latch_duty(self, plant, duty: float, enable: bool) -> None:
-        self.latch(plant, ControllerKind.DUTY, (duty, enable))
 
     def latch(self, plant, which: ControllerKind, command: tuple) -> None:
         """Apply a controller's command (with computation_delay: the one held, holding this one)."""
