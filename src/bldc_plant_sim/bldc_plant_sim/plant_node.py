@@ -62,10 +62,13 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
         self._last_sources: dict[ControllerKind, str] = {}   # the command publishers last seen
         self._pending: dict[str, Any] | None = None
         self._lock = threading.Lock()
-        self.parameters = SchemaParameters(self, PLANT_SCHEMA, on_change=self._on_parameters,
-                                           is_running=lambda: self._running, sim_time=lambda: self.core.time)
         explicit = {n for n in PLANT_SCHEMA.names() if n in self._parameter_overrides}
         try:
+            # declared with the motor file's values in: start-up publishes no parameter change
+            self.parameters = SchemaParameters(
+                self, PLANT_SCHEMA, on_change=self._on_parameters, is_running=lambda: self._running,
+                sim_time=lambda: self.core.time,
+                start_values=lambda values: effective_params(values, explicit=explicit))
             params = effective_params(self.parameters.values, explicit=explicit)
             self.core = PlantCore(params)
         except (ValueError, OSError) as exc:

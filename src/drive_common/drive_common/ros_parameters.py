@@ -109,13 +109,16 @@ class SchemaParameters:
     """Declared parameters of one node, validated by its schema.
 
     on_change(snapshot): may refuse with ParameterError; is_running(): True while runtime=False
-    parameters are refused; sim_time: stamps later parameter events (:class:`SimStampedEvents`).
+    parameters are refused; sim_time: stamps later parameter events (:class:`SimStampedEvents`);
+    start_values(values) -> values: what to declare instead of the start-up values (a motor file's
+    values merged in), so that start-up publishes no parameter change.
     """
 
     def __init__(self, node, schema: ParameterSchema,
                  on_change: Callable[[dict[str, Any]], None] | None = None,
                  is_running: Callable[[], bool] = lambda: False,
-                 sim_time: Callable[[], SimTime] | None = None) -> None:
+                 sim_time: Callable[[], SimTime] | None = None,
+                 start_values: Callable[[dict[str, Any]], dict[str, Any]] | None = None) -> None:
         self._node = node
         self._schema = schema
         self._on_change = on_change
@@ -124,6 +127,8 @@ class SchemaParameters:
         overrides = getattr(node, '_parameter_overrides', None)
         if isinstance(overrides, dict):
             overrides.update({p.name: p for p in as_declared_type(schema, list(overrides.values()))})
+            if start_values is not None:
+                overrides.update(self._start_overrides(overrides, start_values))
         self._pre_set: list[Callable[[list], list]] = []
         node.add_pre_set_parameters_callback(self._before_set)
         declared = node.declare_parameters(
@@ -136,6 +141,18 @@ class SchemaParameters:
         node.add_on_set_parameters_callback(self._on_set)
         if sim_time is not None:
             SimStampedEvents.install(node, sim_time)
+
+    def _start_overrides(self, overrides: dict, start_values: Callable) -> dict:
+        """The overrides that make the declared values start_values(the start-up values)."""
+        from rclpy.parameter import Parameter
+        given = {n: p.value for n, p in overrides.items() if n in self._schema}
+        try:
+            requested = self._schema.validate_changes(self._schema.defaults(), given)
+        except ParameterError:
+            return {}                     # refused below, with the start-up error message
+        return {n: Parameter(n, Parameter.Type(_ros_type(self._schema[n])),
+                             list(v) if isinstance(v, tuple) else v)
+                for n, v in start_values(requested).items() if v != requested[n]}
 
     def __getitem__(self, name: str) -> Any:
         return self.values[name]

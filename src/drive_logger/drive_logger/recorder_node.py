@@ -12,8 +12,10 @@ import sys
 import threading
 import time
 
+from rcl_interfaces.msg import ParameterEvent
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, DurabilityPolicy
+from rclpy.serialization import deserialize_message
 
 from dtc_msgs.srv import MatchedPublishers
 
@@ -50,6 +52,19 @@ class _Topic:
                              else ros_types.message_class(type_name))
         self.subscription = None
         self.record = None
+
+
+PARAMETER_EVENT_TYPE = 'rcl_interfaces/msg/ParameterEvent'
+
+
+def _declares_only(data: bytes) -> bool:
+    """A parameter event that only declares parameters: sent as a node starts, so whether a
+    recorder hears it depends on discovery timing; not recorded (two runs give one bag)."""
+    try:
+        event = deserialize_message(data, ParameterEvent)
+    except Exception:  # noqa: BLE001 - malformed CDR: recorded as it came (see _canonical)
+        return False
+    return not event.changed_parameters and not event.deleted_parameters
 
 
 RECORDER_SCHEMA = schema([
@@ -187,8 +202,11 @@ class RecorderNode(Node):
     def _callback_for(self, topic: _Topic):
         bag = self.bag
         sim_log = self.sim_log
+        declarations_only = _declares_only if topic.type_name == PARAMETER_EVENT_TYPE else None
 
         def on_message(data: bytes, info: dict) -> None:
+            if declarations_only is not None and declarations_only(data):
+                return
             if topic.canonical_of is not None:
                 data = self._canonical(topic, data)
             with self._lock:

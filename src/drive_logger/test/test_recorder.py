@@ -167,6 +167,37 @@ def test_messages_from_other_publishers_are_recorded_in_canonical_cdr(ros_sessio
     assert [m.status[0].message for t, m in decoded if t == '/diagnostics'] == [f'm{k}' for k in range(20)]
 
 
+def test_parameter_declarations_are_left_out_and_changes_recorded(ros_session, start_node, tmp_path):
+    """A node declares its parameters as it starts, before or after a recorder has matched it
+    depending on discovery timing: declaration-only events are not recorded, so two recordings
+    of one scenario are the same bag; changes and deletions are."""
+    from rcl_interfaces.msg import Parameter, ParameterEvent, ParameterValue
+
+    from drive_common.cdr_padding import serialize_zero_padded
+    from drive_logger.bag_reader import BagReader
+
+    bag = tmp_path / 'bag'
+    recorder = _start_recorder(start_node, bag, topics=['/parameter_events'])
+    node = ros_session.node('publisher')
+    event_pub = node.create_publisher(ParameterEvent, '/parameter_events', 100)
+    wait_for_recorder(node, ['/parameter_events'], timeout=20.0)
+    wait_until(lambda: event_pub.get_subscription_count(), 20.0, what='the recorder matched')
+
+    def param(k):
+        return [Parameter(name=f'p{k}', value=ParameterValue(type=3, double_value=float(k)))]
+
+    declared = [ParameterEvent(node='/probe', new_parameters=param(k)) for k in range(5)]
+    kept = [ParameterEvent(node='/probe', changed_parameters=param(1)),
+            ParameterEvent(node='/probe', new_parameters=param(7), changed_parameters=param(2)),
+            ParameterEvent(node='/probe', deleted_parameters=param(3))]
+    for event in declared[:3] + kept[:2] + declared[3:] + kept[2:]:
+        event_pub.publish(event)
+    _all_received(event_pub)
+    assert _stop(recorder) == 0, recorder.output()
+    recorded = [msg.data for msg in BagReader(bag).messages(['/parameter_events'])]
+    assert recorded == [serialize_zero_padded(e) for e in kept]
+
+
 def test_sigint_mid_run_keeps_every_message_up_to_the_stop(ros_session, start_node, tmp_path, measurement_factory):
     bag = tmp_path / 'bag'
     recorder, pub = _record_measurements(ros_session, start_node, bag)
