@@ -17,11 +17,6 @@ from drive_common.parameters import ParameterError
 class ParameterMerging:
     """Mixin of :class:`~bldc_plant_sim.plant_node.PlantNode`: its parameter handling."""
 
-    def _merge_motor_file(self, params: dict[str, Any]) -> None:
-        """Show the values in use, then merge a later motor.file change's values with it."""
-        self._set_atomically({n: v for n, v in params.items() if v != self.parameters.values[n]})
-        self.parameters.add_pre_set(self._with_motor_file_values)
-
     def _set_atomically(self, values: dict[str, Any]) -> None:
         """Set several declared parameters in one validation (cross-checks see them together)."""
         if values:

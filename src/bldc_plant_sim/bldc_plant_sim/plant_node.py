@@ -69,12 +69,12 @@ class PlantNode(LockstepLoop, RunAction, PeerWatch, ParameterMerging, Node):
                 self, PLANT_SCHEMA, on_change=self._on_parameters, is_running=lambda: self._running,
                 sim_time=lambda: self.core.time,
                 start_values=lambda values: effective_params(values, explicit=explicit))
-            params = effective_params(self.parameters.values, explicit=explicit)
+            params = dict(self.parameters.values)
             self.core = PlantCore(params)
         except (ValueError, OSError) as exc:
             raise ParameterError(str(exc)) from exc   # run_node says 'cannot start'
         self.schedule = LockstepSchedule.from_params(params, self.core.base_tick)
-        self._merge_motor_file(params)
+        self.parameters.add_pre_set(self._with_motor_file_values)   # a later motor.file change
         self._open_lockstep()                # measurements out, commands in (stepping thread)
         # Ground truth: every sample in blocks (bags), a decimated live topic (people).
         self._state_pub = self.create_publisher(PlantState, topics.PLANT_STATE, topics.LIVE_QOS)
