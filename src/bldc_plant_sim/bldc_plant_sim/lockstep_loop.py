@@ -38,13 +38,6 @@ class StartupFailed(Exception):
     """A controller due in the run did not become ready within startup_timeout."""
 
 
-def _wrong_topology(msg, core: PlantCore) -> str | None:
-    """Why a gate command cannot be applied, or None (switch_on is bool[6] by its type)."""
-    if msg.topology != core.topology:
-        return f'gate command for a {msg.topology}-switch inverter, the plant has {core.topology}'
-    return None
-
-
 def _invalid_duty(msg, core: PlantCore) -> str | None:
     """Why a duty command cannot be applied (NaN, infinite or outside [0, 1]), or None."""
     return None if 0.0 <= msg.duty <= 1.0 else f'duty command with duty = {msg.duty!r}, outside [0, 1]'
@@ -76,7 +69,8 @@ CHANNELS = {
         'dtc_controller',
         topics.DRIVE_MEASUREMENT, DriveMeasurement, DriveSample,
         topics.GATE_COMMAND, GateCommand, GateSample, PlantCore.drive_sample,
-        lambda msg: tuple(bool(s) for s in msg.switch_on), _wrong_topology),
+        lambda msg: tuple(bool(s) for s in msg.switch_on),
+        lambda msg, core: core.wrong_topology(msg.topology)),   # switch_on is bool[6] by its type
     ControllerKind.DUTY: ChannelSpec(
         'pfc_controller',
         topics.PFC_MEASUREMENT, PfcMeasurement, PfcSample,

@@ -35,8 +35,9 @@ def test_every_kind_has_one_channel_whose_command_the_schedule_applies():
 
 def test_invalid_commands_are_named_per_kind():
     from types import SimpleNamespace
+    from bldc_plant_sim.core.plant import PlantCore
     from bldc_plant_sim.lockstep_loop import CHANNELS
-    core = SimpleNamespace(topology=6)
+    core = PlantCore({'inverter.topology': 6})
     gate, duty = CHANNELS[ControllerKind.GATE], CHANNELS[ControllerKind.DUTY]
     assert gate.invalid(SimpleNamespace(topology=6), core) is None
     assert '4-switch' in gate.invalid(SimpleNamespace(topology=4), core)

@@ -321,9 +321,9 @@ class CoSimulation:
             gate, dtc_status = self.dtc.update(plant.drive_sample())
             if gate.step != k:
                 raise RuntimeError(f'DTC core answered step {gate.step} for step {k}')
-            if gate.topology != plant.topology:
-                raise RuntimeError(f'gate command for a {gate.topology}-switch inverter, '
-                                   f'the plant has {plant.topology}')
+            wrong = plant.wrong_topology(gate.topology)
+            if wrong is not None:
+                raise RuntimeError(wrong)
             sched.latch(plant, ControllerKind.GATE, gate.switch_on)
         if pfc_due:
             sample = plant.pfc_sample()

@@ -330,6 +330,12 @@ class PlantCore:
             self._legs_of_code[code] = legs
         return code
 
+    def wrong_topology(self, topology: int) -> str | None:
+        """Why a gate command for a topology-switch inverter cannot be applied, or None."""
+        if topology != self.topology:
+            return f'gate command for a {topology}-switch inverter, the plant has {self.topology}'
+        return None
+
     def step_of(self, time: float) -> int:
         """Base tick index at sim time [s] (rounded to the nearest tick)."""
         return int(round(time / self.base_tick))
