@@ -149,8 +149,7 @@ class PlantCore:
 
     def __init__(self, params: dict | None = None) -> None:
         p = self.validate(params or {})
-        self._requested = PLANT_SCHEMA.validate_changes(PLANT_SCHEMA.defaults(),
-                                                             params or {}, running=False)
+        self._requested = PLANT_SCHEMA.resolve(params, strict=False)
         self.params = p
         self.base_tick = p['base_tick']
         self.step = 0
@@ -224,8 +223,7 @@ class PlantCore:
         """Apply a new snapshot at a sample boundary, state kept: runtime parameters in place,
         changed held ones rebuild their part (the stored-energy baseline moves with it)."""
         p = self.check_params(params)
-        requested = PLANT_SCHEMA.validate_changes(PLANT_SCHEMA.defaults(), params,
-                                                       running=False)
+        requested = PLANT_SCHEMA.resolve(params, strict=False)
         old = self.params
         changed = {n for n in p if p[n] != old.get(n)}
         stored_before = self.stored_energy()
