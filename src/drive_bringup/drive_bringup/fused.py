@@ -67,7 +67,7 @@ class FusedDtcLoop:
                              + [plant.commanded_code(held), plant.commanded_code()], dtype=np.int64)
         loop = np.zeros(F.L_SIZE, dtype=np.int64)
         nc = len(run.commands)
-        loop[F.L_LEGS], loop[F.L_CMD], loop[F.L_HELD] = plant._code(plant._legs), nc + 1, nc
+        loop[F.L_LEGS], loop[F.L_CMD], loop[F.L_HELD] = plant._codes[plant._legs], nc + 1, nc
         out = np.zeros(max(run.out_size, 18))
         rec_step = np.zeros(n_rec, np.int64)
         rec_sv = np.zeros((n_rec, PK.SV_SIZE))

@@ -127,6 +127,18 @@ def sv_slots() -> dict:
     return out
 
 
+class Memo(dict):
+    """fn's value per key, computed at the first lookup ``memo[key]`` (hits cost a dict lookup)."""
+
+    def __init__(self, fn) -> None:
+        super().__init__()
+        self.fn = fn
+
+    def __missing__(self, key):
+        value = self[key] = self.fn(key)
+        return value
+
+
 class EnergyLedger:
     """Cumulative losses and work since start [J] in the core's state array (ST_* slots)."""
 
@@ -289,11 +301,12 @@ class PlantCore:
 
     def _derive_constants(self, max_step: float) -> None:
         """The kernels' parameter array (plant_kernel PR_*), the back-EMF table and buffers."""
-        self._legs_of: dict = {}        # gate tuple -> (leg codes, shoot-through legs) (memo)
-        self._switches_of: dict = {}    # leg codes -> applied gate tuple
-        self._codes: dict = {}          # leg codes -> plant_kernel.leg_code (memo)
-        self._legs_of_code: dict = {}   # and back
         inv, m = self.inverter, self.motor
+        # memos: gate tuple -> (leg codes, shoot-through legs), leg codes <-> code, -> applied gates
+        self._legs_of = Memo(lambda switch_on: (inv.legs(switch_on), inv.shoot_through_legs(switch_on)))
+        self._codes = Memo(K.leg_code)
+        self._legs_of_code = Memo(lambda code: tuple(K.legs_of_code(code).tolist()))
+        self._switches_of = Memo(inv.switches)
         can_open = inv.v_ce + inv.v_d > 0.0   # switched legs have a blocking band at i = 0
         substeps = max(1, math.ceil(self.base_tick / max_step - 1e-9))
         h = self.base_tick / substeps
@@ -310,7 +323,7 @@ class PlantCore:
         prm[K.PR_LM] = m.inductance
         self._lut = shape.lut_k_array.copy()
         self._lut_psi = shape.lut_psi_array.copy()
-        self._off_code = self._code(inv.all_off())   # a trip inside a tick ends there
+        self._off_code = self._codes[inv.all_off()]   # a trip inside a tick ends there
         self._ev = np.zeros(((substeps + 2) * (K.MAX_EVENTS_PER_STEP + 2), 4))
 
     def _adopt(self) -> None:
@@ -320,13 +333,6 @@ class PlantCore:
             if part.x is not view:
                 view[:] = part.x
                 part.x = view
-
-    def _code(self, legs: tuple) -> int:
-        code = self._codes.get(legs)
-        if code is None:
-            code = self._codes[legs] = K.leg_code(legs)
-            self._legs_of_code[code] = legs
-        return code
 
     def wrong_topology(self, topology: int) -> str | None:
         """Why a gate command for a topology-switch inverter cannot be applied, or None."""
@@ -341,11 +347,7 @@ class PlantCore:
     def apply_gates(self, switch_on: tuple) -> None:
         """Latch SW1..SW6 until the next call (forced off by safe state or trip); a shoot-through
         is a fault, then safe state or interlock per ``inverter.shoot_through`` (docs/faults.md)."""
-        memo = self._legs_of.get(switch_on)
-        if memo is None:
-            memo = self._legs_of[tuple(switch_on)] = (self.inverter.legs(switch_on),
-                                                      self.inverter.shoot_through_legs(switch_on))
-        self._commanded, shorted = memo
+        self._commanded, shorted = self._legs_of[switch_on]
         if shorted:
             self._shoot_through(shorted)
 
@@ -443,7 +445,7 @@ class PlantCore:
     def state(self) -> PlantStateSample:
         """Ground truth at t_k (numeric fields: plant_kernel.state_values; terminal voltages with
         the legs applied at the end of [t_k - T_s, t_k))."""
-        K.state_values(self._buf, self._lut, self._lut_psi, self._code(self._legs))
+        K.state_values(self._buf, self._lut, self._lut_psi, self._codes[self._legs])
         sv = self._sv.tolist()
         fe = self.fe
         if fe is not None:
@@ -478,35 +480,27 @@ class PlantCore:
         """Integrate one base tick with the latched commands (plant_kernel.advance_tick)."""
         fe = self.fe
         fp, fx = (fe.fp, fe.fx) if fe is not None else (K.NO_FRONT_END, K.NO_FRONT_END)
-        target = self._off_code if self.in_safe_state else self._code(self._commanded)
+        target = self._off_code if self.in_safe_state else self._codes[self._commanded]
         n_ev, code = K.advance_tick(self._buf, self._lut, self._ev, self.time, self._trip_level(),
-                                    self._code(self._legs), target, self._off_code, fp, fx)
+                                    self._codes[self._legs], target, self._off_code, fp, fx)
         self.finish_ticks(self.step + 1, code, self._ev[:min(n_ev, len(self._ev))].tolist())
 
     def finish_ticks(self, step: int, code: int | None = None, events=()) -> None:
         """After compiled ticks up to tick step: applied legs (leg code), located events (when, kind,
         phase, current[, tick]) acted on in order, the clock."""
         if code is not None:
-            legs = self._legs_of_code.get(code)
-            self._legs = legs if legs is not None else tuple(K.legs_of_code(code).tolist())
+            self._legs = self._legs_of_code[code]
         last = self.step
         for row in events:
             self.step = int(row[4]) if len(row) > 4 else last
             self._record_event(row[0], int(row[1]), int(row[2]), row[3])
-        applied = self._switches_of.get(self._legs)
-        if applied is None:
-            applied = self._switches_of[self._legs] = self.inverter.switches(self._legs)
-        self._applied = applied
+        self._applied = self._switches_of[self._legs]
         self.step = step
         self.time = step * self.base_tick
 
     def commanded_code(self, switch_on: tuple | None = None) -> int:
         """Leg code of a gate command (None: of the one latched now); shoot-through is not checked."""
-        if switch_on is None:
-            return self._code(self._commanded)
-        memo = self._legs_of.get(switch_on)
-        legs = memo[0] if memo is not None else self.inverter.legs(switch_on)
-        return self._code(legs)
+        return self._codes[self._commanded if switch_on is None else self._legs_of[switch_on][0]]
 
     def _record_event(self, when: float, kind: int, q: int, current: float) -> None:
         """Act on and log an event (plant_kernel EV_*, or a front-end event) at sim time when [s]."""
