@@ -1,9 +1,9 @@
 """reproduce: run every shipped scenario that checks a seed result; print the table.
 
-    reproduce [--only TEXT] [--ros] [--out reports] [--readme FILE] [--docs docs/reproduction.md]
+    reproduce [--only TEXT] [--ros] [--out reports] [--docs docs/reproduction.md]
 
-Headless in 2 processes by default (--ros: through the ROS graph, recorded bags); --readme and
---docs refresh the table between the markers of a file. Each row: scenario, seed reference,
+Headless in 2 processes by default (--ros: through the ROS graph, recorded bags); --docs (alias
+--readme) refreshes the table between the markers of a file. Each row: scenario, seed reference,
 what is checked, the seed's and the simulated value, the criterion (seed ± tolerance, or
 bounds) and pass/fail. Exit code 0 when every check passes, 1 otherwise.
 """
@@ -92,13 +92,11 @@ def main(argv=None) -> int:
     parser.add_argument('--ros', action='store_true', help='through the ROS graph (recorded)')
     parser.add_argument('--out', type=Path, default=Path('reports'))
     parser.add_argument('--jobs', type=int, default=2)
-    parser.add_argument('--readme', type=Path, help='replace the table between the markers of this file')
-    parser.add_argument('--docs', type=Path, action='append', default=[],
-                        help='replace the table between the markers of this documentation page '
-                             '(docs/reproduction.md); may be given more than once')
+    parser.add_argument('--docs', '--readme', type=Path, action='append', default=[],
+                        help='replace the table between the markers of this file (a README or a '
+                             'documentation page: docs/reproduction.md); may be given more than once')
     args = parser.parse_args(argv)
-    targets = ([args.readme] if args.readme else []) + args.docs
-    for path in targets:            # before the run, not after it
+    for path in args.docs:          # before the run, not after it
         _check_markers(path)
     paths = [p for p in sorted(scenario_dir().glob('*.yaml'))
              if args.only in p.stem and load_scenario(p).checks]
@@ -127,7 +125,7 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / 'reproduction.md').write_text(table + footer + ('\n'.join(notes) + '\n' if notes else ''))
     (args.out / 'reproduction.json').write_text(json.dumps(rows, indent=2, default=str))
-    for path in targets:
+    for path in args.docs:
         update_readme(path, table + footer)
     print()
     print(table + footer)
