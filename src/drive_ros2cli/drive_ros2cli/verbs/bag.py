@@ -83,7 +83,6 @@ def _size(num_bytes: int) -> str:
         if size < 1024 or unit == 'GiB':
             return f'{size:.1f} {unit}' if unit != 'B' else f'{num_bytes} B'
         size /= 1024
-    return f'{num_bytes} B'
 
 
 def _stamp(ns: int) -> str:
