@@ -84,7 +84,7 @@ def per_sample_messages(reader: BagReader, topics: Iterable[str] | None = None) 
     recorded = {t for t in reader.topics if t in wanted and t not in sources
                 and not (every and t in expanded)}
     block_classes = {b: block_class(b) for b in expanded}
-    part_names = {b: [f'dtc_msgs/msg/{c.__name__}' for c in part_classes(b)] for b in expanded}
+    part_names = {b: [ros_types.type_name(c) for c in part_classes(b)] for b in expanded}
     pending: list = []                      # heap of (log_time, tie, seq, BagMessage)
     seq = 0
     for msg in reader.messages(sorted(recorded | set(expanded))):

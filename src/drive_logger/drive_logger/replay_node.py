@@ -107,7 +107,7 @@ class ReplayNode(Node):
             for topic, (block_topic, part) in block_sources(self.reader).items():
                 topics.pop(block_topic, None)
                 msg_type = part_classes(block_topic)[part]
-                topics[topic] = (f'dtc_msgs/msg/{msg_type.__name__}', infos[block_topic].qos_profiles)
+                topics[topic] = (ros_types.type_name(msg_type), infos[block_topic].qos_profiles)
         return topics
 
     def play_once(self, stop: threading.Event) -> None:

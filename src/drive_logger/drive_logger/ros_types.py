@@ -22,6 +22,11 @@ def message_class(type_name: str):
         raise UnknownTypeError(f'unknown message type {type_name!r}: {exc}') from exc
 
 
+def type_name(msg_class: type) -> str:
+    """The type 'pkg/msg/Type' of a generated message class (message_class's inverse)."""
+    return f"{msg_class.__module__.split('.')[0]}/msg/{msg_class.__name__}"
+
+
 def qos_to_dict(qos: QoSProfile) -> dict:
     """rclpy QoSProfile -> metadata.yaml v9 profile."""
     return qos_yaml.profile(

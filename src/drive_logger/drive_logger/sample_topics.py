@@ -20,7 +20,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from drive_common.cdr_padding import ENCAPSULATION_HEADER, PRIMITIVE_SIZES, STRUCT_CODES, canonical_bytes, padding
 from drive_common.telemetry import Decimator
 from drive_common.telemetry_blocks import block_columns, check_lengths, expand, layout, sample_stamps_ns
-from drive_logger import qos_yaml
+from drive_logger import qos_yaml, ros_types
 from drive_logger.bag_writer import BagWriteError, BagWriter, TopicRecord
 from drive_logger.block_topics import BLOCK_TOPICS, block_class, part_classes, split_namespace
 from drive_logger.message_definitions import TypeDefinition, type_definition
@@ -60,7 +60,7 @@ class SampleTopics:
             for part in self.parts:
                 if part >= len(classes):     # the plant's block has one part
                     continue
-                type_name = f'dtc_msgs/msg/{classes[part].__name__}'
+                type_name = ros_types.type_name(classes[part])
                 out[namespace + BLOCK_TOPICS[base][1][part]] = (type_name, block_topic, part)
         return out
 

@@ -27,7 +27,7 @@ from drive_logger.bag_writer import BagWriter
 from drive_logger.block_topics import block_sources, per_sample_messages
 from drive_logger.graph_topics import GRAPH_TOPIC_TYPES
 from drive_logger.message_definitions import type_definition
-from drive_logger.ros_types import message_class
+from drive_logger.ros_types import message_class, type_name
 
 
 class _Tap:
@@ -99,8 +99,7 @@ class _Bag:
     def write(self, topic: str, msg, stamp_ns: int) -> None:
         record = self._topics.get(topic)
         if record is None:
-            module = type(msg).__module__.split('.')[0]
-            definition = type_definition(f'{module}/msg/{type(msg).__name__}')
+            definition = type_definition(type_name(type(msg)))
             record = self._topics[topic] = self.writer.add_topic('/' + topic, definition, self._qos)
         self.writer.write(record, serialize_zero_padded(msg), stamp_ns, stamp_ns)  # as recorded
 
@@ -117,7 +116,7 @@ def _fill(msg_type, data, stamp_ns: int):
 
 def _per_sample_streams(samples: HeadlessSamples):
     """(stamp_ns, order, topic, message) of every per-sample message of the run."""
-    types = {topic: message_class(type_name) for topic, type_name in GRAPH_TOPIC_TYPES.items()}
+    types = {topic: message_class(name) for topic, name in GRAPH_TOPIC_TYPES.items()}
     for stamp, state in samples.states:
         yield stamp, 3, names.PLANT_STATE, _fill(types[names.PLANT_STATE], state, stamp)
     for records, (meas, cmd, status) in (
