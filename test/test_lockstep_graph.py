@@ -397,12 +397,12 @@ def test_a_repeated_measurement_is_answered_again_without_a_second_core_update(
     wait_until(lambda: len(gates) > answers, 30.0, what='the repeated answer')
     assert all(g == gates[0] for g in gates)
     assert len(statuses) == 1                              # re-sends update the core once
-    msg.step = 1
+    msg.step, msg.hold_after = 1, True                      # the last sample before a hold
     pub.publish(msg)
     wait_until(lambda: len(statuses) == 2, 30.0, what='answer to step 1')
     assert [s.step for s in statuses] == [0, 1]           # one core update per step
-    # The status blocks (flushed while no measurement comes): one sample per core update,
-    # each with the measurement it acted on and the command it sent, bit-exact.
+    # The status block (flushed after the sample marked hold_after): one sample per core
+    # update, each with the measurement it acted on and the command it sent, bit-exact.
     wait_until(lambda: len(blocks.records) >= 2, 30.0, what='the status blocks')
     assert [status.step for status, _, _ in blocks.records] == [0, 1]
     (status, measurement, command), _ = blocks.records

@@ -8,6 +8,7 @@
 - Bad parameters are rejected with a reason and the old value is kept.
 - Ground truth travels in blocks (plant/state_block): every sample, bit-exact,
   partial blocks flushed at each hold; plant/state carries every M-th sample.
+- The last measurement before each hold is marked hold_after (the controllers' block end).
 """
 import math
 import time
@@ -157,6 +158,24 @@ def test_blocks_carry_every_sample_bit_exact_across_holds(start_node, ros_sessio
     assert [s.step for s in client.live] == list(range(0, 161, 10))
     for state in client.live:
         assert same_bits(state, truth[state.step]), state.step
+
+
+def test_the_last_measurement_before_each_hold_is_marked(start_node, ros_session):
+    """hold_after marks the controller's last due sample before each hold, whatever the
+    period: with a DTC period of 3 ticks, holds at steps 124 and 164 mark 123 and 162."""
+    from dtc_msgs.msg import DriveMeasurement
+    _start_graph(start_node, {'dtc_period': 75e-6})
+    client = PlantClient(ros_session)
+    marks = {}
+    seen = client.node.create_subscription(
+        DriveMeasurement, topics.DRIVE_MEASUREMENT,
+        lambda m: marks.__setitem__(m.step, m.hold_after), topics.LOCKSTEP_READER_QOS)
+    wait_until(lambda: seen.get_publisher_count() >= 1, 30.0, what='drive/measurement matched')
+    assert client.run(0.0031).success                          # hold at step 124
+    assert client.run(0.001, relative=True).success            # hold at step 164
+    wait_until(lambda: 162 in marks, 30.0, what='the measurement of step 162')
+    assert sorted(marks) == list(range(0, 163, 3))
+    assert sorted(step for step, held in marks.items() if held) == [123, 162]
 
 
 def test_run_action_stops_exactly_and_holds(start_node, ros_session):

@@ -192,7 +192,7 @@ class LockstepLoop:
 
     def run_to(self, target_step: int, goal_handle=None) -> tuple[bool, str]:
         """Advance to target_step (held there); (success, message)."""
-        self._running = True
+        self._running, self._target_step = True, target_step
         self._faults: list[str] = []
         faults_before = list(self.core.faults.counts)
         self.last_run_end = None
@@ -314,14 +314,16 @@ class LockstepLoop:
         """One base tick of the lockstep protocol."""
         k = self.core.step
         if self._first_clock_due():
-            # The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers: before any
-            # measurement, or a controller would take the wait for a hold and split its block.
+            # The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers, before any
+            # measurement goes out.
             self._publish_state_once()
         due = [c for c in self._channels.values() if self.schedule.is_due(c.kind, k)]
         if due:
             sec, nanosec = sec_nanosec(self.core.time)
             for channel in due:
-                channel.send(channel.wire.encode(channel.spec.sample_of(self.core), sec, nanosec))
+                sample = channel.spec.sample_of(self.core)
+                sample.hold_after = self.schedule.holds_after(channel.kind, k, self._target_step)
+                channel.send(channel.wire.encode(sample, sec, nanosec))
         # Ground truth at t_k goes out while the controllers compute their answers.
         self._publish_state_once()
         deadline = time.monotonic() + self.parameters['command_timeout']

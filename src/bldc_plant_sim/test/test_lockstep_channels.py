@@ -56,9 +56,9 @@ def test_a_kind_is_its_string_and_the_schedule_knows_its_period():
 
 
 def test_the_first_clock_and_its_readers_wait_come_before_the_first_measurement():
-    """The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers' acknowledgements.
-    Were measurement 0 out first, its controller would take that wait for a hold and send a
-    partial status block whose size depends on wall time (two recordings would differ)."""
+    """The first /clock waits (up to FIRST_CLOCK_ACK_WAIT) for its readers' acknowledgements
+    before measurement 0 goes out; later the ground truth goes out while the controller
+    computes, and the sample before the hold step is marked hold_after."""
     from types import SimpleNamespace
     from bldc_plant_sim.lockstep_loop import LockstepLoop
     from bldc_plant_sim.plant_node import PlantNode
@@ -71,16 +71,18 @@ def test_the_first_clock_and_its_readers_wait_come_before_the_first_measurement(
 
         def __init__(self) -> None:
             self.core = SimpleNamespace(step=0, time=0.0, advance=self._advance)
-            self.schedule = SimpleNamespace(clock_ticks=2, state_ticks=1, is_due=lambda kind, k: True)
+            self.schedule = SimpleNamespace(clock_ticks=2, state_ticks=1, is_due=lambda kind, k: True,
+                                            holds_after=lambda kind, k, hold: k + 1 >= hold)
             self._clock_pub = SimpleNamespace(
                 publish=lambda msg: events.append(('clock', self.core.step)),
                 wait_for_all_acked=lambda timeout: events.append(('clock readers waited', self.core.step)) or True)
             self._channels = {ControllerKind.GATE: SimpleNamespace(
-                kind=ControllerKind.GATE, wire=SimpleNamespace(encode=lambda *args: b'm'),
-                spec=SimpleNamespace(sample_of=lambda core: None),
-                send=lambda data: events.append(('measurement', self.core.step)))}
+                kind=ControllerKind.GATE, wire=SimpleNamespace(encode=lambda sample, *_: sample),
+                spec=SimpleNamespace(sample_of=lambda core: SimpleNamespace()),
+                send=lambda sample: events.append(('measurement', self.core.step, sample.hold_after)))}
             self.parameters = {'command_timeout': 1.0}
             self._clock_acked, self._state_sent_step = False, -1
+            self._target_step = 3
 
         def _advance(self) -> None:
             self.core.step += 1
@@ -95,8 +97,8 @@ def test_the_first_clock_and_its_readers_wait_come_before_the_first_measurement(
     ticks = Ticks()
     for _ in range(3):
         ticks._tick()
-    assert events == [('state', 0), ('clock', 0), ('clock readers waited', 0), ('measurement', 0),
+    assert events == [('state', 0), ('clock', 0), ('clock readers waited', 0), ('measurement', 0, False),
                       ('command', 0),
                       # later: the ground truth goes out while the controller computes
-                      ('measurement', 1), ('state', 1), ('command', 1),
-                      ('measurement', 2), ('state', 2), ('clock', 2), ('command', 2)]
+                      ('measurement', 1, False), ('state', 1), ('command', 1),
+                      ('measurement', 2, True), ('state', 2), ('clock', 2), ('command', 2)]

@@ -33,6 +33,7 @@ def _arrays(cols: dict[str, list]) -> dict[str, np.ndarray]:
 
 def _recorded_columns(reader: BagReader, topics: list[str]) -> dict[str, dict[str, np.ndarray]]:
     """Columns of per-sample messages as recorded."""
+    from drive_common.telemetry_blocks import HOLD_MARK
     rows: dict[str, dict[str, list]] = {t: {} for t in topics}
     for msg, decoded in reader.decoded_messages(topics):
         cols = rows[msg.topic]
@@ -41,7 +42,7 @@ def _recorded_columns(reader: BagReader, topics: list[str]) -> dict[str, dict[st
             if name == 'header':
                 cols.setdefault('t', []).append(value.stamp.sec + value.stamp.nanosec * 1e-9)
                 continue
-            if hasattr(value, '__slots__'):
+            if hasattr(value, '__slots__') or name == HOLD_MARK:
                 continue
             cols.setdefault(name, []).append(list(value) if isinstance(value, (list, tuple, np.ndarray))
                                              else value)
@@ -74,9 +75,9 @@ def _part_arrays(block_topic: str, part: int, column) -> dict[str, np.ndarray]:
     by_source = {c.source: c for c in lay.columns + lay.per_block if c.part == part}
     arrays = {'t': np.asarray(column(block_topic, 'time', 1), dtype=float)}
     for name in msg_type.get_fields_and_field_types():
-        if name == 'header':
-            continue
         source = by_source.get(name)
+        if source is None and name != 'step':
+            continue            # the header, and the hold mark
         values = np.asarray(column(block_topic, 'step', 1) if name == 'step'
                             else column(block_topic, source.name, source.width))
         # the dtypes the recorded path gives: float64 numbers, object strings

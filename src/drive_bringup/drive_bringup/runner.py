@@ -386,13 +386,9 @@ class GraphRunner:
                 if key in self.scenario.nodes and _absolute_topic(topic) in record_topics(self.scenario)}
 
     def _wait_status_blocks(self, executor, ends: dict[str, list[int]], final_step: int) -> float:
-        """Wait at a hold until each controller's partial block is out (it flushes once no
-        measurement came for HOLD_FLUSH s); the wall time waited.
-
-        So every hold of the run closes the controllers' blocks, whatever the wall time
-        between goals (the same block boundaries, hence the same message data, in every
-        run of a scenario), and the recorder, stopped after the last hold, has every sample.
-        """
+        """Wait at a hold until each controller's partial block is out (it flushes after the
+        sample marked ``hold_after``); the wall time waited. So the recorder, stopped after the
+        last hold, has every sample."""
         begun = time.monotonic()
         schedule = self._schedule()
         ticks = {'dtc_controller': schedule.dtc_ticks, 'pfc_controller': schedule.pfc_ticks}

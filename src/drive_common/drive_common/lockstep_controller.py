@@ -8,7 +8,6 @@ status blocks and the decimated live status (docs/architecture.md "Time and lock
 from __future__ import annotations
 
 import threading
-import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -36,8 +35,6 @@ __all__ = ['LockstepChannels', 'LockstepControllerNode']
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
-HOLD_FLUSH = 0.5           # s without a measurement after which a partial block goes out
-FIRST_HOLD_FLUSH = 5.0     # the same until the second sample (a slow first exchange is no hold)
 POLL = 0.1                 # s per wait for measurements (the stop flag is checked between)
 MATCH_WAIT = 5.0           # s the first answer waits for the telemetry readers to match
 
@@ -97,7 +94,6 @@ class LockstepControllerNode(Node):
         self._last_measurement = self._last_command = self._last_stamp = None   # bytes, bytes, (sec, ns)
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
         self._conflict: str | None = None     # a second graph found: refuse to run (exit 2)
-        self._peer_heard_at = time.monotonic()   # the bound plant's last measurement (for HOLD_FLUSH)
         self._binding = PeerBinding(self, channels.measurement_topic, channels.command_topic,
                                     report=self._diagnose_intruder,
                                     may_bind=lambda: self._graph_conflict() is None)
@@ -120,9 +116,6 @@ class LockstepControllerNode(Node):
         while not self._stop.is_set() and rclpy.ok(context=self.context):
             try:
                 self._receiver.poll(POLL)
-                quiet = HOLD_FLUSH if self.samples_answered > 1 else FIRST_HOLD_FLUSH
-                if time.monotonic() - self._peer_heard_at >= quiet:
-                    self._telemetry.flush()      # no measurement for a while: the plant holds
             except Exception as exc:  # noqa: BLE001 - shutdown races end the loop quietly
                 if self._stop.is_set() or not rclpy.ok(context=self.context):
                     return
@@ -171,8 +164,6 @@ class LockstepControllerNode(Node):
         """A measurement from the bound plant (binding it if none is); others are ignored."""
         if self._binding.accepts(publisher):
             self._on_measurement(data)
-            # after the answer: a slow one (the first, a loaded machine) is no hold
-            self._peer_heard_at = time.monotonic()
 
     def _diagnose_intruder(self, message: str, values: dict[str, str]) -> None:
         """An intruder on a lockstep topic, once (WARN on /diagnostics)."""
@@ -206,6 +197,8 @@ class LockstepControllerNode(Node):
         self._last_measurement, self._last_stamp = data, (sec, nanosec)
         if self._status_pub is not None and status is not None:   # None: no status for this sample
             self._publish_status(status, sample, command, sec, nanosec)
+        if sample.hold_after:
+            self._telemetry.flush()      # the plant holds sim time after this sample
         self.samples_answered += 1
 
     def _match_telemetry_readers(self) -> None:

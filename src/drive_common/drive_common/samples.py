@@ -26,6 +26,7 @@ class DriveSample:
     encoder_angle: float         # rad, electrical, [0, 2 pi)
     hall_code: int               # bit0 = H_a, bit1 = H_b, bit2 = H_c
     mechanical_speed: float      # rad/s
+    hold_after: bool = False     # the last sample before the plant holds sim time
 
 
 @dataclass(slots=True)
@@ -46,6 +47,7 @@ class PfcSample:
     rectified_voltage: float     # V
     inductor_current: float      # A
     output_voltage: float        # V
+    hold_after: bool = False     # the last sample before the plant holds sim time
 
 
 @dataclass(slots=True)

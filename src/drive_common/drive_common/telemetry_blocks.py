@@ -38,7 +38,12 @@ _ELEMENT = {
     'uint64': ('Q', np.uint64),
     'boolean': (None, np.bool_),
 }
-_HEADER_FIELDS = ('header', 'step')
+HOLD_MARK = 'hold_after'
+"""The measurements' mark of the last sample before a hold: lockstep protocol, not data, so
+blocks (and the columns read from a bag) leave it out and recorded data do not depend on where
+a run held."""
+LEFT_OUT = ('header', 'step', HOLD_MARK)
+"""Per-sample fields without a block array (header and step come from the block's own)."""
 
 
 @dataclass(frozen=True)
@@ -77,7 +82,7 @@ def layout(block_type: type) -> BlockLayout:
     columns, per_block = [], []
     for index, (prefix, msg_type) in enumerate(parts):
         for source, rosidl_type in msg_type.get_fields_and_field_types().items():
-            if source in _HEADER_FIELDS:
+            if source in LEFT_OUT:
                 continue
             element, width = _split_type(rosidl_type)
             column = Column(prefix + source, index, source, element, width)

@@ -16,8 +16,8 @@ from drive_common.samples import DriveSample, GateSample
 from drive_common.parameters import ParameterError, schema
 from drive_common.telemetry import (DEFAULT_BLOCK_SIZE, MAX_BLOCK_SIZE, TELEMETRY_PARAMETERS, Decimator,
                                     nanoseconds)
-from drive_common.telemetry_blocks import (BLOCK_PARTS, BlockPacker, block_columns, expand,
-                                           layout, stamp_ns, step_gaps)
+from drive_common.telemetry_blocks import (BLOCK_PARTS, HOLD_MARK, LEFT_OUT, BlockPacker, block_columns,
+                                           expand, layout, stamp_ns, step_gaps)
 from dtc_msgs.msg import DtcStatusBlock, PfcStatusBlock, PlantState, PlantStateBlock
 
 BLOCK_TYPES = (PlantStateBlock, DtcStatusBlock, PfcStatusBlock)
@@ -40,8 +40,8 @@ def test_every_per_sample_field_has_its_block_array(block_type):
         assert block_fields.pop(name) == kind, name
     for prefix, msg_type in BLOCK_PARTS[block_type]:
         for field, kind in msg_type.get_fields_and_field_types().items():
-            if field in ('header', 'step'):
-                assert kind == {'header': 'std_msgs/Header', 'step': 'uint64'}[field]
+            if field in LEFT_OUT:
+                assert kind == {'header': 'std_msgs/Header', 'step': 'uint64', HOLD_MARK: 'boolean'}[field]
                 continue
             element = kind.split('[')[0]
             want = 'string' if element == 'string' else f'sequence<{element}>'
@@ -78,7 +78,7 @@ def _samples(block_type, steps, seed=1):
             msg.step = step
             msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(nanoseconds(step * TICK), 10**9)
             for field, kind in msg_type.get_fields_and_field_types().items():
-                if field not in ('header', 'step'):
+                if field not in LEFT_OUT:
                     setattr(msg, field, _random_value(rng, kind))
             msgs.append(msg)
         out.append(tuple(msgs))

@@ -45,11 +45,12 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
     wait_until(lambda: node.count_publishers(topics.PFC_STATUS) >= 1, 20.0, what='status publisher')
 
-    def send(step: int) -> None:
+    def send(step: int, hold_after: bool = False) -> None:
         msg = PfcMeasurement(step=step, rectified_voltage=20.0, inductor_current=1.0,
                              output_voltage=75.0)
         msg.header.stamp = time_msg(step * 12.5e-6)
-        sent[step] = message_bits(msg)
+        sent[step] = message_bits(msg)       # as a block records it: without the hold mark
+        msg.hold_after = hold_after
         send_until_answered(lambda: pub.publish(msg), lambda: step in duties and step in statuses,
                             what=f'answer to step {step}')
 
@@ -73,11 +74,11 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     ok = call(client.set_parameters([Parameter('voltage_reference', value=90.0),
                                      Parameter('enable', value=False)]))
     assert all(r.successful for r in ok.results), ok
-    send(10)
+    send(10, hold_after=True)
     assert not statuses[10].enabled and not duties[10].enable and duties[10].duty == 0.0
     assert statuses[10].voltage_reference == pytest.approx(90.0)
-    # pfc/status_block (partial blocks flushed while no measurement comes): every answered
-    # sample once, with the measurement it acted on and the command it sent, bit-exact.
+    # pfc/status_block (the partial block flushed after the sample before the hold): every
+    # answered sample once, with the measurement it acted on and the command it sent, bit-exact.
     wait_until(lambda: len(blocks.records) >= 4, 10.0, what='status blocks of steps 7..10')
     assert [status.step for status, _, _ in blocks.records] == [7, 8, 9, 10]
     for status, measurement, duty in blocks.records:
@@ -112,20 +113,20 @@ def _test_plant(start_node, ros_session):
     blocks = BlockSamples(node, PfcStatusBlock, topics.PFC_STATUS_BLOCK)
     wait_for_subscribers(node, topics.PFC_MEASUREMENT, timeout=20.0)
 
-    def answer(step: int) -> None:
-        msg = PfcMeasurement(step=step, output_voltage=75.0)
+    def answer(step: int, hold_after: bool = False) -> None:
+        msg = PfcMeasurement(step=step, output_voltage=75.0, hold_after=hold_after)
         msg.header.stamp = time_msg(step * 12.5e-6)      # consecutive samples: one block
         send_until_answered(lambda: pub.publish(msg), lambda: step in duties,
                             what=f'answer to step {step}')
     return blocks, answer
 
 
-def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(start_node, ros_session,
-                                                                               ros_domain):
-    """The partial status block goes out once the bound plant holds, even while an outsider
-    keeps publishing measurements faster than the hold is detected (a ``ros2 topic pub -r 5``)."""
+def test_the_block_ends_at_the_plants_hold_and_an_outsider_cannot_end_it(start_node, ros_session,
+                                                                         ros_domain):
+    """The partial status block goes out after the bound plant's sample marked ``hold_after``,
+    and only then: an outsider publishing marked measurements (a ``ros2 topic pub -r 5``) is
+    ignored, so the block boundaries are the plant's alone."""
     from drive_common import topics
-    from drive_common.lockstep_controller import HOLD_FLUSH
     from drive_testing.harness import RosSession
     from dtc_msgs.msg import PfcMeasurement
 
@@ -136,33 +137,28 @@ def test_an_outsider_publishing_measurements_does_not_hold_back_the_last_block(s
         stray_node = outsider.node('stray_cli')
         stray = stray_node.create_publisher(PfcMeasurement, topics.PFC_MEASUREMENT, topics.LOCKSTEP_QOS)
         sent = []
-        stray_node.create_timer(HOLD_FLUSH / 3,
-                                lambda: sent.append(stray.publish(PfcMeasurement(step=999))))
+        stray_node.create_timer(0.1, lambda: sent.append(
+            stray.publish(PfcMeasurement(step=999, hold_after=True))))
         wait_until(lambda: len(sent) >= 3, 30.0, what='the outsider publishing')
         answer(2)
-        answer(3)
-        wait_until(lambda: len(blocks.records) >= 3, 30.0,
-                   what='the partial block of steps 2..3 while the outsider publishes')
+        answer(3, hold_after=True)
+        wait_until(lambda: len(blocks.records) >= 3, 30.0, what='the partial block of steps 1..3')
         assert [status.step for status, _, _ in blocks.records] == [1, 2, 3]
+        assert len(blocks.blocks) == 1, 'an outsider ended a block'
     finally:
         outsider.close()
 
 
-def test_a_slow_first_exchange_does_not_split_the_first_block(start_node, ros_session):
-    """The plant's first exchange can take seconds on a loaded machine (binding, an answer
-    re-sent): a quiet spell after the first sample shorter than FIRST_HOLD_FLUSH is no hold,
-    so the first block does not depend on wall time; later, HOLD_FLUSH closes a block."""
+def test_a_stall_between_samples_does_not_split_a_block(start_node, ros_session):
+    """Block boundaries do not depend on wall time: a plant stalled between two samples (a
+    loaded machine) leaves one block, which ends at the plant's hold."""
     import time
-
-    from drive_common.lockstep_controller import FIRST_HOLD_FLUSH, HOLD_FLUSH
 
     blocks, answer = _test_plant(start_node, ros_session)
     answer(1)
-    assert 3 * HOLD_FLUSH < FIRST_HOLD_FLUSH
-    time.sleep(3 * HOLD_FLUSH)       # the stimulus: a slow first exchange (not a wait for a condition)
+    time.sleep(1.5)       # the stimulus: a stalled plant (not a wait for a condition)
     answer(2)
-    answer(3)
-    wait_until(lambda: len(blocks.records) >= 3, 30.0, what='the partial block once the plant holds')
+    answer(3, hold_after=True)
+    wait_until(lambda: len(blocks.records) >= 3, 30.0, what='the partial block at the hold')
     assert [status.step for status, _, _ in blocks.records] == [1, 2, 3]
-    assert [status.step for status, _, _ in expand(blocks.blocks[0])][:2] == [1, 2], \
-        'the first sample went out alone: the slow first exchange was taken for a hold'
+    assert [[status.step for status, _, _ in expand(block)] for block in blocks.blocks] == [[1, 2, 3]]

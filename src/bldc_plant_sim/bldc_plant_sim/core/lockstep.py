@@ -83,6 +83,10 @@ class LockstepSchedule:
         ticks = ControllerKind(kind).ticks(self)
         return ticks > 0 and step % ticks == 0
 
+    def holds_after(self, kind: ControllerKind, step: int, hold_step: int) -> bool:
+        """The sample of a controller due at step is its last before sim time holds at hold_step."""
+        return step + ControllerKind(kind).ticks(self) >= hold_step
+
     def due(self, step: int) -> tuple[bool, bool]:
         """(DTC due, PFC due) at tick step."""
         return self.is_due(ControllerKind.GATE, step), self.is_due(ControllerKind.DUTY, step)
