@@ -83,12 +83,13 @@ def samples_per_whole_periods(n_samples: int, samples_per_period: float,
 
     ValueError when not even one period fits with an integer sample count.
     """
-    m = int(n_samples // samples_per_period)
+    # A period from a measured step is a hair off: exactly m periods may come out as m - 1e-12.
+    m = int((n_samples + 1e-6) / samples_per_period)
     if max_periods is not None:
         m = min(m, max_periods)
     while m >= 1:
         n = m * samples_per_period
-        if abs(n - round(n)) < 1e-6:
+        if abs(n - round(n)) < 1e-6 and round(n) <= n_samples:
             return int(round(n)), m
         m -= 1
     raise ValueError(f'{n_samples} samples hold no whole number of periods of '

@@ -110,6 +110,11 @@ def test_whole_periods_of_non_integer_records():
     assert signals.samples_per_whole_periods(10000, 80000.0 / 60.0) == (8000, 6)
     assert signals.samples_per_whole_periods(10000, 80000.0 / 60.0, max_periods=5) == (4000, 3)
     assert signals.periods_in(8000, 80000.0 / 60.0) == 6
+    # Exactly 6 cycles whose period, from a measured step, is a hair too long: still 6, not 3.
+    measured = 1.0 / float(np.median(np.diff(np.arange(8001) * 1.25e-5))) / 60.0
+    assert measured > 80000.0 / 60.0
+    assert signals.samples_per_whole_periods(8000, measured) == (8000, 6)
+    assert signals.samples_per_whole_periods(7999, measured) == (4000, 3)
     with pytest.raises(ValueError, match='whole number'):
         signals.periods_in(1333, 80000.0 / 60.0)
     with pytest.raises(ValueError, match='no whole number'):
