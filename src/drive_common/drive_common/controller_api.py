@@ -85,21 +85,14 @@ class CheckedCore:
 def controller_node(core_class: type, node_name: str, *, status: bool = True, **kwargs):
     """The node :func:`run_controller` runs (also for tests that run it in-process)."""
     check_core_class(core_class)
-    from drive_common import topics
-    from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
-    from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
-
-    channels = LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT, DriveSample,
-                                GateCommand, topics.GATE_COMMAND,
-                                DtcStatus if status else None, topics.DTC_STATUS,
-                                DtcStatusBlock if status else None, topics.DTC_STATUS_BLOCK)
+    from drive_common.lockstep_controller import LockstepControllerNode, gate_channels
     holder = []
 
     def report(text: str) -> None:
         (holder[0].get_logger().error if holder else print)(text)   # holder: set once built
 
     node = LockstepControllerNode(
-        node_name, schema=core_class.SCHEMA, channels=channels,
+        node_name, schema=core_class.SCHEMA, channels=gate_channels(status),
         make_core=lambda params: CheckedCore(core_class(params), report), **kwargs)
     holder.append(node)
     return node

@@ -26,12 +26,13 @@ from drive_common.peer_binding import PeerBinding
 from drive_common.ros_parameters import SchemaParameters
 from drive_common.telemetry import DEFAULT_BLOCK_SIZE, DEFAULT_LIVE_PERIOD
 from drive_common.telemetry_blocks import BlockStream
-from drive_common.topics import (BLOCK_QOS, DIAGNOSTICS, LIVE_QOS, LOCKSTEP_QOS,
-                                 LOCKSTEP_READER_QOS)
+from drive_common.samples import DriveSample
+from drive_common.topics import (BLOCK_QOS, DIAGNOSTICS, DRIVE_MEASUREMENT, DTC_STATUS, DTC_STATUS_BLOCK,
+                                 GATE_COMMAND, LIVE_QOS, LOCKSTEP_QOS, LOCKSTEP_READER_QOS)
 from drive_common.waiting import wait_until
 
 
-__all__ = ['LockstepChannels', 'LockstepControllerNode']
+__all__ = ['LockstepChannels', 'LockstepControllerNode', 'gate_channels']
 
 GRAPH_CHECK_PERIOD = 0.5   # s between checks for a second graph in the domain
 STOP_WAIT = 5.0            # s stop() waits for the answering thread
@@ -52,6 +53,15 @@ class LockstepChannels:
     status_topic: str
     block_type: type | None = None   # status block (telemetry_blocks.BLOCK_PARTS); None: none
     block_topic: str = ''
+
+
+def gate_channels(status: bool = True) -> LockstepChannels:
+    """The channels of a drive controller: drive/measurement in, drive/gate_command out and,
+    with status, dtc/status and dtc/status_block."""
+    from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
+    return LockstepChannels(DriveMeasurement, DRIVE_MEASUREMENT, DriveSample, GateCommand, GATE_COMMAND,
+                            DtcStatus if status else None, DTC_STATUS,
+                            DtcStatusBlock if status else None, DTC_STATUS_BLOCK)
 
 
 class LockstepControllerNode(Node):

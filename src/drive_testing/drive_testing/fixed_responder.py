@@ -6,12 +6,10 @@ It takes part in the lockstep protocol exactly as dtc_controller does, with
 """
 from __future__ import annotations
 
-from drive_common import topics
 from drive_testing.fixed_commands import FixedGateCore
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.lockstep_controller import LockstepControllerNode, gate_channels
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError, ParameterSpec, schema
-from drive_common.samples import DriveSample
 
 
 def _check_pattern(values) -> None:
@@ -39,11 +37,8 @@ class FixedResponderCore(FixedGateCore):
 
 class FixedResponder(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DriveMeasurement, GateCommand
         super().__init__('fixed_responder', schema=FIXED_RESPONDER_SCHEMA, make_core=FixedResponderCore,
-                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
-                                                   DriveSample, GateCommand, topics.GATE_COMMAND,
-                                                   None, topics.DTC_STATUS), **kwargs)
+                         channels=gate_channels(status=False), **kwargs)
 
 
 def main(args=None) -> int:

@@ -9,11 +9,9 @@ from __future__ import annotations
 from dtc_controller.core.backemf_table import BackEmfTableError
 from dtc_controller.core.controller import DtcCore
 from dtc_controller.parameters import DTC_SCHEMA
-from drive_common import topics
-from drive_common.lockstep_controller import LockstepChannels, LockstepControllerNode
+from drive_common.lockstep_controller import LockstepControllerNode, gate_channels
 from drive_common.node_main import run_node
 from drive_common.parameters import ParameterError
-from drive_common.samples import DriveSample
 
 
 def make_core(params: dict) -> DtcCore:
@@ -25,12 +23,8 @@ def make_core(params: dict) -> DtcCore:
 
 class DtcControllerNode(LockstepControllerNode):
     def __init__(self, **kwargs) -> None:
-        from dtc_msgs.msg import DriveMeasurement, DtcStatus, DtcStatusBlock, GateCommand
         super().__init__('dtc_controller', schema=DTC_SCHEMA, make_core=make_core,
-                         channels=LockstepChannels(DriveMeasurement, topics.DRIVE_MEASUREMENT,
-                                                   DriveSample, GateCommand, topics.GATE_COMMAND,
-                                                   DtcStatus, topics.DTC_STATUS,
-                                                   DtcStatusBlock, topics.DTC_STATUS_BLOCK), **kwargs)
+                         channels=gate_channels(), **kwargs)
 
 
 def main(args=None) -> int:
