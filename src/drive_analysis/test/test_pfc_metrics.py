@@ -1,4 +1,4 @@
-"""The PFC line-side metrics against analytic signals (the spectrum itself: drive_common/test/test_signals.py)."""
+"""The PFC line-side metrics against analytic signals (the spectrum: drive_common test_signals.py)."""
 import math
 
 import numpy as np
