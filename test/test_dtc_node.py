@@ -16,7 +16,7 @@ from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
 from drive_common import topics
-from drive_testing.harness import send_until_answered, wait_for_subscribers
+from drive_testing.harness import answer_of, send_until_answered, wait_for_subscribers
 from drive_common.waiting import wait_until
 from dtc_msgs.msg import DriveMeasurement, DtcStatus, GateCommand
 
@@ -29,11 +29,6 @@ def backemf_table(tmp_path_factory):
     subprocess.run([sys.executable, '-m', 'bldc_plant_sim.backemf_generator', '--motor',
                     'ozturk_bldc', '-o', str(path)], check=True, capture_output=True, timeout=120)
     return path
-
-
-def _done(future, what):
-    wait_until(future.done, 30.0, what=what)
-    return future.result()
 
 
 def _measurement(step: int, angle: float) -> DriveMeasurement:
@@ -70,16 +65,18 @@ def test_answers_each_step_and_applies_runtime_changes(start_node, ros_session, 
     assert status.mode == 'two_phase_six_switch' and status.torque_reference == 0.5
     assert math.isfinite(status.torque_estimate)
 
-    ok = _done(params.set_parameters([Parameter('torque_reference', value=0.8)]), 'set').results[0]
+    ok = answer_of(lambda: params.set_parameters([Parameter('torque_reference', value=0.8)]),
+                   'set').results[0]
     assert ok.successful
     assert send(8)[1].torque_reference == 0.8
 
-    bad = _done(params.set_parameters([Parameter('torque_band', value=-1.0)]), 'set').results[0]
+    bad = answer_of(lambda: params.set_parameters([Parameter('torque_band', value=-1.0)]), 'set').results[0]
     assert not bad.successful and 'torque_band' in bad.reason and 'range' in bad.reason
-    kept = _done(params.get_parameters(['torque_band']), 'get').values[0]
+    kept = answer_of(lambda: params.get_parameters(['torque_band']), 'get').values[0]
     assert parameter_value_to_python(kept) == 0.001
 
-    ok = _done(params.set_parameters([Parameter('mode', value='two_phase_four_switch')]), 'set').results[0]
+    ok = answer_of(lambda: params.set_parameters([Parameter('mode', value='two_phase_four_switch')]),
+                   'set').results[0]
     assert ok.successful
     gate, status = send(9)
     assert status.mode == 'two_phase_four_switch'

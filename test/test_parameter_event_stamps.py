@@ -20,7 +20,7 @@ from drive_common import topics
 from drive_common.run_goal import run_to
 from drive_common.conversions import time_msg
 from drive_common.waiting import wait_until
-from drive_testing.harness import send_until_answered
+from drive_testing.harness import answer_of
 from drive_logger.message_definitions import is_sim_stamp
 from dtc_msgs.action import Run
 from dtc_msgs.msg import DriveMeasurement
@@ -38,12 +38,9 @@ def _ns(stamp) -> int:
 
 
 def _set(client, name, value) -> None:
-    """Set one parameter, asking again every 5 s: a reply sent before the service matched this
-    client's reader is lost (a repeated set of the same value is stamped alike)."""
-    sent = []
-    send_until_answered(lambda: sent.append(client.set_parameters([Parameter(name, value=value)])),
-                        lambda: any(f.done() for f in sent), 30.0, 5.0, what=f'set {name}')
-    result = next(f for f in sent if f.done()).result().results[0]
+    """Set one parameter (asked again if the reply is lost: a repeat is stamped alike)."""
+    result = answer_of(lambda: client.set_parameters([Parameter(name, value=value)]),
+                       f'set {name}').results[0]
     assert result.successful, result.reason
 
 

@@ -27,7 +27,7 @@ from drive_testing.fixed_commands import FixedGateCore
 from drive_common.waiting import wait_until
 from dtc_msgs.action import Run
 from drive_testing.block_probe import BlockSamples, same_bits
-from drive_testing.harness import send_until_answered
+from drive_testing.harness import answer_of
 from dtc_msgs.msg import PlantState, PlantStateBlock
 
 pytestmark = pytest.mark.ros
@@ -40,15 +40,6 @@ PLANT = {'motor.file': 'ozturk_bldc', 'dc_link.voltage': 10.0, 'motor.initial_sp
 def _future_result(future, timeout: float, what: str):
     wait_until(future.done, timeout, what=what)
     return future.result()
-
-
-def _answer(call, what: str, timeout: float = 30.0, every: float = 5.0):
-    """The result of call() (an idempotent service call's future), called again every ``every``
-    s: a response sent before the server matched this client's reply reader is lost."""
-    sent = []
-    send_until_answered(lambda: sent.append(call()), lambda: any(f.done() for f in sent), timeout,
-                        every, what=what)
-    return next(f for f in sent if f.done()).result()
 
 
 class PlantClient:
@@ -89,11 +80,11 @@ class PlantClient:
 
     def set(self, **values):
         changes = [Parameter(k, value=v) for k, v in values.items()]
-        return _answer(lambda: self.params.set_parameters(changes), 'set_parameters').results
+        return answer_of(lambda: self.params.set_parameters(changes), 'set_parameters').results
 
     def get(self, name: str):
         from rclpy.parameter import parameter_value_to_python
-        values = _answer(lambda: self.params.get_parameters([name]), 'get_parameters').values
+        values = answer_of(lambda: self.params.get_parameters([name]), 'get_parameters').values
         return parameter_value_to_python(values[0])
 
 

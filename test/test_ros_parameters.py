@@ -22,6 +22,7 @@ from drive_bringup.scenario import find_scenario, load_scenario
 from drive_common import topics
 from drive_common.run_goal import run_to
 from drive_common.waiting import wait_until
+from drive_testing.harness import answer_of
 from drive_logger import qos_yaml
 from drive_logger.bag_writer import BagWriter
 from drive_logger.message_definitions import type_definition
@@ -38,20 +39,9 @@ SCENARIO = 'two_phase_six_switch_torque_step'
 PLANT_TABLE = str(Path(__file__).resolve().parents[1] / 'src/bldc_plant_sim/motors/ozturk_bldc_nonideal_backemf.csv')
 SCHEMAS = {'plant': PLANT_SCHEMA, 'dtc_controller': DTC_SCHEMA, 'pfc_controller': PFC_SCHEMA,
            'recorder': RECORDER_SCHEMA, 'replay': REPLAY_SCHEMA}
-ANSWER_TIMEOUT = 10.0  # s per try: answered within a few seconds when idle (CI machines are shared)
-TRIES = 3               # a request that reached a server before it matched the client's response
-                        # reader gets no response (rmw: "failed to send response"): ask again
-
-
-def _answer(call, what: str, tries: int = TRIES):
-    """The response of call() (a parameter-client request), asked up to `tries` times."""
-    for _ in range(tries - 1):
-        future = call()
-        if wait_until(future.done, ANSWER_TIMEOUT, what=what, raise_timeout=False):
-            return future.result()
-    future = call()
-    wait_until(future.done, ANSWER_TIMEOUT, what=what)
-    return future.result()
+def _answer(call, what: str):
+    """The response of call() (a parameter-client request), asked again every 10 s for 30 s."""
+    return answer_of(call, what, 30.0, 10.0)
 
 
 @pytest.fixture

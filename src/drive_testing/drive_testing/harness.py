@@ -3,7 +3,7 @@
 Node processes and private DDS domains come from :mod:`drive_common.processes` (re-exported);
 :class:`RosSession` is an in-process rclpy context in a domain with a background executor;
 :func:`domain_context` and :func:`private_domain` give just the context; the ``wait_for_*``,
-:func:`send_until_answered` and :func:`call_until_answered` helpers wait for graph matching
+:func:`send_until_answered`, :func:`answer_of` and :func:`call_until_answered` helpers wait for graph matching
 and answers as the plant does.
 """
 from __future__ import annotations
@@ -19,9 +19,9 @@ from drive_common.processes import (NodeProcess, executable_path, isolated_env, 
 from drive_common.node_main import destroy_node_and_actions, node_alive, spin_in_background
 from drive_common.waiting import WaitTimeout, wait_until
 
-__all__ = ['NodeProcess', 'PrivateDomain', 'RosSession', 'WaitTimeout', 'domain_context', 'executable_path',
-           'isolated_env', 'private_domain', 'processes_with_env', 'reserve_domain', 'ros_arguments', 'send_until_answered',
-           'wait_for_subscribers', 'wait_until']
+__all__ = ['NodeProcess', 'PrivateDomain', 'RosSession', 'WaitTimeout', 'answer_of', 'domain_context',
+           'executable_path', 'isolated_env', 'private_domain', 'processes_with_env', 'reserve_domain',
+           'ros_arguments', 'send_until_answered', 'wait_for_subscribers', 'wait_until']
 
 
 def processes_with_env(marker: str) -> list[int]:
@@ -141,13 +141,20 @@ def send_until_answered(publish, answered, timeout: float = 30.0, every: float =
             raise WaitTimeout(f'timed out after {timeout:.1f} s waiting for {what}')
 
 
-def call_until_answered(client, request, timeout: float = 30.0, every: float = 2.0,
-                        stop: Callable[[], bool] = lambda: False, what: str = 'answer'):
-    """The first response of a service call made again every ``every`` s until one is
-    answered (a reply sent before the service matched this client's reader is lost);
+def answer_of(call: Callable, what: str = 'answer', timeout: float = 30.0, every: float = 5.0,
+              stop: Callable[[], bool] = lambda: False):
+    """The first result of call() (an idempotent request: its future, as a parameter client or
+    ``call_async`` gives), made again every ``every`` s until one is answered (a reply sent
+    before the server matched this client's reader is lost: rmw "failed to send response");
     None if stop() holds first. Needs an executor spinning the client's node elsewhere."""
     calls = []
-    send_until_answered(lambda: calls.append(client.call_async(request)),
+    send_until_answered(lambda: calls.append(call()),
                         lambda: stop() or any(f.done() for f in calls), timeout, every, what)
     return next((f.result() for f in calls if f.done()), None)
+
+
+def call_until_answered(client, request, timeout: float = 30.0, every: float = 2.0,
+                        stop: Callable[[], bool] = lambda: False, what: str = 'answer'):
+    """:func:`answer_of` a service call."""
+    return answer_of(lambda: client.call_async(request), what, timeout, every, stop)
 

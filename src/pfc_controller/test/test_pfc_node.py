@@ -6,7 +6,7 @@ import threading
 import pytest
 
 from drive_common.telemetry_blocks import expand
-from drive_testing.harness import send_until_answered, wait_for_subscribers
+from drive_testing.harness import answer_of, send_until_answered, wait_for_subscribers
 from drive_common.waiting import wait_until
 
 pytestmark = pytest.mark.ros
@@ -67,12 +67,8 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
     client = AsyncParameterClient(node, 'pfc_controller')
     assert client.wait_for_services(timeout_sec=10.0)
 
-    def call(future):
-        wait_until(future.done, 10.0, what='parameter service')
-        return future.result()
-
-    ok = call(client.set_parameters([Parameter('voltage_reference', value=90.0),
-                                     Parameter('enable', value=False)]))
+    ok = answer_of(lambda: client.set_parameters([Parameter('voltage_reference', value=90.0),
+                                                  Parameter('enable', value=False)]), 'set')
     assert all(r.successful for r in ok.results), ok
     send(10, hold_after=True)
     assert not statuses[10].enabled and not duties[10].enable and duties[10].duty == 0.0
@@ -86,11 +82,11 @@ def test_node_answers_each_step_and_takes_parameters(start_node, ros_session):
         assert message_bits(duty) == message_bits(duties[status.step])
         assert message_bits(status) == message_bits(statuses[status.step])
 
-    bad = call(client.set_parameters([Parameter('voltage_kp', value=-1.0)]))
+    bad = answer_of(lambda: client.set_parameters([Parameter('voltage_kp', value=-1.0)]), 'set')
     assert not bad.results[0].successful and 'voltage_kp' in bad.results[0].reason
-    bad = call(client.set_parameters([Parameter('voltage_reference', value=150.0)]))
+    bad = answer_of(lambda: client.set_parameters([Parameter('voltage_reference', value=150.0)]), 'set')
     assert not bad.results[0].successful and 'over_voltage_limit' in bad.results[0].reason
-    got = call(client.get_parameters(['voltage_kp', 'voltage_reference']))
+    got = answer_of(lambda: client.get_parameters(['voltage_kp', 'voltage_reference']), 'get')
     assert got.values[0].double_value == pytest.approx(0.1736)
     assert got.values[1].double_value == pytest.approx(90.0)
     assert process.alive(), process.output()
